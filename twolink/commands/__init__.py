@@ -1,0 +1,1 @@
+"""Subcommands of the ``twolink`` command line, one module each."""

@@ -1,0 +1,78 @@
+"""Metrics of SPEC.md: goal band, settle time, success, return, trajectory gap.
+
+The evaluation set is the paper's x0 plus a fixed grid of angle pairs at rest.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twolink.integrate import wrap_angle
+from twolink.parameters import GAMMA, HORIZON, PAPER_X0, SUCCESS_MARGIN
+from twolink.reward import in_goal_band
+from twolink.rollout import Trajectory
+
+#: Angles (degrees) of the evaluation grid: every pair (theta1, theta2), both at rest.
+EVAL_ANGLES_DEG = (-150.0, -90.0, -45.0, -10.0, 10.0, 45.0, 90.0, 150.0)
+
+
+def evaluation_set() -> np.ndarray:
+    """The paper's x0 followed by the 8 x 8 grid of angle pairs at rest: shape (65, 4)."""
+    a = np.deg2rad(EVAL_ANGLES_DEG)
+    t1, t2 = np.meshgrid(a, a, indexing="ij")
+    grid = np.stack([t1.ravel(), t2.ravel(), np.zeros(t1.size), np.zeros(t1.size)], -1)
+    return np.concatenate([np.asarray(PAPER_X0, dtype=float)[None], grid])
+
+
+def settle_time(traj: Trajectory) -> np.ndarray:
+    """First sample time after which the state stays in the goal band; inf if never."""
+    inside = in_goal_band(traj.x)                     # (..., K+1)
+    outside = ~inside
+    k = inside.shape[-1]
+    rev = outside[..., ::-1]
+    last_out = np.where(rev.any(-1), k - 1 - np.argmax(rev, axis=-1), -1)
+    idx = last_out + 1
+    t = np.append(traj.t, np.inf)
+    return np.where(idx >= k, np.inf, t[np.minimum(idx, k)])
+
+
+def success(traj: Trajectory, *, margin: float = SUCCESS_MARGIN) -> np.ndarray:
+    """Settled no later than ``margin`` seconds before the end of the horizon."""
+    return settle_time(traj) <= traj.t[-1] - margin + 1e-9
+
+
+def discounted_return(traj: Trajectory, *, gamma: float = GAMMA) -> np.ndarray:
+    """sum_k gamma^k r_{k+1} with the centralized reward (15)."""
+    return traj.r @ (gamma ** np.arange(traj.r.shape[-1]))
+
+
+def final_offsets_deg(traj: Trajectory) -> np.ndarray:
+    """Final link angles in degrees, shape (..., 2)."""
+    return np.rad2deg(traj.x[..., -1, :2])
+
+
+def trajectory_gap(a: Trajectory, b: Trajectory) -> dict:
+    """RMS over time of the wrapped angle difference (rad) and speed difference (rad/s)."""
+    if a.x.shape != b.x.shape:
+        raise ValueError(f"trajectories differ in shape: {a.x.shape} vs {b.x.shape}")
+    d = a.x - b.x
+    ang = wrap_angle(d[..., :2])
+    return {"angle_rms": np.sqrt((ang**2).mean(axis=(-2, -1))),
+            "speed_rms": np.sqrt((d[..., 2:]**2).mean(axis=(-2, -1)))}
+
+
+def summary(traj: Trajectory) -> dict:
+    """Scalar metrics of a single (unbatched) trajectory, JSON-ready."""
+    if traj.x.ndim != 2:
+        raise ValueError("summary() takes a single trajectory; index a batch first")
+    st = float(settle_time(traj))
+    return {"settle_time": st if math.isfinite(st) else None,
+            "success": bool(success(traj)),
+            "return": float(discounted_return(traj)),
+            "final_offsets_deg": final_offsets_deg(traj).tolist(),
+            "final_state": traj.x[-1].tolist(),
+            "duration": float(traj.t[-1])}
+
+
+HORIZON_S = HORIZON

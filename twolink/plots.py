@@ -1,0 +1,70 @@
+"""Figures laid out like the paper's Fig. 3: commands, link angles, angular speeds and
+rewards against time, one column per panel, several trajectories overlaid per column."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from twolink.artifacts import atomic_path  # noqa: E402
+from twolink.parameters import GOAL_ANGLE, GOAL_SPEED  # noqa: E402
+from twolink.rollout import Trajectory  # noqa: E402
+
+_LINK_COLORS = ("tab:orange", "tab:blue")
+_STYLES = ("-", "--", ":", "-.")
+
+
+def fig3(panels: dict, path: os.PathLike, *, title: str | None = None) -> Path:
+    """Write a Fig. 3-style PNG.
+
+    ``panels`` maps a column title to ``{label: Trajectory}``; within a column, each
+    label gets its own line style and each link its own colour.
+    """
+    if not panels:
+        raise ValueError("nothing to plot")
+    ncol = len(panels)
+    fig, axes = plt.subplots(4, ncol, figsize=(5.2 * ncol, 9.0), sharex=True, squeeze=False)
+    rows = ("torque [Nm]", "angle [rad]", "speed [rad/s]", "reward [-]")
+    for c, (col_title, trajs) in enumerate(panels.items()):
+        ax = axes[:, c]
+        for s, (label, tr) in enumerate(trajs.items()):
+            if not isinstance(tr, Trajectory) or tr.x.ndim != 2:
+                raise ValueError(f"{label}: expected a single trajectory")
+            ls = _STYLES[s % len(_STYLES)]
+            for i in range(2):
+                kw = dict(color=_LINK_COLORS[i], ls=ls, lw=1.4)
+                name = f"link {i + 1}" + (f", {label}" if len(trajs) > 1 or label else "")
+                ax[0].step(tr.t[:-1], tr.u[:, i], where="post", label=name, **kw)
+                ax[1].plot(tr.t, tr.x[:, i], **kw)
+                ax[2].plot(tr.t, tr.x[:, 2 + i], **kw)
+            if tr.policy == "decentralized":
+                for i in range(2):
+                    ax[3].step(tr.t[1:], tr.r_links[:, i], where="pre", color=_LINK_COLORS[i],
+                               ls=ls, lw=1.4)
+            else:
+                ax[3].step(tr.t[1:], tr.r, where="pre", color="k", ls=ls, lw=1.4,
+                           label=f"r (15){', ' + label if label else ''}")
+        for a, band in ((ax[1], GOAL_ANGLE), (ax[2], GOAL_SPEED)):
+            a.axhspan(-band, band, color="tab:green", alpha=0.15, lw=0)
+        ax[0].set_title(col_title)
+        ax[0].legend(fontsize=7, ncol=2, loc="upper right")
+        for a, name in zip(ax, rows):
+            a.set_ylabel(name)
+            a.grid(alpha=0.3)
+        ax[3].set_ylim(-0.6, 0.1)
+        ax[3].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
+    return path
