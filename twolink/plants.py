@@ -14,7 +14,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from twolink import dynamics, mjcf
-from twolink.integrate import SUBSTEPS, finish_sample, sample_step
+from twolink.integrate import SUBSTEPS, finish_sample, sample_step, wrap_angle
 from twolink.parameters import TABLE_I, TS, ArmParameters
 
 PLANTS = ("simplified", "full", "mujoco")
@@ -38,6 +38,19 @@ def check_torques(tau) -> np.ndarray:
     if not np.all(np.isfinite(tau)):
         raise ValueError("torque contains NaN or infinite values")
     return tau
+
+
+def substeps_per_sample(model: mujoco.MjModel) -> int:
+    """MuJoCo timesteps in one sample period Ts (the MJCF sets timestep = Ts / SUBSTEPS)."""
+    return int(round(TS / model.opt.timestep))
+
+
+def finish_data(p: ArmParameters, data: mujoco.MjData) -> np.ndarray:
+    """End a sample period on an ``MjData`` in place (:func:`finish_sample`); returns x."""
+    x = finish_sample(p, np.concatenate([data.qpos, data.qvel]))
+    data.qpos[:] = x[:2]
+    data.qvel[:] = x[2:]
+    return x
 
 
 class Plant:
@@ -88,9 +101,14 @@ class MujocoPlant(Plant):
         plist = list(params) if self.per_row else [params]
         super().__init__(plist[0] if not self.per_row else plist)
         self._plist = plist
-        self.models = [mjcf.build_model(p) for p in plist]
+        built: dict = {}        # one compiled model per distinct parameter set
+        self.models = [built[p] if p in built else built.setdefault(p, mjcf.build_model(p))
+                       for p in plist]
+        if self.per_row:
+            self._tau_max = np.stack([p.tau_max for p in plist])
+            self._speed_max = np.stack([p.speed_max for p in plist])
         self.model = self.models[0]
-        self.nstep = int(round(TS / self.model.opt.timestep))
+        self.nstep = substeps_per_sample(self.model)
         self.nstate = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         if self.nstate != 1 + self.model.nq + self.model.nv:
             raise RuntimeError("unexpected MuJoCo state layout")
@@ -115,7 +133,7 @@ class MujocoPlant(Plant):
             return p.tau_max, p
         if n != len(self._plist):
             raise ValueError(f"{len(self._plist)} parameter sets for a batch of {n} states")
-        return np.stack([p.tau_max for p in self._plist]), None
+        return self._tau_max, None
 
     def _step(self, x, tau):
         batch = x.shape[:-1]
@@ -131,8 +149,10 @@ class MujocoPlant(Plant):
         state, _ = self._pool.rollout(models, self._datas, state0, control,
                                       nstep=self.nstep, skip_checks=False)
         last = state[:, -1, 1:5]
-        if self.per_row:
-            out = np.stack([finish_sample(pp, row) for pp, row in zip(self._plist, last)])
+        if self.per_row:      # finish_sample, row by row limits (elementwise, so identical)
+            out = np.empty_like(last)
+            out[:, :2] = wrap_angle(last[:, :2])
+            out[:, 2:] = np.clip(last[:, 2:], -self._speed_max, self._speed_max)
         else:
             out = finish_sample(p, last)
         return out.reshape(batch + (4,))
@@ -152,7 +172,7 @@ class MujocoPlant(Plant):
             data.ctrl[:] = np.clip(tf[i], -p.tau_max, p.tau_max)
             for _ in range(self.nstep):
                 mujoco.mj_step(model, data)
-            out[i] = finish_sample(p, np.concatenate([data.qpos, data.qvel]))
+            out[i] = finish_data(p, data)
         return out.reshape(x.shape)
 
 
