@@ -1,0 +1,255 @@
+"""The arm as a dm_control environment (dm_env API): ``centralized`` and ``decentralized``.
+
+``load(task_name)`` returns a :class:`dm_env.Environment` built on
+``dm_control.rl.control.Environment`` whose every step is one sample period Ts = 0.05 s
+of the MJCF arm, with the conventions of the ``mujoco`` plant: the same compiled model
+(:func:`twolink.mjcf.build_model`), the torques clipped to +-tau_max and held over Ts,
+and the angles wrapped and speeds saturated at the end of the period
+(:func:`twolink.plants.finish_data`). A shipped policy driven through the environment
+therefore retraces ``rollout(policy, MujocoPlant(), x0)`` bit for bit.
+
+Tasks
+-----
+``centralized``: action [tau1, tau2]; observation ``{'state': [theta1, theta2, dtheta1,
+dtheta2]}``; reward (15), a float.
+
+``decentralized``: the two agents of (18). The action is still the joint [tau1, tau2]
+(one physics step per joint action). Observations per agent: ``'agent2'`` =
+(theta2, dtheta2), ``'agent1'`` = (theta1, dtheta1, theta2). Agent 1 also reads agent 2's
+*current* tau2, which no environment can observe before it is chosen: as in (18) agent 2
+acts first and hands its tau2 to agent 1 directly (see :func:`decentralized_action`).
+The reward is the array [r1, r2] of (17) (``reward_spec()`` has shape (2,)).
+
+Both rewards lie in [-0.5, 0] and are evaluated on the state reached (r_{k+1}); the
+discount is always 1 and episodes end only at the time limit (default 5 s = 100 steps).
+Actions outside the spec are clipped to +-tau_max (as the plants and MuJoCo's ctrlrange
+do); actions of the wrong shape, NaN or infinite actions are refused with a ValueError.
+Observation noise corrupts the observations only; rewards read the true state.
+"""
+from __future__ import annotations
+
+import collections
+import dataclasses
+import numpy as np
+from dm_control import mujoco
+from dm_control.mujoco import wrapper
+from dm_control.rl import control
+from dm_control.suite import base
+from dm_env import specs
+
+from twolink import mjcf
+from twolink.parameters import (HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
+                                TABLE_I, TS, ArmParameters)
+from twolink.perturbations import ObservationNoise, perturbed, random_perturbation
+from twolink.plants import check_states, finish_data
+from twolink.reward import agent_reward, centralized_reward
+
+TASKS = ("centralized", "decentralized")
+#: What each observation key holds, component by component.
+OBSERVATION_NAMES = {
+    "state": STATE_NAMES,
+    "agent1": ("theta1", "dtheta1", "theta2"),
+    "agent2": ("theta2", "dtheta2"),
+}
+_INITIAL_STATES = ("paper", "random")
+
+
+class Physics(mujoco.Physics):
+    """The arm's physics with named read-outs."""
+
+    def angles(self) -> np.ndarray:
+        """[theta1, theta2] (rad)."""
+        return self.named.data.qpos[list(mjcf.JOINTS)].copy()
+
+    def speeds(self) -> np.ndarray:
+        """[dtheta1, dtheta2] (rad/s)."""
+        return self.named.data.qvel[list(mjcf.JOINTS)].copy()
+
+    def state(self) -> np.ndarray:
+        """x = [theta1, theta2, dtheta1, dtheta2]."""
+        return np.concatenate([self.angles(), self.speeds()])
+
+    def tip_position(self) -> np.ndarray:
+        """(x, y) of the end of link 2 in the plane of the arm (m)."""
+        return self.named.data.site_xpos["link2_tip", :2].copy()
+
+
+class ArmTask(base.Task):
+    """Drive the arm to the origin of the state space; subclasses choose observations and reward."""
+
+    def __init__(self, params: ArmParameters, *, x0="paper", angle_noise: float = 0.0,
+                 speed_noise: float = 0.0, random=None):
+        super().__init__(random=random)
+        self.params = params
+        self._x0 = _check_x0(x0)
+        self._noise = ObservationNoise(angle_noise, speed_noise, rng=self.random)
+
+    def initialize_episode(self, physics):
+        """Set x0: the paper's, uniform over the state space, or the given one."""
+        if isinstance(self._x0, str) and self._x0 == "random":
+            vmax = self.params.speed_max
+            x = np.concatenate([self.random.uniform(-np.pi, np.pi, 2),
+                                self.random.uniform(-vmax, vmax)])
+        else:
+            x = np.array(PAPER_X0 if isinstance(self._x0, str) else self._x0)
+        physics.data.qpos[:] = x[:2]
+        physics.data.qvel[:] = x[2:]
+        physics.data.ctrl[:] = 0.0
+        # base.Task.initialize_episode only recolours the suite's materials: not delegated.
+
+    def action_spec(self, physics):
+        tmax = self.params.tau_max
+        return specs.BoundedArray((2,), np.float64, -tmax, tmax, name="tau")
+
+    def before_step(self, action, physics):
+        """Hold the clipped torques [tau1, tau2] over the sample period."""
+        physics.set_control(_check_action(action, self.params.tau_max))
+
+    def after_step(self, physics):
+        """End the sample period as every plant does: wrap angles, saturate speeds."""
+        finish_data(self.params, physics.data)
+        physics.forward()
+
+    def get_termination(self, physics):
+        return None
+
+    def _measured(self, physics) -> np.ndarray:
+        return self._noise(physics.state())
+
+
+class Centralized(ArmTask):
+    """One controller, the full state, reward (15)."""
+
+    def get_observation(self, physics):
+        return collections.OrderedDict(state=self._measured(physics))
+
+    def observation_spec(self, physics):
+        return collections.OrderedDict(state=specs.Array((4,), np.float64, name="state"))
+
+    def get_reward(self, physics):
+        return float(centralized_reward(physics.state()))
+
+    def reward_spec(self):
+        return specs.BoundedArray((), np.float64, REWARD_OTHER, REWARD_GOAL, name="reward")
+
+
+class Decentralized(ArmTask):
+    """Two agents (18): per-agent observations, rewards [r1, r2] of (17)."""
+
+    def get_observation(self, physics):
+        x = dict(zip(STATE_NAMES, self._measured(physics)))
+        return collections.OrderedDict(
+            (key, np.array([x[n] for n in OBSERVATION_NAMES[key]])) for key in ("agent1", "agent2"))
+
+    def observation_spec(self, physics):
+        return collections.OrderedDict(
+            (key, specs.Array((len(OBSERVATION_NAMES[key]),), np.float64, name=key))
+            for key in ("agent1", "agent2"))
+
+    def get_reward(self, physics):
+        x = physics.state()
+        return np.array([agent_reward(x, 1), agent_reward(x, 2)], dtype=np.float64)
+
+    def reward_spec(self):
+        return specs.BoundedArray((2,), np.float64, REWARD_OTHER, REWARD_GOAL, name="reward")
+
+
+class Environment(control.Environment):
+    """``control.Environment`` that takes its reward spec from the task."""
+
+    def reward_spec(self):
+        return self.task.reward_spec()
+
+
+def load(task_name: str, *, seed=None, time_limit: float = HORIZON,
+         params: ArmParameters = TABLE_I, x0="paper", speed_max=None,
+         angle_noise: float = 0.0, speed_noise: float = 0.0,
+         perturbation=None) -> Environment:
+    """The ``task_name`` environment (one of :data:`TASKS`).
+
+    ``x0``: ``'paper'`` ([-1, -3, 0, 0]), ``'random'`` (angles uniform in [-pi, pi), speeds
+    uniform within the speed limit, drawn from ``seed`` every episode) or a state (4,).
+    ``speed_max``: the speed limit in rad/s (one value or one per link; default Table I's).
+    ``angle_noise``, ``speed_noise``: std of Gaussian noise on the observations.
+    ``perturbation``: relative parameter changes, a dict such as ``{'m2': 0.2}``
+    (:func:`twolink.perturbations.perturbed`), or a size s in [0, 1) for one random joint
+    perturbation drawn from ``seed`` (:func:`twolink.perturbations.random_perturbation`).
+    """
+    if task_name not in TASKS:
+        raise ValueError(f"unknown task {task_name!r}; choose one of {', '.join(TASKS)}")
+    if not (isinstance(time_limit, (int, float)) and np.isfinite(time_limit) and time_limit > 0):
+        raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+    random = np.random.RandomState(seed)
+    p = _perturb(params, perturbation, random)
+    if speed_max is not None:
+        v = np.broadcast_to(np.asarray(speed_max, dtype=float), (2,))
+        p = dataclasses.replace(p, dtheta1_max=float(v[0]), dtheta2_max=float(v[1]))
+    physics = Physics.from_model(wrapper.MjModel(mjcf.build_model(p)))
+    cls = Centralized if task_name == "centralized" else Decentralized
+    task = cls(p, x0=x0, angle_noise=angle_noise, speed_noise=speed_noise, random=random)
+    return Environment(physics, task, time_limit=time_limit, control_timestep=TS)
+
+
+def decentralized_action(agent2, agent1, observation) -> np.ndarray:
+    """Joint action [tau1, tau2] of (18): agent 2 acts on its observation, then agent 1 on
+    its observation and agent 2's tau2. ``agent2(o2) -> tau2``, ``agent1(o1, tau2) -> tau1``."""
+    tau2 = float(np.asarray(agent2(observation["agent2"])).reshape(()))
+    tau1 = float(np.asarray(agent1(observation["agent1"], tau2)).reshape(()))
+    return np.array([tau1, tau2])
+
+
+def policy_action(policy, observation) -> np.ndarray:
+    """Action [tau1, tau2] of a :class:`twolink.policy.Policy` for an observation of either task.
+
+    On ``decentralized`` observations every agent of the policy reads only its own
+    observation (the key named like the agent) and the actions of the agents before it.
+    """
+    if "state" in observation:
+        return policy(observation["state"])
+    signals = {}
+    for agent in policy.agents:
+        if agent.name not in observation:
+            raise ValueError(f"policy agent {agent.name!r} has no observation of its own here "
+                             f"(observation keys: {', '.join(observation)})")
+        seen = dict(zip(OBSERVATION_NAMES[agent.name], observation[agent.name]), **signals)
+        missing = [n for n in agent.inputs if n not in seen]
+        if missing:
+            raise ValueError(f"agent {agent.name} reads {missing}, which it does not observe")
+        out = agent.act(np.stack([seen[n] for n in agent.inputs], -1))
+        signals.update(zip(agent.outputs, out))
+    return np.array([signals["tau1"], signals["tau2"]])
+
+
+def _check_x0(x0):
+    if isinstance(x0, str):
+        if x0 not in _INITIAL_STATES:
+            raise ValueError(f"x0 must be 'paper', 'random' or a state (4,), got {x0!r}")
+        return x0
+    x0 = check_states(x0, what="x0")
+    if x0.shape != (4,):
+        raise ValueError(f"x0 must be one state of shape (4,), got shape {x0.shape}")
+    return x0.copy()
+
+
+def _check_action(action, tau_max: np.ndarray) -> np.ndarray:
+    action = getattr(action, "continuous_actions", action)
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be numbers [tau1, tau2], got {action!r}") from None
+    if a.shape != (2,):
+        raise ValueError(f"action must have shape (2,) [tau1, tau2], got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
+    return np.clip(a, -tau_max, tau_max)
+
+
+def _perturb(params: ArmParameters, perturbation, random) -> ArmParameters:
+    if perturbation is None:
+        return params
+    if isinstance(perturbation, dict):
+        return perturbed(params, **perturbation)
+    if isinstance(perturbation, (int, float)):
+        return random_perturbation(random, float(perturbation), base=params)
+    raise ValueError(f"perturbation must be a dict of relative changes or a size in [0, 1), "
+                     f"got {perturbation!r}")
