@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink import paper
+from twolink import dynamics, paper
+from twolink.integrate import SUBSTEPS, integration_error
 from twolink.artifacts import provenance, write_json
 from twolink.metrics import summary
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
@@ -21,7 +22,7 @@ from twolink.plants import make_plant
 from twolink.plots import fig3
 from twolink.policy import POLICY_DIR, Policy
 from twolink.rollout import rollout
-from twolink.synthesis import synthesize
+from twolink.synthesis import centralized_problem, synthesize
 
 RENDERS = Path(__file__).resolve().parents[2] / "renders"
 _VARIANTS = (("centralized", "centralized", "frozen"),
@@ -51,6 +52,21 @@ def _shipped_matches(name: str, policy: Policy) -> bool | None:
         np.array_equal(a.q, b.q) for a, b in zip(shipped.agents, policy.agents))
 
 
+#: RK4 substeps of the fine reference the chosen SUBSTEPS are compared against.
+REFERENCE_SUBSTEPS = 100
+
+
+def integration_report() -> dict:
+    """One-step error of SUBSTEPS RK4 substeps against REFERENCE_SUBSTEPS, for both numpy
+    models, over every centralized bin centre and joint action (63504 transitions)."""
+    prob = centralized_problem(TABLE_I)
+    x = prob.grid.centers()[:, None, :]
+    u = prob.actions[None, :, :]
+    return {name: integration_error(dynamics.MODELS[name], TABLE_I, x, u, substeps=SUBSTEPS,
+                                    reference_substeps=REFERENCE_SUBSTEPS)
+            for name in ("simplified", "full")}
+
+
 def reproduce(duration: float = HORIZON, *, progress: bool = True) -> tuple[dict, dict]:
     """Run the experiment; returns the JSON-ready report and the trajectories."""
     x0 = np.asarray(PAPER_X0)
@@ -59,6 +75,7 @@ def reproduce(duration: float = HORIZON, *, progress: bool = True) -> tuple[dict
                         "cpu_seconds": paper.CPU_SECONDS, "settle_time": paper.SETTLE_TIME},
               "provenance": provenance()}
     trajs = {}
+    report["integration_error"] = integration_report()
     for name, kind, context in _VARIANTS:
         policy = synthesize(kind, TABLE_I, context=context, progress=progress)
         report["synthesis"][name] = {
@@ -112,6 +129,10 @@ def table(report: dict) -> str:
             rows.append((f"final offsets [deg], {variant}, {plant}",
                          f"|.| <= {paper.OFFSET_BOUND_DEG:g}" if plant == "simplified" else "-",
                          off))
+    for model, err in report["integration_error"].items():
+        rows.append((f"max one-step error, {model}, {err['substeps']} vs "
+                     f"{err['reference_substeps']} RK4 substeps [rad, rad/s]", "-",
+                     f"{max(err['max'][:2]):.1e}, {max(err['max'][2:]):.1e}"))
     w = [max(len(str(row[i])) for row in rows) for i in range(3)]
     lines = [f"{a!s:<{w[0]}}  {b!s:>{w[1]}}  {c!s:>{w[2]}}" for a, b, c in rows]
     lines.insert(1, "-" * (sum(w) + 4))

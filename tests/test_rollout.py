@@ -1,0 +1,111 @@
+"""Plants, closed-loop rollouts and the metrics of SPEC.md."""
+import numpy as np
+import pytest
+
+from twolink.metrics import (discounted_return, evaluation_set, settle_time, success, summary,
+                             trajectory_gap)
+from twolink.parameters import GOAL_ANGLE, PAPER_X0, TS
+from twolink.plants import PLANTS, make_plant
+from twolink.rollout import Trajectory, rollout
+
+
+@pytest.mark.parametrize("name", ["centralized", "decentralized"])
+def test_paper_policies_stabilise_the_simplified_plant(name, request):
+    policy = request.getfixturevalue(name)
+    tr = rollout(policy, make_plant("simplified"), PAPER_X0)
+    s = summary(tr)
+    assert s["success"]
+    assert 0.5 <= s["settle_time"] <= 1.5           # paper: about 1.2 s
+    assert np.all(np.abs(s["final_offsets_deg"]) <= 5.0)
+
+
+def test_full_and_mujoco_plants_agree_to_round_off(rng):
+    x = rng.uniform(-3, 3, (300, 4))
+    tau = rng.uniform(-0.25, 0.25, (300, 2))
+    a = make_plant("full").step(x, tau)
+    b = make_plant("mujoco").step(x, tau)
+    d = a - b
+    d[:, :2] = (d[:, :2] + np.pi) % (2 * np.pi) - np.pi
+    assert np.abs(d).max() < 1e-12
+
+
+def test_batched_mujoco_equals_mj_step_loop(rng):
+    plant = make_plant("mujoco")
+    x = rng.uniform(-3, 3, (40, 4))
+    tau = rng.uniform(-0.2, 0.2, (40, 2))
+    np.testing.assert_array_equal(plant.step(x, tau), plant.step_reference(x, tau))
+
+
+def test_batched_rollout_equals_one_at_a_time(centralized):
+    x0 = evaluation_set()[:6]
+    plant = make_plant("simplified")
+    batch = rollout(centralized, plant, x0, duration=1.0)
+    for i in range(len(x0)):
+        one = rollout(centralized, plant, x0[i], duration=1.0)
+        np.testing.assert_array_equal(batch.x[i], one.x)
+        np.testing.assert_array_equal(batch.u[i], one.u)
+
+
+def test_unknown_plant_and_bad_states():
+    with pytest.raises(ValueError, match="unknown plant 'real'"):
+        make_plant("real")
+    plant = make_plant("simplified")
+    with pytest.raises(ValueError, match="4 components"):
+        plant.step(np.zeros(3), np.zeros(2))
+    with pytest.raises(ValueError, match="NaN"):
+        plant.step(np.array([0.0, np.nan, 0.0, 0.0]), np.zeros(2))
+    with pytest.raises(ValueError, match="2 components"):
+        plant.step(np.zeros(4), np.zeros(3))
+
+
+def test_rollout_rejects_bad_x0(centralized):
+    for plant in PLANTS:
+        with pytest.raises(ValueError, match="x0 must have 4 components"):
+            rollout(centralized, make_plant(plant), [1.0, 2.0])
+    with pytest.raises(ValueError, match="x0 contains NaN"):
+        rollout(centralized, make_plant("simplified"), [np.nan, 0, 0, 0])
+    with pytest.raises(ValueError, match="duration"):
+        rollout(centralized, make_plant("simplified"), PAPER_X0, duration=-1)
+
+
+def _traj(inside):
+    inside = np.asarray(inside, dtype=bool)
+    k = len(inside)
+    x = np.where(inside[:, None], 0.0, 1.0) * np.ones((k, 4))
+    r = np.where(inside[1:], 0.0, -0.5)
+    return Trajectory(np.arange(k) * TS, x, np.zeros((k - 1, 2)), r, np.zeros((k - 1, 2)))
+
+
+def test_settle_time_success_and_return():
+    tr = _traj([0, 0, 1, 0, 1, 1, 1])
+    assert settle_time(tr) == pytest.approx(4 * TS)
+    assert settle_time(_traj([0, 1, 1, 1, 0])) == np.inf
+    assert settle_time(_traj([1, 1, 1])) == 0.0
+    assert discounted_return(tr) == pytest.approx(-0.5 * (1 + 0.98**2))
+    long = _traj([0] * 10 + [1] * 91)          # 5 s horizon, settles at 0.5 s
+    assert success(long)
+    late = _traj([0] * 90 + [1] * 11)          # settles at 4.5 s > 5 s - 1 s
+    assert not success(late)
+
+
+def test_goal_band_edges():
+    tr = _traj([1, 1])
+    tr.x[:] = [GOAL_ANGLE, -GOAL_ANGLE, 0.1, -0.1]
+    assert settle_time(tr) == 0.0
+    tr.x[1, 0] = GOAL_ANGLE * 1.001
+    assert settle_time(tr) == np.inf
+
+
+def test_trajectory_gap_wraps_angles(centralized):
+    tr = rollout(centralized, make_plant("simplified"), PAPER_X0, duration=0.5)
+    shifted = Trajectory(tr.t, tr.x.copy(), tr.u, tr.r, tr.r_links)
+    shifted.x[:, :2] += 2 * np.pi
+    gap = trajectory_gap(tr, shifted)
+    assert gap["angle_rms"] == pytest.approx(0.0, abs=1e-12) and gap["speed_rms"] == 0.0
+
+
+def test_evaluation_set_is_fixed():
+    ev = evaluation_set()
+    assert ev.shape == (65, 4)
+    np.testing.assert_array_equal(ev[0], PAPER_X0)
+    assert np.all(ev[1:, 2:] == 0)
