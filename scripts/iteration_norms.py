@@ -1,0 +1,44 @@
+"""Alg. 1's sweep count under different norms in its stopping test ||Q_l - Q_(l-1)|| <= delta.
+
+Run: .venv/bin/python scripts/iteration_norms.py
+Used in the README to show which reading of the paper's norm its iteration counts fit.
+"""
+import numpy as np
+
+from twolink import paper
+from twolink.fqi import transition_matrix
+from twolink.parameters import DELTA, GAMMA
+from twolink.synthesis import agent1_problem, agent2_problem, centralized_problem, solve
+
+NORMS = {"inf": lambda d: np.abs(d).max(), "2": np.linalg.norm,
+         "1": lambda d: np.abs(d).sum(), "rms": lambda d: np.sqrt((d ** 2).mean())}
+
+
+def sweeps(problem, norm, max_iterations=5000):
+    t = transition_matrix(problem.grid, problem.next_points)
+    r = problem.rewards.reshape(-1)
+    n_u = problem.rewards.shape[1]
+    q = np.zeros_like(r)
+    for ell in range(1, max_iterations + 1):
+        q_new = r + GAMMA * (t @ q.reshape(-1, n_u).max(1))
+        change = NORMS[norm](q_new - q)
+        q = q_new
+        if change <= DELTA:
+            return ell
+    return None
+
+
+def main():
+    a2_problem = agent2_problem()
+    a2 = solve(a2_problem)
+    problems = {"centralized": centralized_problem(), "agent1 (frozen)": agent1_problem(a2),
+                "agent1 (propagated)": agent1_problem(a2, context="propagated"),
+                "agent2": a2_problem}
+    print(f"{'problem':<22}{'paper':>7}" + "".join(f"{n + '-norm':>10}" for n in NORMS))
+    for name, prob in problems.items():
+        ref = paper.ITERATIONS[name.split()[0]]
+        print(f"{name:<22}{ref:>7}" + "".join(f"{sweeps(prob, n):>10}" for n in NORMS))
+
+
+if __name__ == "__main__":
+    main()
