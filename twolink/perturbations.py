@@ -51,3 +51,36 @@ class ObservationNoise:
             return x
         std = np.array([self.angle_std, self.angle_std, self.speed_std, self.speed_std])
         return x + std * self.rng.standard_normal(np.shape(x))
+
+
+def torque_limited(base: ArmParameters = TABLE_I, relative: float = 0.0) -> ArmParameters:
+    """The plant's torque limits tau1_max and tau2_max both changed by ``relative``.
+
+    The policy keeps commanding its own action levels; the plant clips them.
+    """
+    return perturbed(base, tau1_max=relative, tau2_max=relative)
+
+
+class ActuationDelay:
+    """A policy whose torque reaches the plant ``samples`` sample periods late.
+
+    Until the first command arrives the actuators hold zero torque. Wraps a batched
+    policy; state lives in the wrapper, so make a new one per rollout.
+    """
+
+    def __init__(self, policy, samples: int = 1):
+        if int(samples) != samples or samples < 0:
+            raise ValueError(f"delay must be a non-negative whole number of samples, got {samples}")
+        self.policy = policy
+        self.samples = int(samples)
+        self.kind = getattr(policy, "kind", "")
+        self._queue: list = []
+
+    def __call__(self, x) -> np.ndarray:
+        u = self.policy(x)
+        if self.samples == 0:
+            return u
+        if not self._queue:
+            self._queue = [np.zeros_like(u)] * self.samples
+        self._queue.append(u)
+        return self._queue.pop(0)

@@ -1,0 +1,389 @@
+"""Robustness sweeps: cells of (policy, perturbation), run in batches, saved resumably.
+
+A :class:`Cell` is one policy under one perturbation of the MuJoCo plant, run from every
+state of an evaluation set. Families:
+
+* ``nominal`` - Table I, no perturbation;
+* ``parameter`` - one Table I parameter of the plant changed by ``size`` (relative);
+* ``joint`` - every perturbable parameter changed at once, each uniformly in
+  [-size, size], for ``draws`` random plants (seeded by the cell);
+* ``noise`` - Gaussian noise on the measured state: angle std ``size`` degrees and speed
+  std ``size`` * (0.1 rad/s / 5 deg), so ``size = 5`` matches the goal band;
+* ``delay`` - the torque reaches the plant ``size`` sample periods late;
+* ``torque_limit`` - the plant's tau1_max and tau2_max both changed by ``size`` (relative).
+
+Cells of one policy are concatenated into a single batch (many states x many plants),
+the policy is evaluated for the whole batch at once and MuJoCo advances it with
+``mujoco.rollout`` on a thread pool (:class:`twolink.plants.MujocoPlant`). A result never
+depends on which cells share its batch (held bit-for-bit by tests against
+:func:`reference_cell`, a one-rollout-at-a-time loop).
+
+Tasks run in this process, on local worker processes, or on a Ray cluster; every finished
+task is added to a JSON-lines results file, rewritten atomically, so an interrupted
+sweep resumes without redoing finished cells and never leaves a corrupt file.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import json
+import math
+import multiprocessing
+import os
+from pathlib import Path
+from typing import Callable, Iterable, Optional, Sequence
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.artifacts import write_text
+from twolink.metrics import evaluation_set, settle_time, success
+from twolink.parameters import GAMMA, GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
+from twolink.perturbations import (PERTURBABLE, ActuationDelay, perturbed, random_perturbation,
+                                   torque_limited)
+from twolink.plants import MujocoPlant
+from twolink.policy import load_policy
+from twolink.rollout import rollout, steps_for
+
+FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
+EXECUTORS = ("serial", "local", "ray")
+#: Evaluation sets a cell can use: all 65 states of SPEC.md, or every 4th for quick runs.
+STATE_SETS = ("full", "quick")
+FORMAT = "twolink-sweep"
+FORMAT_VERSION = 1
+#: Speed noise std per degree of angle noise: 5 deg of angle noise <-> 0.1 rad/s.
+_SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
+#: Rows per batch a task aims for (more rows, fewer Python steps per MuJoCo step).
+_ROWS_PER_TASK = 1100
+
+
+def states_of(name: str) -> np.ndarray:
+    """The initial states of an evaluation set named in :data:`STATE_SETS`."""
+    if name == "full":
+        return evaluation_set()
+    if name == "quick":
+        return evaluation_set()[::4]
+    raise ValueError(f"unknown state set {name!r}; choose one of {', '.join(STATE_SETS)}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One policy under one perturbation, from every state of ``states``."""
+
+    policy: str
+    family: str
+    size: float = 0.0
+    name: str = ""
+    draws: int = 1
+    seed: int = 0
+    states: str = "full"
+    duration: float = HORIZON
+
+    def __post_init__(self):
+        _check_cell(self)
+
+    @property
+    def key(self) -> str:
+        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+
+    def plants(self) -> list[ArmParameters]:
+        """One parameter set per random draw (a single one for deterministic families)."""
+        if self.family == "parameter":
+            return [perturbed(TABLE_I, **{self.name: self.size})]
+        if self.family == "torque_limit":
+            return [torque_limited(TABLE_I, self.size)]
+        if self.family == "joint":
+            rng = np.random.default_rng([self.seed, int(round(self.size * 1e6))])
+            return [random_perturbation(rng, self.size) for _ in range(self.draws)]
+        return [TABLE_I]
+
+    def rows(self) -> tuple[list[ArmParameters], np.ndarray]:
+        """Per-row plant parameters and initial states (plants outer, states inner)."""
+        x0 = states_of(self.states)
+        plist = self.plants()
+        return [p for p in plist for _ in x0], np.tile(x0, (len(plist), 1))
+
+
+def _check_cell(c: Cell) -> None:
+    if c.family not in FAMILIES:
+        raise ValueError(f"unknown perturbation family {c.family!r}; choose one of "
+                         f"{', '.join(FAMILIES)}")
+    if c.states not in STATE_SETS:
+        raise ValueError(f"unknown state set {c.states!r}; choose one of {', '.join(STATE_SETS)}")
+    if not math.isfinite(c.size):
+        raise ValueError(f"perturbation size must be finite, got {c.size}")
+    if c.family == "parameter" and c.name not in PERTURBABLE:
+        raise ValueError(f"unknown parameter {c.name!r}; perturbable: {', '.join(PERTURBABLE)}")
+    if c.family in ("parameter", "torque_limit", "joint") and not -1.0 < c.size < 1.0:
+        raise ValueError(f"relative change must lie in (-1, 1), got {c.size}")
+    if c.family == "joint" and (c.size < 0 or c.draws < 1):
+        raise ValueError("joint perturbations need size >= 0 and at least one draw")
+    if c.family == "noise" and c.size < 0:
+        raise ValueError(f"noise level must be non-negative, got {c.size}")
+    if c.family == "delay" and (c.size < 0 or c.size != int(c.size)):
+        raise ValueError(f"delay must be a non-negative whole number of samples, got {c.size}")
+    if c.family == "nominal" and c.size != 0:
+        raise ValueError("the nominal family has size 0")
+
+
+# --------------------------------------------------------------------------- running
+class _Observer:
+    """Measured state seen by the policy: per-cell Gaussian noise from per-cell generators."""
+
+    def __init__(self, cells: Sequence[Cell], counts: Sequence[int]):
+        self.parts = []
+        start = 0
+        for c, n in zip(cells, counts):
+            if c.family == "noise" and c.size > 0:
+                std = np.array([1.0, 1.0, _SPEED_PER_DEG, _SPEED_PER_DEG]) * c.size
+                std[:2] = np.deg2rad(std[:2])
+                self.parts.append((slice(start, start + n), std,
+                                   np.random.default_rng([c.seed, 7919])))
+            start += n
+
+    def __call__(self, k, x):
+        if not self.parts:
+            return x
+        seen = np.array(x)
+        for rows, std, rng in self.parts:
+            seen[rows] += std * rng.standard_normal(seen[rows].shape)
+        return seen
+
+
+class _RowDelay:
+    """Per-row actuation delay: row i gets the torque computed ``delays[i]`` samples ago,
+    zero before that (:class:`twolink.perturbations.ActuationDelay`, row by row)."""
+
+    def __init__(self, policy, delays: np.ndarray):
+        self.policy = policy
+        self.kind = getattr(policy, "kind", "")
+        self.delays = delays.astype(int)
+        self._history: list = []
+
+    def __call__(self, x):
+        u = self.policy(x)
+        self._history.append(u)
+        out = np.zeros_like(u)
+        for d in np.unique(self.delays):
+            if len(self._history) > d:
+                rows = self.delays == d
+                out[rows] = self._history[-1 - d][rows]
+        del self._history[:-1 - int(self.delays.max())]
+        return out
+
+
+def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dict] = None
+              ) -> list[dict]:
+    """Run cells of one policy as one batch on MuJoCo; one result record per cell."""
+    cells = list(cells)
+    if not cells:
+        return []
+    names = {c.policy for c in cells}
+    durations = {c.duration for c in cells}
+    if len(names) != 1 or len(durations) != 1:
+        raise ValueError("a batch holds cells of one policy and one duration")
+    name = names.pop()
+    policy = (policies or {}).get(name) or load_policy(name)
+    plist, x0, counts = [], [], []
+    for c in cells:
+        p, x = c.rows()
+        plist += p
+        x0.append(x)
+        counts.append(len(x))
+    x0 = np.concatenate(x0)
+    delays = np.concatenate([np.full(n, c.size if c.family == "delay" else 0)
+                             for c, n in zip(cells, counts)])
+    actor = _RowDelay(policy, delays) if delays.any() else policy
+    plant = MujocoPlant(plist, nthread=nthread)
+    try:
+        traj = rollout(actor, plant, x0, duration=durations.pop(),
+                       observe=_Observer(cells, counts))
+    finally:
+        plant.close()
+    st, ok, ret = settle_time(traj), success(traj), _returns(traj)
+    out, start = [], 0
+    for c, n in zip(cells, counts):
+        rows = slice(start, start + n)
+        start += n
+        out.append(_record(c, st[rows], ok[rows], ret[rows]))
+    return out
+
+
+def _returns(traj) -> np.ndarray:
+    """:func:`twolink.metrics.discounted_return`, summed row by row so that a row's value
+    does not depend on the batch it ran in (a matrix product does)."""
+    return np.sum(traj.r * GAMMA ** np.arange(traj.r.shape[-1]), axis=-1)
+
+
+def _record(c: Cell, st, ok, ret) -> dict:
+    return {"key": c.key, "cell": dataclasses.asdict(c), "rows": int(len(ok)),
+            "success_rate": float(np.mean(ok)),
+            "settle_times": [float(v) if math.isfinite(v) else None for v in st],
+            "successes": [bool(v) for v in ok],
+            "mean_return": math.fsum(float(v) for v in ret) / len(ret)}
+
+
+def reference_cell(c: Cell) -> dict:
+    """The slow, obviously correct path: one rollout per (plant, state), ``mj_step`` loops."""
+    policy = load_policy(c.policy)
+    plist, x0 = c.rows()
+    observe = _Observer([c], [len(x0)])
+    st, ok, ret = [], [], []
+    noise = [observe.parts[0][1], observe.parts[0][2]] if observe.parts else None
+    draws = None
+    if noise is not None:     # the batched path draws the whole cell's noise per step
+        steps = steps_for(c.duration)
+        draws = noise[1].standard_normal((steps, len(x0), 4)) * noise[0]
+    for i, (p, x) in enumerate(zip(plist, x0)):
+        plant = MujocoPlant(p, nthread=1)
+
+        class _Ref:
+            name = "mujoco"
+
+            def step(self, xx, uu):
+                return plant.step_reference(xx, uu)
+
+        seen = None if draws is None else (lambda k, xx, i=i: xx + draws[k, i])
+        actor = ActuationDelay(policy, int(c.size)) if c.family == "delay" else policy
+        tr = rollout(actor, _Ref(), x, duration=c.duration, observe=seen)
+        plant.close()
+        st.append(float(settle_time(tr)))
+        ok.append(bool(success(tr)))
+        ret.append(float(_returns(tr)))
+    return _record(c, np.array(st), np.array(ok), np.array(ret))
+
+
+# --------------------------------------------------------------------------- results file
+def load_results(path: os.PathLike) -> dict:
+    """Finished cells of a results file, by key ({} when the file does not exist)."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    lines = path.read_text().splitlines()
+    try:
+        header = json.loads(lines[0]) if lines else None
+    except json.JSONDecodeError:
+        header = None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise ValueError(f"{path} is not a twolink sweep results file")
+    if header.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{path}: unsupported sweep results version {header.get('format_version')!r}")
+    out = {}
+    for n, line in enumerate(lines[1:], start=2):
+        try:
+            rec = json.loads(line)
+            out[rec["key"]] = rec
+        except (json.JSONDecodeError, KeyError, TypeError):
+            raise ValueError(f"{path}: line {n} is not a sweep result") from None
+    return out
+
+
+def _save(path: Path, results: dict) -> None:
+    header = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION})
+    body = [json.dumps(r, sort_keys=True) for r in results.values()]
+    write_text(path, "\n".join([header] + body) + "\n")
+
+
+# --------------------------------------------------------------------------- executors
+def _tasks(cells: Sequence[Cell]) -> list[list[Cell]]:
+    """Cells grouped by policy and duration, chunked to about _ROWS_PER_TASK rows."""
+    groups: dict = {}
+    for c in cells:
+        groups.setdefault((c.policy, c.duration), []).append(c)
+    tasks = []
+    for group in groups.values():
+        chunk, rows = [], 0
+        for c in group:
+            n = len(states_of(c.states)) * (c.draws if c.family == "joint" else 1)
+            if chunk and rows + n > _ROWS_PER_TASK:
+                tasks.append(chunk)
+                chunk, rows = [], 0
+            chunk.append(c)
+            rows += n
+        tasks.append(chunk)
+    return tasks
+
+
+def _check_executor(executor: str, workers: int) -> None:
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+
+
+def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
+              executor: str = "local", workers: Optional[int] = None, nthread: int = 1,
+              address: Optional[str] = None, progress: bool = False,
+              on_task: Optional[Callable[[list], None]] = None) -> dict:
+    """Run every cell not already in ``path``; returns all results by key.
+
+    ``executor``: ``serial`` (this process), ``local`` (worker processes) or ``ray``
+    (the cluster at ``address``, or an already initialised Ray, or a new local one).
+    The results file is rewritten atomically after every finished task.
+    """
+    cells = list(dict.fromkeys(cells))
+    workers = workers or max(1, (os.cpu_count() or 1) // nthread)
+    _check_executor(executor, workers)
+    path = Path(path) if path is not None else None
+    if path is not None and not path.parent.is_dir():
+        raise OSError(f"cannot write {path}: directory {path.parent} does not exist")
+    results = load_results(path) if path is not None else {}
+    wanted = {c.key for c in cells}
+    pending = [c for c in cells if c.key not in results]
+    tasks = _tasks(pending)
+    bar = tqdm(total=len(pending), desc="sweep cells", unit=" cells",
+               disable=None if progress else True, leave=False)
+
+    def done(records):
+        for r in records:
+            results[r["key"]] = r
+        if path is not None:
+            _save(path, results)
+        bar.update(len(records))
+        if on_task is not None:
+            on_task(records)
+
+    try:
+        if executor == "serial" or not tasks:
+            for t in tasks:
+                done(run_cells(t, nthread=nthread))
+        elif executor == "local":
+            ctx = multiprocessing.get_context("spawn")
+            with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
+                                        mp_context=ctx) as pool:
+                futures = [pool.submit(run_cells, t, nthread=nthread) for t in tasks]
+                try:
+                    for f in cf.as_completed(futures):
+                        done(f.result())
+                except BaseException:
+                    for f in futures:
+                        f.cancel()
+                    raise
+        else:
+            _run_ray(tasks, done, nthread=nthread, address=address, workers=workers)
+    finally:
+        bar.close()
+    return {k: v for k, v in results.items() if k in wanted}
+
+
+def _run_ray(tasks, done, *, nthread, address, workers) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise RuntimeError("the ray executor needs Ray: pip install ray") from None
+    started = False
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=nthread)(run_cells)
+        pending = [remote.remote(t, nthread=nthread) for t in tasks]
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            done(ray.get(ready[0]))
+    finally:
+        if started:
+            ray.shutdown()
