@@ -1,0 +1,159 @@
+"""``twolink render``: headless EGL videos (MP4 or GIF) of policies driving the arm.
+
+The arm is seen from the top camera with the goal region marked, a translucent ghost
+arm following the simplified-model (11) rollout of the same policy from the same x0,
+and a text overlay with time, torques and reward. Two ``--policy`` values render side
+by side. ``--benchmark N`` measures rendering speed instead of writing a video.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.commands.rollout import _X0_HELP, _label, parse_x0
+from twolink.parameters import HORIZON, TABLE_I, TS
+from twolink.plants import PLANTS, make_plant
+from twolink.policy import load_policy, shipped_policies
+from twolink.rollout import rollout, steps_for
+from twolink.video import check_fps, check_size, video_format, write_video
+
+RENDERS = Path(__file__).resolve().parents[2] / "renders"
+
+
+def add_parser(sub):
+    p = sub.add_parser("render", help="render videos of the arm offscreen (EGL), MP4 or GIF",
+                       description=" ".join(__doc__.split("\n\n")[1].split()))
+    p.add_argument("--policy", action="append", metavar="NAME|FILE",
+                   help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
+                        f"give two for a side-by-side video (default: centralized)")
+    p.add_argument("--plant", choices=PLANTS, default="mujoco",
+                   help="plant whose rollout is shown (default mujoco)")
+    p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)
+    p.add_argument("--degrees", action="store_true",
+                   help="read --x0 angles in degrees and speeds in deg/s")
+    p.add_argument("--seed", type=int, default=0, help="seed for --x0 random (default 0)")
+    p.add_argument("--duration", type=float, default=HORIZON,
+                   help=f"simulated seconds (default {HORIZON:g})")
+    p.add_argument("--fps", type=float, default=round(1 / TS),
+                   help=f"frames per second of the video (default {round(1 / TS)}, one per "
+                        f"sample period)")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="simulated seconds per video second (default 1: real time)")
+    p.add_argument("--size", default="640x480", metavar="WxH",
+                   help="frame size of one panel in pixels (default 640x480)")
+    p.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=True,
+                   help="show the simplified-model rollout as a translucent ghost arm "
+                        "(default on)")
+    p.add_argument("--overlay", action=argparse.BooleanOptionalAction, default=True,
+                   help="draw time, torques and reward on the frames (default on)")
+    p.add_argument("--antialias", action="store_true",
+                   help="4x multisample anti-aliasing (about 3x slower without a GPU)")
+    p.add_argument("-o", "--output", type=Path, default=None,
+                   help="video to write, .mp4 (H.264) or .gif "
+                        "(default renders/<policy>[_vs_<policy>]_<plant>.mp4)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("--benchmark", type=int, default=0, metavar="N",
+                   help="render N frames with and without the ghost, print frames per "
+                        "second and write nothing")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    return p
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    if not m:
+        raise ValueError(f"--size must look like 640x480, got {text!r}")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _benchmark(args, width, height, x0) -> dict:
+    from twolink.render import Renderer
+
+    policy = load_policy((args.policy or ["centralized"])[0])
+    n = args.benchmark
+    tr = rollout(policy, make_plant(args.plant, TABLE_I), x0, duration=max(n - 1, 1) * TS)
+    gh = rollout(policy, make_plant("simplified", TABLE_I), x0, duration=max(n - 1, 1) * TS)
+    result = {"width": width, "height": height, "frames": n, "overlay": args.overlay,
+              "antialias": args.antialias}
+    for ghost in (False, True):
+        with Renderer(width=width, height=height, ghost=ghost, overlay=args.overlay,
+                      samples=4 if args.antialias else 0) as r:
+            r.frame(tr.x[0], ghost_x=gh.x[0], lines=["warm-up"])
+            t0 = time.perf_counter()
+            for k in range(n):
+                r.frame(tr.x[k], ghost_x=gh.x[k] if ghost else None,
+                        lines=[f"t = {tr.t[k]:.2f} s"])
+            dt = time.perf_counter() - t0
+        result["fps_with_ghost" if ghost else "fps_without_ghost"] = n / dt
+    return result
+
+
+def run(args) -> int:
+    width, height = parse_size(args.size)
+    x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
+    if args.benchmark < 0:
+        raise ValueError(f"--benchmark needs a positive number of frames, got {args.benchmark}")
+    if args.benchmark:
+        check_size(width, height, "png")
+        result = _benchmark(args, width, height, x0)
+        if args.json:
+            print(json.dumps(result, indent=2))
+        else:
+            print(f"{width}x{height}, {result['frames']} frames: "
+                  f"{result['fps_without_ghost']:.1f} fps without ghost, "
+                  f"{result['fps_with_ghost']:.1f} fps with ghost")
+        return 0
+
+    names = args.policy or ["centralized"]
+    if len(names) > 2:
+        raise ValueError(f"give one or two --policy values (side by side), got {len(names)}")
+    steps_for(args.duration)
+    check_fps(args.fps)
+    if not np.isfinite(args.speed) or args.speed <= 0:
+        raise ValueError(f"--speed must be a positive number, got {args.speed}")
+    labels = [_label(n) for n in names]
+    out = args.output or RENDERS / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
+    fmt = video_format(out)
+    check_size(width * len(names), height, fmt)
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise OSError(f"cannot write {out}: directory {parent} does not exist")
+
+    policies = [load_policy(n) for n in names]
+    plant = make_plant(args.plant, TABLE_I)
+    ghost_plant = make_plant("simplified", TABLE_I)
+    panels = []
+    for label, policy in zip(labels, policies):
+        tr = rollout(policy, plant, x0, duration=args.duration)
+        gh = rollout(policy, ghost_plant, x0, duration=args.duration) if args.ghost else None
+        panels.append((f"{label} on {args.plant}" + (" (ghost: simplified)" if gh else ""),
+                       tr, gh))
+
+    from twolink.render import Renderer, frame_count, trajectory_frames
+
+    n = frame_count(args.duration / args.speed, args.fps)
+    t0 = time.perf_counter()
+    with Renderer(width=width, height=height, ghost=args.ghost, overlay=args.overlay,
+                  samples=4 if args.antialias else 0) as r:
+        frames = trajectory_frames(r, panels, fps=args.fps, speed=args.speed,
+                                   duration=args.duration)
+        bar = tqdm(frames, total=n, unit="frame", desc=f"render {out.name}",
+                   disable=args.no_progress or args.json, leave=False)
+        count = write_video(out, bar, args.fps)
+    seconds = time.perf_counter() - t0
+    result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(names),
+              "height": height, "video_seconds": count / args.fps,
+              "render_seconds": seconds, "policies": labels, "plant": args.plant,
+              "ghost": args.ghost, "x0": x0.tolist()}
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"wrote {out} ({count} frames, {width * len(names)}x{height}, {args.fps:g} fps, "
+              f"rendered in {seconds:.1f} s)")
+    return 0

@@ -1,0 +1,154 @@
+"""``twolink rollout``: run policies on plants from x0, summarise, save and plot.
+
+Several ``--policy`` or ``--plant`` values run every combination and overlay them in one
+Fig. 3-style figure (one column per policy, one line style per plant).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from twolink.metrics import summary, trajectory_gap
+from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
+from twolink.plants import PLANTS, check_states, make_plant
+from twolink.plots import fig3
+from twolink.policy import load_policy, shipped_policies
+from twolink.rollout import rollout, steps_for
+from twolink.trajectory_io import save_csv, save_npz
+
+RENDERS = Path(__file__).resolve().parents[2] / "renders"
+_X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
+            "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
+            "'random' (angles uniform in [-pi, pi), at rest, drawn with --seed); "
+            "default: the paper's -1 -3 0 0")
+
+
+def add_parser(sub):
+    p = sub.add_parser("rollout", help="run policies on plants; summary, trajectories, Fig. 3",
+                       description=__doc__.split("\n\n")[0].split(": ", 1)[1] + " "
+                       + __doc__.split("\n\n")[1].replace("\n", " "))
+    p.add_argument("--policy", action="append", metavar="NAME|FILE",
+                   help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
+                        f"repeat to overlay (default: centralized)")
+    p.add_argument("--plant", action="append", choices=PLANTS,
+                   help="plant to run on; repeat to overlay (default: mujoco)")
+    p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)
+    p.add_argument("--degrees", action="store_true",
+                   help="read --x0 angles in degrees and speeds in deg/s")
+    p.add_argument("--duration", type=float, default=HORIZON,
+                   help=f"seconds to simulate (default {HORIZON:g})")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the random generator for --x0 random (default 0)")
+    p.add_argument("-o", "--output", type=Path, default=RENDERS / "rollout", metavar="PREFIX",
+                   help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png "
+                        "(default renders/rollout)")
+    p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
+    p.add_argument("--npz", type=Path, help="trajectory NPZ path (overrides the prefix)")
+    p.add_argument("--figure", type=Path, help="Fig. 3 PNG path (overrides the prefix)")
+    p.add_argument("--no-save", action="store_true", help="only print the summary")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    return p
+
+
+def parse_x0(values, *, degrees: bool = False, seed: int = 0) -> np.ndarray:
+    """The initial state from the ``--x0`` words, or a clear ValueError."""
+    if not values:
+        return np.asarray(PAPER_X0, dtype=float)
+    words = [w for v in values for w in re.split(r"[,\s]+", v.strip()) if w]
+    if words == ["random"]:
+        rng = np.random.default_rng(seed)
+        return np.concatenate([rng.uniform(-math.pi, math.pi, 2), np.zeros(2)])
+    try:
+        x0 = np.array([float(w) for w in words])
+    except ValueError:
+        raise ValueError(f"--x0 must be four numbers (theta1 theta2 dtheta1 dtheta2) or "
+                         f"'random', got {' '.join(values)!r}") from None
+    if x0.shape != (4,):
+        raise ValueError(f"--x0 must be four numbers (theta1 theta2 dtheta1 dtheta2), got "
+                         f"{len(x0)}: {' '.join(values)!r}")
+    x0 = check_states(np.deg2rad(x0) if degrees else x0, what="--x0")
+    return x0
+
+
+def _outputs(args) -> dict:
+    if args.no_save:
+        return {}
+    prefix = args.output
+    out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
+           "npz": args.npz or prefix.with_name(prefix.name + ".npz"),
+           "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}
+    if out["figure"].suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise ValueError(f"--figure {out['figure']}: use a .png, .pdf or .svg file name")
+    for path in out.values():       # check every destination before computing anything
+        parent = path.parent if str(path.parent) else Path(".")
+        if not parent.is_dir():
+            raise OSError(f"cannot write {path}: directory {parent} does not exist")
+        if not os.access(parent, os.W_OK):
+            raise OSError(f"cannot write {path}: directory {parent} is not writable")
+        if path.is_dir():
+            raise OSError(f"cannot write {path}: it is a directory")
+    return out
+
+
+def _label(name: str) -> str:
+    return Path(name).stem if name.endswith(".npz") or os.sep in name else name
+
+
+def run(args) -> int:
+    policies = {_label(n): load_policy(n) for n in (args.policy or ["centralized"])}
+    plants = list(dict.fromkeys(args.plant or ["mujoco"]))
+    x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
+    steps_for(args.duration)
+    outputs = _outputs(args)
+
+    made = {}
+    runs, reference = {}, {}
+    for pname, policy in policies.items():
+        for plant in dict.fromkeys(plants + (["simplified"] if plants != ["simplified"] else [])):
+            if plant not in made:
+                made[plant] = make_plant(plant, TABLE_I)
+            tr = rollout(policy, made[plant], x0, duration=args.duration)
+            (runs if plant in plants else reference)[(pname, plant)] = tr
+    report = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed, "runs": []}
+    for (pname, plant), tr in runs.items():
+        entry = {"policy": pname, "plant": plant, **summary(tr)}
+        if plant != "simplified":
+            ref = runs.get((pname, "simplified")) or reference[(pname, "simplified")]
+            entry["gap_to_simplified"] = {k: float(v) for k, v in trajectory_gap(tr, ref).items()}
+        report["runs"].append(entry)
+
+    if outputs:
+        meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
+                "policies": {k: (v.kind, v.meta.get("context")) for k, v in policies.items()}}
+        save_csv(outputs["csv"], runs)
+        save_npz(outputs["npz"], runs, meta=meta)
+        panels = {pname: {plant: runs[(pname, plant)] for plant in plants}
+                  for pname in policies}
+        x0s = ", ".join(f"{v:.3g}" for v in x0)
+        fig3(panels, outputs["figure"],
+             title=f"x0 = [{x0s}]; line styles: {', '.join(plants)}")
+        report["outputs"] = {k: str(v) for k, v in outputs.items()}
+
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"x0 = [{', '.join(f'{v:+.4g}' for v in x0)}], {args.duration:g} s")
+    for e in report["runs"]:
+        st = "never" if e["settle_time"] is None else f"{e['settle_time']:.2f} s"
+        off = ", ".join(f"{v:+.2f}" for v in e["final_offsets_deg"])
+        line = (f"{e['policy']:<24} on {e['plant']:<10} settle {st:>7}  "
+                f"success {'yes' if e['success'] else 'no ':<3}  return {e['return']:+.3f}  "
+                f"final offsets [{off}] deg")
+        if "gap_to_simplified" in e:
+            g = e["gap_to_simplified"]
+            line += (f"  gap to simplified: {g['angle_rms']:.3g} rad, "
+                     f"{g['speed_rms']:.3g} rad/s RMS")
+        print(line)
+    for k, v in report.get("outputs", {}).items():
+        print(f"wrote {v}")
+    return 0

@@ -1,0 +1,282 @@
+"""Offscreen rendering of the arm with MuJoCo's EGL backend.
+
+The package sets ``MUJOCO_GL=egl`` before mujoco is imported (a user's own value wins),
+so the same code renders on an NVIDIA GPU or, without one, on Mesa's software EGL
+device. A frame shows the arm from the top camera, the goal region (the tip's reach
+over the 5 deg band, and link 1's band), optionally a translucent "ghost" arm (the
+simplified-model rollout of the same policy, so the model mismatch is visible) and a
+text overlay with time, torques and reward.
+"""
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import glob
+import math
+import os
+
+import mujoco
+import numpy as np
+
+from twolink import mjcf
+from twolink.integrate import wrap_angle
+from twolink.parameters import GOAL_ANGLE, TABLE_I, TS, ArmParameters
+from twolink.reward import centralized_reward
+from twolink.rollout import Trajectory
+
+CAMERA = "top"
+_GHOST_RGBA = (0.62, 0.32, 0.92, 0.40)
+_GOAL_RGBA = (0.1, 0.75, 0.25, 0.35)
+_GHOST_Z = -0.012
+_GOAL_Z = -0.028
+
+
+class RenderError(RuntimeError):
+    """Headless rendering is impossible on this machine; the message says why in one line."""
+
+
+# --------------------------------------------------------------------------- diagnosis
+def _loadable(name: str) -> bool:
+    try:
+        ctypes.CDLL(name)
+        return True
+    except OSError:
+        return False
+
+
+def _egl_vendor_files() -> list[str]:
+    listed = os.environ.get("__EGL_VENDOR_LIBRARY_FILENAMES")
+    if listed:
+        return [f for f in listed.split(":") if os.path.isfile(f)]
+    dirs = os.environ.get("__EGL_VENDOR_LIBRARY_DIRS",
+                          "/etc/glvnd/egl_vendor.d:/usr/share/glvnd/egl_vendor.d")
+    return [f for d in dirs.split(":") for f in glob.glob(os.path.join(d, "*.json"))]
+
+
+def diagnose(exc: BaseException | None = None) -> str:
+    """One line naming what stops headless EGL rendering (missing library, setting)."""
+    fix = "run scripts/install-system-deps.sh as root, or apt-get install"
+    backend = os.environ.get("MUJOCO_GL", "")
+    if backend.lower() != "egl":
+        return (f"MUJOCO_GL={backend!r} is set; headless rendering needs MUJOCO_GL=egl "
+                f"(unset it or set it to egl)")
+    if not _loadable("libEGL.so.1"):
+        return f"libEGL.so.1 is missing ({fix} libegl1)"
+    if not _loadable("libOpenGL.so.0") and not _loadable("libGL.so.1"):
+        return f"libOpenGL.so.0 / libGL.so.1 are missing ({fix} libopengl0 libgl1)"
+    vendors = _egl_vendor_files()
+    if not vendors:
+        where = ("__EGL_VENDOR_LIBRARY_FILENAMES="
+                 f"{os.environ['__EGL_VENDOR_LIBRARY_FILENAMES']!r} names no existing file"
+                 if os.environ.get("__EGL_VENDOR_LIBRARY_FILENAMES")
+                 else "no EGL vendor library is registered")
+        return (f"{where}: need Mesa's libEGL_mesa.so.0 ({fix} libegl-mesa0) "
+                f"or the NVIDIA driver")
+    if any("mesa" in os.path.basename(v) for v in vendors) and not glob.glob(
+            "/usr/lib/*/dri/swrast_dri.so") and not _has_nvidia(vendors):
+        return f"Mesa's software driver swrast_dri.so is missing ({fix} libgl1-mesa-dri)"
+    detail = f"{type(exc).__name__}: {exc}" if exc is not None else "unknown cause"
+    detail = " ".join(detail.split())
+    return f"cannot create an EGL context ({detail}); check the EGL driver ({fix} " \
+           f"libegl1 libegl-mesa0 libgl1-mesa-dri)"
+
+
+def _has_nvidia(vendors) -> bool:
+    return any("nvidia" in os.path.basename(v) for v in vendors)
+
+
+# --------------------------------------------------------------------------- model
+def tip_positions(x, p: ArmParameters = TABLE_I) -> np.ndarray:
+    """Elbow and link-2 tip of states (..., 4) in the plane: shape (..., 2, 2)."""
+    x = np.asarray(x, dtype=float)
+    t1, t12 = x[..., 0], x[..., 0] + x[..., 1]
+    elbow = np.stack([p.l1 * np.cos(t1), p.l1 * np.sin(t1)], -1)
+    tip = elbow + np.stack([p.l2 * np.cos(t12), p.l2 * np.sin(t12)], -1)
+    return np.stack([elbow, tip], -2)
+
+
+def goal_tip_radius(p: ArmParameters = TABLE_I) -> float:
+    """Largest distance of the tip from its goal (l1 + l2, 0) over the 5 deg angle band."""
+    a = np.array([-GOAL_ANGLE, GOAL_ANGLE])
+    t1, t2 = np.meshgrid(a, a)
+    x = np.stack([t1.ravel(), t2.ravel(), 0 * t1.ravel(), 0 * t1.ravel()], -1)
+    tips = tip_positions(x, p)[:, 1]
+    return float(np.max(np.hypot(tips[:, 0] - p.l1 - p.l2, tips[:, 1])))
+
+
+def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
+                      width: int = 640, height: int = 480,
+                      samples: int = 0) -> mujoco.MjSpec:
+    """The arm's MjSpec plus the goal-region marker and, optionally, a ghost arm."""
+    spec = mjcf.build_spec(p)
+    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, width)
+    spec.visual.global_.offheight = max(spec.visual.global_.offheight, height)
+    # Seen from straight above, shadows add nothing but a 4096^2 shadow-map pass, which
+    # dominates the frame time on Mesa's software device.
+    spec.visual.quality.shadowsize = 0
+    spec.visual.quality.offsamples = samples
+    world = spec.worldbody
+    reach = p.l1 + p.l2
+    world.add_geom(name="goal_region", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                   size=[goal_tip_radius(p), 0.001, 0], pos=[reach, 0, _GOAL_Z],
+                   rgba=list(_GOAL_RGBA), contype=0, conaffinity=0, mass=0)
+    for sign in (-1, 1):
+        a = sign * GOAL_ANGLE
+        half = reach / 2
+        world.add_geom(name=f"goal_band_{'lo' if sign < 0 else 'hi'}",
+                       type=mujoco.mjtGeom.mjGEOM_BOX, size=[half, 0.0012, 0.0005],
+                       pos=[half * math.cos(a), half * math.sin(a), _GOAL_Z],
+                       euler=[0, 0, a], rgba=[0.1, 0.6, 0.2, 0.6], contype=0,
+                       conaffinity=0, mass=0)
+    if ghost:
+        parent = world
+        for k, (length, pos) in enumerate(((p.l1, (0, 0, _GHOST_Z)), (p.l2, (p.l1, 0, 0)))):
+            body = parent.add_body(name=f"ghost_{mjcf.LINKS[k]}", pos=list(pos))
+            body.mass = 1e-3
+            body.inertia = [1e-6, 1e-6, 1e-6]
+            body.explicitinertial = True
+            body.add_joint(name=f"ghost_{mjcf.JOINTS[k]}", type=mujoco.mjtJoint.mjJNT_HINGE,
+                           axis=[0, 0, 1])
+            body.add_geom(name=f"ghost_{mjcf.LINKS[k]}_geom",
+                          type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, length, 0, 0],
+                          size=[0.008, 0, 0], rgba=list(_GHOST_RGBA), contype=0,
+                          conaffinity=0, mass=0)
+            parent = body
+    return spec
+
+
+# --------------------------------------------------------------------------- renderer
+class Renderer:
+    """Frames of the arm at given states, rendered offscreen through EGL.
+
+    ``samples`` is the multisample anti-aliasing level (0 = off: on Mesa's software
+    device 4x MSAA makes a frame about three times slower). Use as a context manager (or
+    call :meth:`close`) to free the GL context.
+    """
+
+    def __init__(self, *, width: int = 640, height: int = 480, ghost: bool = False,
+                 overlay: bool = True, samples: int = 0, params: ArmParameters = TABLE_I):
+        self.width, self.height = int(width), int(height)
+        self.ghost, self.overlay, self.params = bool(ghost), bool(overlay), params
+        self.model = build_render_spec(params, ghost=ghost, width=self.width,
+                                       height=self.height, samples=samples).compile()
+        self.data = mujoco.MjData(self.model)
+        self._cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)
+        try:
+            self._renderer = mujoco.Renderer(self.model, self.height, self.width)
+        except Exception as exc:  # EGL/GL failures surface as several exception types
+            self._renderer = None
+            raise RenderError(f"headless rendering is unavailable: {diagnose(exc)}") from None
+        self._font = None
+
+    def close(self) -> None:
+        if getattr(self, "_renderer", None) is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def _pose(self, x, ghost_x=None) -> None:
+        x = np.asarray(x, dtype=float)
+        self.data.qpos[:2] = x[:2]
+        if self.ghost:
+            g = x if ghost_x is None else np.asarray(ghost_x, dtype=float)
+            self.data.qpos[2:4] = g[:2]
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+
+    def frame(self, x, *, ghost_x=None, lines=()) -> np.ndarray:
+        """RGB frame (H, W, 3) of the arm at state ``x``, the ghost at ``ghost_x``."""
+        if self._renderer is None:
+            raise RenderError("renderer is closed")
+        self._pose(x, ghost_x)
+        self._renderer.update_scene(self.data, camera=CAMERA)
+        img = self._renderer.render()
+        if self.overlay and lines:
+            img = self._draw_text(img, lines)
+        return img
+
+    def project(self, points) -> np.ndarray:
+        """Pixel coordinates (column, row) of world points (..., 3) in the top camera."""
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        pos = self.data.cam_xpos[self._cam]
+        rot = self.data.cam_xmat[self._cam].reshape(3, 3)
+        pc = (np.asarray(points, dtype=float) - pos) @ rot     # camera frame, looks along -z
+        f = 0.5 * self.height / math.tan(math.radians(self.model.cam_fovy[self._cam]) / 2)
+        col = 0.5 * self.width + f * pc[..., 0] / -pc[..., 2]
+        row = 0.5 * self.height - f * pc[..., 1] / -pc[..., 2]
+        return np.stack([col, row], -1)
+
+    def _draw_text(self, img: np.ndarray, lines) -> np.ndarray:
+        from PIL import Image, ImageDraw, ImageFont
+
+        if self._font is None:
+            self._font = ImageFont.load_default(size=max(9, self.height // 26))
+        im = Image.fromarray(img)
+        draw = ImageDraw.Draw(im, "RGBA")
+        pad = max(2, self.height // 120)
+        text = "\n".join(lines)
+        box = draw.multiline_textbbox((pad * 2, pad * 2), text, font=self._font, spacing=pad)
+        draw.rectangle((box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad),
+                       fill=(20, 20, 20, 170))
+        draw.multiline_text((pad * 2, pad * 2), text, font=self._font, fill=(255, 255, 255),
+                            spacing=pad)
+        return np.asarray(im)
+
+
+# --------------------------------------------------------------------------- trajectories
+def frame_count(duration: float, fps: float) -> int:
+    """Frames of a real-time video of ``duration`` seconds: one per 1/fps, both ends in."""
+    return int(math.floor(duration * fps + 1e-9)) + 1
+
+
+def sample_at(traj: Trajectory, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """States (linearly interpolated, angles along the short way), held commands and the
+    reward (15) of the last sample reached, at ``times`` (seconds)."""
+    times = np.asarray(times, dtype=float)
+    s = np.clip(times / TS, 0, traj.steps)
+    k = np.minimum(np.floor(s + 1e-9).astype(int), traj.steps)
+    nxt = np.minimum(k + 1, traj.steps)
+    a = (s - k)[:, None]
+    d = traj.x[nxt] - traj.x[k]
+    d[:, :2] = wrap_angle(d[:, :2])
+    x = traj.x[k] + a * d
+    x[:, :2] = wrap_angle(x[:, :2])
+    u = traj.u[np.minimum(k, traj.steps - 1)]
+    r = np.concatenate([centralized_reward(traj.x[:1]), traj.r])[k]
+    return x, u, r
+
+
+def trajectory_frames(renderer: Renderer, panels, *, fps: float, speed: float = 1.0,
+                      duration: float | None = None):
+    """Yield frames of one or more panels side by side.
+
+    ``panels`` is a sequence of ``(label, trajectory, ghost_trajectory_or_None)``. Frame i
+    shows simulated time t = i * speed / fps: real time for speed 1.
+    """
+    panels = list(panels)
+    if not panels:
+        raise ValueError("nothing to render")
+    duration = min(p[1].t[-1] for p in panels) if duration is None else duration
+    times = np.arange(frame_count(duration / speed, fps)) * speed / fps
+    sampled = [(label, sample_at(tr, times), None if g is None else sample_at(g, times)[0])
+               for label, tr, g in panels]
+    for i, t in enumerate(times):
+        tiles = []
+        for label, (x, u, r), gx in sampled:
+            lines = [label, f"t = {t:5.2f} s",
+                     f"tau = [{u[i, 0]:+.3f}, {u[i, 1]:+.3f}] Nm", f"r = {r[i]:+.1f}"]
+            tiles.append(renderer.frame(x[i], ghost_x=None if gx is None else gx[i],
+                                        lines=lines))
+        yield tiles[0] if len(tiles) == 1 else np.concatenate(tiles, axis=1)

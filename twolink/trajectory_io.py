@@ -1,0 +1,78 @@
+"""Saving rollouts: a long-format CSV and an NPZ archive with a JSON header.
+
+Both hold, for every (policy, plant) run, the times t_k, states x_k, the commands u_k
+held over [t_k, t_k + Ts) and the rewards r_k of (15) and (17) reached at t_k (the CSV
+leaves u empty on the last sample and r empty on the first).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from twolink.artifacts import atomic_path, provenance, write_text
+from twolink.parameters import STATE_NAMES
+from twolink.rollout import Trajectory
+
+FORMAT = "twolink-trajectories"
+CSV_COLUMNS = ("policy", "plant", "k", "t", *STATE_NAMES, "tau1", "tau2", "r", "r1", "r2")
+
+
+def _check(runs: dict) -> None:
+    if not runs:
+        raise ValueError("no trajectories to save")
+    for key, tr in runs.items():
+        if not isinstance(tr, Trajectory) or tr.x.ndim != 2:
+            raise ValueError(f"{key}: expected a single (unbatched) trajectory")
+
+
+def to_csv_text(runs: dict) -> str:
+    """CSV text of ``{(policy, plant): Trajectory}``, one row per sample."""
+    _check(runs)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+    for (policy, plant), tr in runs.items():
+        for k in range(len(tr.t)):
+            u = tr.u[k] if k < tr.steps else ("", "")
+            r = (tr.r[k - 1], *tr.r_links[k - 1]) if k > 0 else ("", "", "")
+            w.writerow([policy, plant, k, f"{tr.t[k]:.6g}", *(repr(float(v)) for v in tr.x[k]),
+                        *(v if v == "" else repr(float(v)) for v in u),
+                        *(v if v == "" else repr(float(v)) for v in r)])
+    return buf.getvalue()
+
+
+def save_csv(path: os.PathLike, runs: dict) -> Path:
+    return write_text(path, to_csv_text(runs))
+
+
+def save_npz(path: os.PathLike, runs: dict, *, meta: dict | None = None) -> Path:
+    """NPZ with arrays ``<policy>/<plant>/{t,x,u,r,r_links}`` and a JSON ``header``."""
+    _check(runs)
+    arrays = {}
+    for (policy, plant), tr in runs.items():
+        for name in ("t", "x", "u", "r", "r_links"):
+            arrays[f"{policy}/{plant}/{name}"] = getattr(tr, name)
+    header = {"format": FORMAT, "runs": [list(k) for k in runs], "meta": meta or {},
+              "provenance": provenance()}
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, header=np.array(json.dumps(header, sort_keys=True)),
+                                **arrays)
+    return path
+
+
+def load_npz(path: os.PathLike) -> dict:
+    """The runs saved by :func:`save_npz`, as ``{(policy, plant): Trajectory}``."""
+    with np.load(path, allow_pickle=False) as npz:
+        header = json.loads(str(npz["header"]))
+        if header.get("format") != FORMAT:
+            raise ValueError(f"{path} is not a twolink trajectory file")
+        return {(pol, pl): Trajectory(*(npz[f"{pol}/{pl}/{n}"]
+                                        for n in ("t", "x", "u", "r", "r_links")), pl, pol)
+                for pol, pl in header["runs"]}
