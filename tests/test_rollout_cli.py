@@ -1,0 +1,127 @@
+"""`twolink rollout`: every plant, JSON summary, saved trajectories, figure, bad input."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from twolink.cli import main
+from twolink.metrics import summary, trajectory_gap
+from twolink.plants import PLANTS, make_plant
+from twolink.rollout import rollout
+from twolink.trajectory_io import CSV_COLUMNS, load_npz
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _run(capsys, *argv):
+    code = main(["rollout", *map(str, argv)])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_rollout_each_plant_json_matches_library(plant, tmp_path, capsys, centralized):
+    code, out, _ = _run(capsys, "--plant", plant, "--duration", 1.5, "--json",
+                        "-o", tmp_path / "run")
+    assert code == 0
+    rep = json.loads(out)
+    (entry,) = rep["runs"]
+    x0 = [-1.0, -3.0, 0.0, 0.0]
+    direct = rollout(centralized, make_plant(plant), x0, duration=1.5)
+    want = summary(direct)
+    assert entry["plant"] == plant and entry["policy"] == "centralized"
+    assert entry["return"] == pytest.approx(want["return"])
+    assert entry["final_offsets_deg"] == pytest.approx(want["final_offsets_deg"])
+    assert entry["settle_time"] == want["settle_time"]
+    assert entry["success"] == want["success"]
+    if plant == "simplified":
+        assert "gap_to_simplified" not in entry
+    else:
+        ref = rollout(centralized, make_plant("simplified"), x0, duration=1.5)
+        gap = trajectory_gap(direct, ref)
+        assert entry["gap_to_simplified"]["angle_rms"] == pytest.approx(float(gap["angle_rms"]))
+        assert entry["gap_to_simplified"]["angle_rms"] > 0
+    # Saved trajectory: NPZ equal to the library rollout, CSV one row per sample.
+    saved = load_npz(tmp_path / "run.npz")[("centralized", plant)]
+    np.testing.assert_array_equal(saved.x, direct.x)
+    np.testing.assert_array_equal(saved.u, direct.u)
+    np.testing.assert_array_equal(saved.r, direct.r)
+    lines = (tmp_path / "run.csv").read_text().splitlines()
+    assert lines[0].split(",") == list(CSV_COLUMNS)
+    assert len(lines) == 1 + direct.steps + 1
+    last = lines[-1].split(",")
+    assert float(last[CSV_COLUMNS.index("theta2")]) == direct.x[-1, 1]
+    assert last[CSV_COLUMNS.index("tau1")] == ""      # no command after the last sample
+    assert (tmp_path / "run_fig3.png").read_bytes()[:8] == PNG_MAGIC
+
+
+def test_rollout_overlays_policies_and_plants_in_one_figure(tmp_path, capsys):
+    fig = tmp_path / "cmp.png"
+    code, out, _ = _run(capsys, "--policy", "centralized", "--policy", "decentralized",
+                        "--plant", "simplified", "--plant", "mujoco", "--duration", 1.0,
+                        "--figure", fig, "--csv", tmp_path / "t.csv", "--npz", tmp_path / "t.npz")
+    assert code == 0
+    assert out.count(" on simplified") == 2 and out.count(" on mujoco") == 2
+    assert "gap to simplified" in out
+    runs = load_npz(tmp_path / "t.npz")
+    assert set(runs) == {(p, q) for p in ("centralized", "decentralized")
+                         for q in ("simplified", "mujoco")}
+    from PIL import Image
+    im = Image.open(fig)
+    assert im.format == "PNG" and im.width > im.height   # two columns (one: 5.2 x 9 in)
+    rows = (tmp_path / "t.csv").read_text().splitlines()[1:]
+    assert {tuple(r.split(",")[:2]) for r in rows} == set(runs)
+
+
+def test_rollout_x0_degrees_and_random_seed(tmp_path, capsys):
+    code, out, _ = _run(capsys, "--x0=-57.29577951308232,-171.88733853924697,0,0",
+                        "--degrees", "--duration", 0.5, "--plant", "simplified", "--json",
+                        "--no-save")
+    assert code == 0
+    rep = json.loads(out)
+    assert rep["x0"] == pytest.approx([-1, -3, 0, 0])
+    assert "outputs" not in rep
+    xs = []
+    for seed in (3, 3, 4):
+        _, out, _ = _run(capsys, "--x0", "random", "--seed", seed, "--duration", 0.2,
+                         "--plant", "simplified", "--json", "--no-save")
+        xs.append(json.loads(out)["x0"])
+    assert xs[0] == xs[1] != xs[2]
+    assert all(-math.pi <= v < math.pi for v in xs[2][:2]) and xs[2][2:] == [0, 0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--policy", "nope"], "unknown policy 'nope'"),
+    (["--policy", "missing/file.npz"], "does not exist"),
+    (["--x0", "1,2,3"], "--x0 must be four numbers"),
+    (["--x0", "a", "b", "c", "d"], "--x0 must be four numbers"),
+    (["--x0", "1", "2", "nan", "0"], "NaN"),
+    (["--duration", "0"], "duration must be a positive"),
+    (["--figure", "{tmp}/fig.jpg"], "use a .png"),
+    (["-o", "{tmp}/no/such/dir/run"], "does not exist"),
+    (["-o", "{tmp}/afile/run"], "does not exist"),
+    (["--npz", "{tmp}"], "is a directory"),
+])
+def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, capsys):
+    (tmp_path / "afile").write_text("x")
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    if not any(a in ("-o", "--output") for a in argv):
+        argv += ["-o", str(tmp_path / "run")]
+    code, out, err = _run(capsys, "--duration", 0.5, *argv)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("twolink rollout: error: ")
+    assert message in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_rollout_cli_entry_point_exit_status(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "twolink.cli", "rollout", "--x0", "1", "2",
+                          "-o", str(tmp_path / "r")], capture_output=True, text=True)
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [
+        "twolink rollout: error: --x0 must be four numbers (theta1 theta2 dtheta1 dtheta2), "
+        "got 2: '1 2'"]
+    assert list(tmp_path.iterdir()) == []
