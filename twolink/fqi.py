@@ -72,14 +72,17 @@ def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
     start = time.perf_counter()
     r = rewards.reshape(-1)
     q = np.zeros(n_x * n_u)
+    q_new = np.empty_like(q)
+    v = np.empty(n_x)
     history = []
     converged = False
     iterations = 0
     while iterations < max_iterations:
-        v = q.reshape(n_x, n_u).max(axis=1)
-        q_new = r + gamma * (transitions @ v)
+        _row_max(q.reshape(n_x, n_u), v)
+        np.multiply(transitions @ v, gamma, out=q_new)
+        q_new += r
         change = float(np.max(np.abs(q_new - q)))
-        q = q_new
+        q, q_new = q_new, q
         iterations += 1
         history.append(change)
         if callback is not None:
@@ -89,6 +92,15 @@ def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
             break
     return QIterationResult(q.reshape(n_x, n_u), iterations, np.asarray(history),
                             converged, time.perf_counter() - start)
+
+
+def _row_max(q: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """max over actions of Q (N_X, N_U) into ``out`` (N_X,), as N_U column-wise maxima:
+    several times faster than ``q.max(axis=1)`` over a short last axis."""
+    np.copyto(out, q[:, 0])
+    for j in range(1, q.shape[1]):
+        np.maximum(out, q[:, j], out=out)
+    return out
 
 
 def fuzzy_q_iteration_reference(grid: Grid, next_points: np.ndarray, rewards: np.ndarray,
