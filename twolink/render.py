@@ -117,6 +117,8 @@ def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
     spec.visual.quality.offsamples = samples
     world = spec.worldbody
     reach = p.l1 + p.l2
+    # The floor fills any frame shape (wide side-by-side panels too), not just 4:3.
+    spec.geom("floor").size = [reach * 4, reach * 4, 0.01]
     world.add_geom(name="goal_region", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                    size=[goal_tip_radius(p), 0.001, 0], pos=[reach, 0, _GOAL_Z],
                    rgba=list(_GOAL_RGBA), contype=0, conaffinity=0, mass=0)

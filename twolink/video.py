@@ -85,7 +85,8 @@ def _write_gif(path: Path, frames, fps: float) -> int:
     images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
     if not images:
         raise ValueError("no frames to write")
-    # One shared adaptive palette keeps the file small and the colours stable.
+    # One shared adaptive palette keeps the file small and the colours stable. Pillow merges
+    # identical consecutive frames into one longer frame, so playback timing is kept.
     palette = images[0].quantize(colors=255, method=Image.Quantize.MEDIANCUT)
     quantized = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
     quantized[0].save(path, format="GIF", save_all=True, append_images=quantized[1:],
