@@ -10,6 +10,7 @@ import dm_env
 import numpy as np
 import pytest
 
+from twolink import cli
 from twolink import env as twolink_env
 from twolink.parameters import HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, TABLE_I, TS
 from twolink.perturbations import perturbed
@@ -17,6 +18,7 @@ from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
 from twolink.reward import agent_reward
 from twolink.rollout import rollout
+from twolink.trajectory_io import load_npz
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 TASKS = twolink_env.TASKS
@@ -166,6 +168,22 @@ def test_environment_trajectory_equals_rollout(task):
         traj = rollout(policy, plant, np.array(PAPER_X0), duration=HORIZON)
     finally:
         plant.close()
+    np.testing.assert_array_equal(xs, traj.x)
+    np.testing.assert_array_equal(us, traj.u)
+    np.testing.assert_array_equal(rewards, traj.r if task == "centralized" else traj.r_links)
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_environment_trajectory_equals_the_rollout_command(task, tmp_path):
+    """``twolink rollout --plant mujoco`` and the environment give the same trajectory."""
+    x0 = [0.5, -2.0, 1.0, 0.0]
+    npz = tmp_path / "run.npz"
+    code = cli.main(["rollout", "--policy", task, "--plant", "mujoco",
+                     "--x0", *map(str, x0), "--npz", str(npz),
+                     "--csv", str(tmp_path / "run.csv"), "--figure", str(tmp_path / "f.png")])
+    assert code == 0
+    traj = load_npz(npz)[(task, "mujoco")]
+    xs, us, rewards = _drive(twolink_env.load(task, x0=x0), load_policy(task))
     np.testing.assert_array_equal(xs, traj.x)
     np.testing.assert_array_equal(us, traj.u)
     np.testing.assert_array_equal(rewards, traj.r if task == "centralized" else traj.r_links)

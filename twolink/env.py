@@ -85,11 +85,9 @@ class ArmTask(base.Task):
         self._noise = ObservationNoise(angle_noise, speed_noise, rng=self.random)
 
     def initialize_episode(self, physics):
-        """Set x0: the paper's, uniform over the state space, or the given one."""
+        """Set x0: the paper's, random angles at rest, or the given one."""
         if isinstance(self._x0, str) and self._x0 == "random":
-            vmax = self.params.speed_max
-            x = np.concatenate([self.random.uniform(-np.pi, np.pi, 2),
-                                self.random.uniform(-vmax, vmax)])
+            x = np.concatenate([self.random.uniform(-np.pi, np.pi, 2), np.zeros(2)])
         else:
             x = np.array(PAPER_X0 if isinstance(self._x0, str) else self._x0)
         physics.data.qpos[:] = x[:2]
@@ -167,8 +165,9 @@ def load(task_name: str, *, seed=None, time_limit: float = HORIZON,
          perturbation=None) -> Environment:
     """The ``task_name`` environment (one of :data:`TASKS`).
 
-    ``x0``: ``'paper'`` ([-1, -3, 0, 0]), ``'random'`` (angles uniform in [-pi, pi), speeds
-    uniform within the speed limit, drawn from ``seed`` every episode) or a state (4,).
+    ``x0``: ``'paper'`` ([-1, -3, 0, 0]), ``'random'`` (angles uniform in [-pi, pi), at rest,
+    as ``twolink rollout --x0 random``; drawn from ``seed`` every episode) or a state (4,)
+    used as given.
     ``speed_max``: the speed limit in rad/s (one value or one per link; default Table I's).
     ``angle_noise``, ``speed_noise``: std of Gaussian noise on the observations.
     ``perturbation``: relative parameter changes, a dict such as ``{'m2': 0.2}``
