@@ -7,6 +7,7 @@ have_lib() { ldconfig -p 2>/dev/null | grep -q "$1"; }
 have_lib 'libEGL.so.1 ' || need+=(libegl1)
 have_lib 'libEGL_mesa.so.0 ' || need+=(libegl-mesa0)
 have_lib 'libGL.so.1 ' || need+=(libgl1)
+have_lib 'libOpenGL.so.0 ' || need+=(libopengl0)
 ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/dri/*_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
 if [ ${#need[@]} -eq 0 ]; then
   exit 0

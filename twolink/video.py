@@ -85,9 +85,12 @@ def _write_gif(path: Path, frames, fps: float) -> int:
     images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
     if not images:
         raise ValueError("no frames to write")
-    # One shared adaptive palette keeps the file small and the colours stable. Pillow merges
-    # identical consecutive frames into one longer frame, so playback timing is kept.
-    palette = images[0].quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+    # One adaptive palette, from frames spread over the clip, keeps the file small and
+    # the colours stable. Pillow merges identical consecutive frames into one longer
+    # frame, so playback timing is kept.
+    picks = np.linspace(0, len(images) - 1, min(len(images), 8)).round().astype(int)
+    montage = Image.fromarray(np.concatenate([np.asarray(images[i]) for i in picks], 0))
+    palette = montage.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
     quantized = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
     quantized[0].save(path, format="GIF", save_all=True, append_images=quantized[1:],
                       duration=round(1000.0 / fps), loop=0, optimize=False, disposal=1)
