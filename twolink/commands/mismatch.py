@@ -1,0 +1,64 @@
+"""``twolink mismatch``: measure the model mismatch, its closure and robustness; write a report.
+
+Open-loop error of (11) and (6) against MuJoCo, the closed-loop gap of every policy on
+every plant, the policies synthesised on (6), and robustness sweeps on MuJoCo, written
+as Markdown + JSON + figures under renders/mismatch/ (renders/mismatch-quick/ with --quick).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from twolink.mismatch import POLICIES, build, summary, write
+from twolink.policy import load_policy
+from twolink.sweeps import EXECUTORS
+
+RENDERS = Path(__file__).resolve().parents[2] / "renders"
+
+
+def add_parser(sub):
+    p = sub.add_parser("mismatch", help="model mismatch, its closure and robustness sweeps",
+                       description=__doc__.split("\n\n")[1].replace("\n", " "))
+    p.add_argument("--quick", action="store_true",
+                   help="small sweep (17 states, fewer sizes): under a minute, for CI")
+    p.add_argument("--out", type=Path, default=None,
+                   help="report folder (default renders/mismatch, or renders/mismatch-quick)")
+    p.add_argument("--policies", nargs="+", default=list(POLICIES), metavar="POLICY",
+                   help=f"shipped policy names (default: {' '.join(POLICIES)})")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="where sweep cells run: this process, local worker processes "
+                        "(default) or a Ray cluster")
+    p.add_argument("--address", default=None,
+                   help="Ray cluster address (with --executor ray; default: a local Ray)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: one per CPU)")
+    p.add_argument("--json", action="store_true",
+                   help="print success rates, open-loop errors and margins as JSON")
+    return p
+
+
+def run(args) -> int:
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    if args.address and args.executor != "ray":
+        raise ValueError("--address needs --executor ray")
+    for name in args.policies:                       # fail before anything is written
+        load_policy(name)
+    out = args.out or RENDERS / ("mismatch-quick" if args.quick else "mismatch")
+    if not out.parent.is_dir():
+        raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
+    out.mkdir(exist_ok=True)
+    report, data = build(quick=args.quick, policies=args.policies,
+                         results_path=out / "sweep.jsonl", executor=args.executor,
+                         workers=args.workers, address=args.address,
+                         progress=not args.json and sys.stderr.isatty())
+    command = "twolink mismatch" + (" --quick" if args.quick else "")
+    report = write(report, data, out, command)
+    if args.json:
+        print(json.dumps(summary(report), indent=2))
+    else:
+        for p, d in summary(report)["success_rate"].items():
+            print(f"{p:26s} " + "  ".join(f"{pl} {100 * v:5.1f} %" for pl, v in d.items()))
+        print(f"wrote {out / 'report.md'}")
+    return 0
