@@ -28,7 +28,7 @@ RENDERS = Path(__file__).resolve().parents[2] / "renders"
 
 def add_parser(sub):
     p = sub.add_parser("render", help="render videos of the arm offscreen (EGL), MP4 or GIF",
-                       description=" ".join(__doc__.split("\n\n")[1].split()))
+                       description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     p.add_argument("--policy", action="append", metavar="NAME|FILE",
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
                         f"give two for a side-by-side video (default: centralized)")

@@ -30,8 +30,11 @@ _X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radian
 
 def add_parser(sub):
     p = sub.add_parser("rollout", help="run policies on plants; summary, trajectories, Fig. 3",
-                       description=__doc__.split("\n\n")[0].split(": ", 1)[1] + " "
-                       + __doc__.split("\n\n")[1].replace("\n", " "))
+                       description="Run policies on plants from x0, print a summary, save "
+                                   "the trajectories (CSV, NPZ) and a Fig. 3-style figure. "
+                                   "Several --policy or --plant values run every combination "
+                                   "and overlay them in one figure (one column per policy, "
+                                   "one line style per plant).")
     p.add_argument("--policy", action="append", metavar="NAME|FILE",
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
                         f"repeat to overlay (default: centralized)")
