@@ -91,3 +91,27 @@ def test_mjcf_command_regenerates_the_committed_model(tmp_path):
     out = tmp_path / "arm.xml"
     assert main(["mjcf", "-o", str(out)]) == 0
     assert out.read_text() == MODEL_PATH.read_text()
+
+
+def test_written_files_get_the_usual_mode(tmp_path):
+    import os
+    from twolink.artifacts import write_text
+    mask = os.umask(0o022)
+    try:
+        path = write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(mask)
+    assert path.stat().st_mode & 0o777 == 0o644
+
+
+def test_bad_mujoco_gl_gives_one_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, MUJOCO_GL="bogus")
+    res = subprocess.run([sys.executable, "-m", "twolink.cli", "mjcf", "-o",
+                          str(tmp_path / "m.xml")], capture_output=True, text=True, env=env)
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [res.stderr.strip()]
+    assert "MUJOCO_GL='bogus'" in res.stderr
+    assert not (tmp_path / "m.xml").exists()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import zipfile
 
@@ -28,7 +29,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    parser = build_parser()
+    try:
+        parser = build_parser()
+    except (ImportError, RuntimeError, AttributeError) as exc:   # e.g. a bad MUJOCO_GL
+        print(f"twolink: error: cannot load MuJoCo ({type(exc).__name__}: {exc}); "
+              f"MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}", file=sys.stderr)
+        return 2
     args = parser.parse_args(argv)
     try:
         return int(args._run(args) or 0)
