@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 
-.PHONY: demo test system-deps venv bench clean
+.PHONY: demo test system-deps venv bench bench-quick clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,14 @@ demo: venv system-deps
 
 test: venv system-deps
 	$(PY) -m pytest -q
+
+# Benchmarks (benchmarks/run.py): full mode writes the README's figures to
+# benchmarks/results.json; quick mode is the CI form (well under two minutes).
+bench: venv system-deps
+	$(PY) -m benchmarks.run --json benchmarks/results.json
+
+bench-quick: venv system-deps
+	$(PY) -m benchmarks.run --quick
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

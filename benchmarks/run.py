@@ -1,0 +1,118 @@
+"""Run the benchmark suite: ``python -m benchmarks.run [--quick] [--json PATH]``.
+
+Quick mode (CI, well under two minutes on 2 cores) and full mode (the README's figures)
+measure the same rows; full mode repeats more, uses bigger batches, runs the finer
+grids and pymdptoolbox's complete constructor. Every ratio is measured in this run on
+the same inputs. The JSON holds the rows, per-section summaries and the machine.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):                       # `python benchmarks/run.py`
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import twolink  # noqa: E402,F401  (sets MUJOCO_GL=egl before mujoco is imported)
+from benchmarks.common import Row, available_ram_bytes, format_table, total_ram_bytes  # noqa: E402
+from twolink.artifacts import provenance, write_json  # noqa: E402
+
+MODES = {
+    "quick": {"repeats": 2, "full_setup": False, "central": (1, 2), "decentral": (1, 2, 3),
+              "batch": 64, "frames": 10, "render_repeats": 1},
+    "full": {"repeats": 7, "full_setup": True, "central": (1, 2, 3), "decentral": (1, 2, 3, 6),
+             "batch": 256, "frames": 40, "render_repeats": 3},
+}
+SECTIONS = ("synthesis", "scaling", "rollouts", "rendering")
+
+
+def machine() -> dict:
+    """Provenance plus the CPU model and memory."""
+    info = provenance()
+    try:
+        with open("/proc/cpuinfo") as f:
+            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
+        info["cpu_model"] = names[0] if names else None
+    except OSError:
+        info["cpu_model"] = None
+    info["ram_bytes"] = total_ram_bytes()
+    info["ram_available_bytes"] = available_ram_bytes()
+    try:
+        import os
+        info["load_average"] = os.getloadavg()
+    except OSError:
+        info["load_average"] = None
+    return info
+
+
+def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
+    """Measure the chosen sections; returns {"rows", "summary", "machine", ...}."""
+    from benchmarks import rollouts, synthesis
+
+    cfg = MODES[mode]
+    rows: list[Row] = []
+    summary, seconds = {}, {}
+    for section in sections:
+        progress(f"[bench] {section} ...", file=sys.stderr)
+        t0 = time.perf_counter()
+        if section == "synthesis":
+            r, summary[section] = synthesis.bench_synthesis(repeats=cfg["repeats"],
+                                                            full_setup=cfg["full_setup"])
+        elif section == "scaling":
+            r, summary[section] = synthesis.bench_scaling(cfg["central"], cfg["decentral"])
+        elif section == "rollouts":
+            r, summary[section] = rollouts.bench_rollouts(batch=cfg["batch"],
+                                                          repeats=cfg["repeats"])
+        elif section == "rendering":
+            from benchmarks import render
+            r, summary[section] = render.bench_render(frames=cfg["frames"],
+                                                      repeats=cfg["render_repeats"])
+        else:
+            raise ValueError(f"unknown benchmark section {section!r}; choose from "
+                             f"{', '.join(SECTIONS)}")
+        rows += r
+        seconds[section] = time.perf_counter() - t0
+    return {"mode": mode, "config": {k: list(v) if isinstance(v, tuple) else v
+                                     for k, v in cfg.items()},
+            "command": "python -m benchmarks.run" + (" --quick" if mode == "quick" else ""),
+            "machine": machine(), "seconds": seconds,
+            "rows": [r.as_dict() for r in rows], "summary": _jsonable(summary)}
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if hasattr(obj, "item"):
+        return obj.item()
+    return obj
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="CI mode: fewer repeats, small grids")
+    ap.add_argument("--json", type=Path, help="write the results as JSON to this path")
+    ap.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS),
+                    help="run only these sections")
+    args = ap.parse_args(argv)
+    if args.json is not None and not args.json.parent.is_dir():
+        ap.error(f"cannot write {args.json}: directory {args.json.parent} does not exist")
+    t0 = time.perf_counter()
+    result = run("quick" if args.quick else "full", args.only)
+    result["seconds"]["total"] = time.perf_counter() - t0
+    m = result["machine"]
+    print(f"twolink benchmarks, {result['mode']} mode: {m['cpu_model']}, {m['cpu_count']} cores, "
+          f"{(m['ram_bytes'] or 0) / 2**30:.1f} GiB RAM, load {m['load_average']}")
+    print(format_table([Row(**r) for r in result["rows"]]))
+    print(f"\n{result['seconds']['total']:.1f} s in all")
+    if args.json is not None:
+        write_json(args.json, result)
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

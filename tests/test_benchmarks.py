@@ -1,0 +1,150 @@
+"""The benchmark suite: its problems equal the package's, peers agree with ours, every
+row is present with a finite positive figure. No timing is asserted."""
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # benchmarks/ is no package dep
+
+from benchmarks import rollouts, run, synthesis
+from benchmarks.common import Row
+from twolink import fuzzy
+from twolink import synthesis as core
+from twolink.synthesis import synthesize
+
+
+def _by_name(rows):
+    return {(r.section, r.name): r for r in rows}
+
+
+def _positive_finite(rows, allow_zero=("agreement",)):
+    for r in rows:
+        assert math.isfinite(r.value), r
+        if any(a in r.name for a in allow_zero):
+            assert r.value >= 0, r
+        else:
+            assert r.value > 0, r
+
+
+@pytest.mark.parametrize("name", ["centralized", "agent2", "agent1"])
+def test_unrefined_problems_equal_the_package(name):
+    ours = synthesis.BUILDERS[name](1)
+    if name == "agent1":
+        ref = core.agent1_problem(synthesize("decentralized").agents[0], context="frozen")
+    else:
+        ref = getattr(core, f"{name}_problem")()
+    assert ours.grid == ref.grid
+    np.testing.assert_array_equal(ours.actions, ref.actions)
+    np.testing.assert_array_equal(ours.next_points, ref.next_points)
+    np.testing.assert_array_equal(ours.rewards, ref.rewards)
+
+
+def test_refine_axis_keeps_centres_and_subdivides():
+    a, s = fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1")
+    assert synthesis.refine_axis(a, 1) == a and synthesis.refine_axis(s, 1) == s
+    a2, s3 = synthesis.refine_axis(a, 2), synthesis.refine_axis(s, 3)
+    assert a2.size == 24 and a2.circular and s3.size == 19
+    assert set(a.centers) <= set(a2.centers)
+    np.testing.assert_allclose(s3.centers[::3], s.centers, rtol=0, atol=1e-12)
+    assert a2.centers[-1] == pytest.approx((a.centers[-1] + a.centers[0] + 2 * np.pi) / 2)
+    with pytest.raises(ValueError, match="positive integer"):
+        synthesis.refine_axis(a, 0)
+
+
+@pytest.mark.parametrize("name", ["centralized", "agent1"])
+def test_peers_solve_the_same_mdp_and_agree(name):
+    rows, summary = synthesis.bench_problem(name, repeats=1)
+    by = _by_name(rows)
+    sec = f"synthesis: {name}"
+    for peer in ("quantecon", "mdptoolbox"):
+        rel, same = summary["agreement"][peer]
+        assert rel <= 1e-10
+        assert same == 1.0
+        assert (sec, f"{peer} / ours per sweep") in by
+    for key in ("model transitions f(c_m,u)", "transition matrix T", "sweeps (to convergence)",
+                "ours: time per sweep", "peak memory (synthesis)", "total synthesis"):
+        assert (sec, key) in by
+    assert by[(sec, "Q-table size")].value == {"centralized": 63504, "agent1": 9072}[name]
+    _positive_finite(rows)
+
+
+def test_mdptoolbox_full_setup_gives_the_same_values():
+    p = synthesis.agent2_problem(1)
+    from twolink.fqi import transition_matrix
+    t = transition_matrix(p.grid, p.next_points)
+    fast = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=False)()
+    full = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=True)()
+    np.testing.assert_array_equal(fast[0], full[0])
+
+
+def test_scaling_runs_what_fits_and_predicts_the_rest():
+    rows, records = synthesis.bench_scaling((1,), (1, 2), estimate_to=3)
+    names = {r.name for r in rows}
+    assert {"centralized 1x bins: time", "decentralized 2x bins: time",
+            "centralized 2x bins: predicted memory", "centralized 3x bins: Q size"} <= names
+    q = {(r["scheme"], r["k"]): r["q_size"] for r in records}
+    assert q[("centralized", 1)] == 63504 and q[("decentralized", 1)] == 9072 + 252
+    assert q[("centralized", 2)] == 24 * 24 * 13 * 13 * 9
+    pred = [r["predicted_bytes"] for r in records if r["scheme"] == "centralized"][1:]
+    assert all(b > a > 0 for a, b in zip(pred, pred[1:]))
+    _positive_finite(rows)
+
+
+def test_rollout_rows_and_json(tmp_path):
+    path = tmp_path / "bench.json"
+    assert run.main(["--quick", "--only", "rollouts", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert data["mode"] == "quick" and data["machine"]["cpu_count"] >= 1
+    rows = [Row(**r) for r in data["rows"]]
+    names = {r.name for r in rows}
+    assert {"closed loop: physics steps/s", "open loop mujoco.rollout: physics steps/s",
+            "closed / open loop", "closed loop: physics steps/s per thread",
+            "simplified: sample periods/s", "full: sample periods/s"} <= names
+    _positive_finite(rows)
+
+
+def test_open_loop_reference_does_the_closed_loop_physics():
+    """With the closed loop's torques, open-loop mujoco.rollout reaches the same states
+    wherever the speed limit never acted (so the two do the same work)."""
+    import mujoco
+    from mujoco import rollout as mj_rollout
+
+    from twolink.plants import MujocoPlant
+    from twolink.rollout import rollout
+
+    x0 = rollouts.initial_states(8) * 0.2
+    plant = MujocoPlant(nthread=1)
+    traj = rollout(run_policy(), plant, x0, duration=0.5)
+    n = plant.nstep
+    state0 = np.zeros((8, mujoco.mj_stateSize(plant.model, mujoco.mjtState.mjSTATE_FULLPHYSICS)))
+    state0[:, 1:3], state0[:, 3:5] = x0[:, :2], x0[:, 2:]
+    state, _ = mj_rollout.rollout(plant.model, mujoco.MjData(plant.model), state0,
+                                  np.repeat(traj.u, n, axis=1))
+    plant.close()
+    free = np.all(np.abs(traj.x[..., 2:]) < 2 * np.pi - 1e-6, axis=(1, 2))
+    assert free.any()
+    wrapped = np.angle(np.exp(1j * (state[free, n - 1::n, 1:3] - traj.x[free, 1:, :2])))
+    np.testing.assert_allclose(wrapped, 0, atol=1e-9)
+
+
+def run_policy():
+    return rollouts._policy()
+
+
+def test_render_rows():
+    from twolink.render import RenderError
+
+    from benchmarks import render
+    try:
+        rows, summary = render.bench_render(frames=2, repeats=1)
+    except RenderError as exc:
+        pytest.skip(str(exc))
+    names = {r.name for r in rows}
+    assert {"bare mujoco.Renderer, same scene", "twolink Renderer", "twolink / bare, same scene",
+            "mp4 encoding 640x480"} <= names
+    assert {r.section for r in rows} >= {"rendering: 320x240", "rendering: 640x480"}
+    _positive_finite(rows)
