@@ -41,13 +41,13 @@ THRESHOLD = 0.95
 
 #: Perturbation sizes per family (relative changes; noise in degrees; delay in samples).
 SIZES = {
-    False: {"parameter": (-0.5, -0.3, -0.2, -0.1, 0.1, 0.2, 0.3, 0.5),
+    False: {"parameter": (-0.5, -0.2, -0.1, 0.1, 0.2, 0.5),
             "joint": (0.1, 0.2, 0.3, 0.5), "noise": (0.25, 0.5, 1.0, 2.0, 5.0),
             "delay": (1.0, 2.0), "torque_limit": (-0.5, -0.3, -0.2, -0.1, 0.2)},
     True: {"parameter": (-0.5, 0.5), "joint": (0.2,), "noise": (2.0,), "delay": (1.0,),
            "torque_limit": (-0.5,)},
 }
-DRAWS = {False: 8, True: 2}
+DRAWS = {False: 4, True: 2}
 UNITS = {"parameter": "relative change", "joint": "relative change (each parameter)",
          "noise": "angle noise std [deg]", "delay": "samples", "torque_limit": "relative change"}
 

@@ -1,0 +1,158 @@
+"""Sweeps: batched path bit-for-bit against the one-rollout loop, Ray == local, resume."""
+import json
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from twolink.metrics import evaluation_set, settle_time, success
+from twolink.parameters import TABLE_I
+from twolink.perturbations import ActuationDelay, perturbed
+from twolink.plants import MujocoPlant
+from twolink.policy import load_policy
+from twolink.rollout import rollout
+from twolink.sweeps import Cell, load_results, reference_cell, run_cells, run_sweep, states_of
+
+pytestmark = pytest.mark.robustness
+
+SHORT = 1.5     # seconds: enough for the bit-for-bit and executor checks
+
+
+def _cells(policy="centralized", duration=SHORT):
+    return [Cell(policy, "nominal", states="quick", duration=duration),
+            Cell(policy, "parameter", 0.3, "m2", states="quick", duration=duration),
+            Cell(policy, "joint", 0.3, draws=2, seed=5, states="quick", duration=duration),
+            Cell(policy, "noise", 2.0, seed=3, states="quick", duration=duration),
+            Cell(policy, "delay", 1.0, states="quick", duration=duration),
+            Cell(policy, "torque_limit", -0.3, states="quick", duration=duration)]
+
+
+def test_batched_path_equals_one_rollout_loop_bit_for_bit():
+    cells = _cells("decentralized_full")
+    batched = run_cells(cells, nthread=2)
+    for c, rec in zip(cells, batched):
+        assert rec == reference_cell(c), c
+
+
+def test_a_cell_does_not_depend_on_its_batch_mates():
+    cells = _cells()
+    together = run_cells(cells, nthread=2)
+    alone = [run_cells([c], nthread=1)[0] for c in cells]
+    assert together == alone
+
+
+def test_zero_perturbation_reproduces_the_nominal_rollout_exactly():
+    policy = load_policy("centralized")
+    x0 = states_of("quick")
+    plant = MujocoPlant(TABLE_I, nthread=1)
+    tr = rollout(policy, plant, x0, duration=SHORT)
+    plant.close()
+    nominal = run_cells([Cell("centralized", "nominal", states="quick", duration=SHORT)])[0]
+    assert nominal["successes"] == success(tr).tolist()
+    st = settle_time(tr)
+    assert nominal["settle_times"] == [float(v) if np.isfinite(v) else None for v in st]
+    zero = [Cell("centralized", "parameter", 0.0, n, states="quick", duration=SHORT)
+            for n in ("m1", "b2")] + \
+        [Cell("centralized", f, 0.0, states="quick", duration=SHORT)
+         for f in ("noise", "delay", "torque_limit", "joint")]
+    for rec in run_cells(zero):
+        for k in ("successes", "settle_times", "mean_return"):
+            assert rec[k] == nominal[k], rec["cell"]
+    assert perturbed(TABLE_I, m1=0.0) == TABLE_I
+
+
+def test_perturbations_change_the_outcome():
+    recs = run_cells([Cell("centralized_full", "nominal", states="quick"),
+                      Cell("centralized_full", "torque_limit", -0.9, states="quick"),
+                      Cell("centralized_full", "delay", 2.0, states="quick")])
+    assert recs[0]["success_rate"] == 1.0
+    assert recs[1]["success_rate"] < 1.0 and recs[2]["success_rate"] < 1.0
+
+
+def test_actuation_delay_shifts_the_torques():
+    policy = load_policy("centralized")
+    x = evaluation_set()[:3]
+    delayed = ActuationDelay(policy, 2)
+    outs = [delayed(x) for _ in range(3)]
+    assert np.all(outs[0] == 0) and np.all(outs[1] == 0)
+    assert np.array_equal(outs[2], policy(x))
+    with pytest.raises(ValueError, match="delay"):
+        ActuationDelay(policy, 1.5)
+
+
+@pytest.mark.parametrize("bad, match", [
+    (dict(family="wind"), "family"), (dict(family="parameter", name="zz"), "parameter"),
+    (dict(family="parameter", name="m1", size=1.5), "relative"),
+    (dict(family="delay", size=0.5), "delay"), (dict(family="noise", size=-1.0), "noise"),
+    (dict(family="nominal", states="tiny"), "state set")])
+def test_bad_cells_are_refused(bad, match):
+    with pytest.raises(ValueError, match=match):
+        Cell("centralized", **bad)
+
+
+def test_local_processes_equal_serial(tmp_path):
+    cells = _cells(duration=0.5)
+    serial = run_sweep(cells, tmp_path / "a.jsonl", executor="serial")
+    local = run_sweep(cells, tmp_path / "b.jsonl", executor="local", workers=2)
+    assert serial == local and len(serial) == len(cells)
+
+
+def test_ray_equals_local(tmp_path):
+    ray = pytest.importorskip("ray")
+    cells = _cells(duration=0.5)
+    local = run_sweep(cells, tmp_path / "local.jsonl", executor="serial")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        remote = run_sweep(cells, tmp_path / "ray.jsonl", executor="ray")
+    finally:
+        ray.shutdown()
+    assert remote == local
+    assert load_results(tmp_path / "ray.jsonl") == load_results(tmp_path / "local.jsonl")
+
+
+def test_interrupted_sweep_resumes_without_redoing_cells(tmp_path):
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5) + _cells("decentralized", duration=0.5)
+
+    class Stop(Exception):
+        pass
+
+    def stop_after_first(records):
+        raise Stop
+
+    with pytest.raises(Stop):
+        run_sweep(cells, path, executor="serial", on_task=stop_after_first)
+    first = load_results(path)
+    assert 0 < len(first) < len(cells)         # a valid file holding the finished task
+    done_keys = set(first)
+    redone = []
+    results = run_sweep(cells, path, executor="serial",
+                        on_task=lambda recs: redone.extend(r["key"] for r in recs))
+    assert not done_keys & set(redone)
+    assert set(redone) | done_keys == {c.key for c in cells}
+    assert results == run_sweep(cells, None, executor="serial")
+    lines = path.read_text().splitlines()
+    assert json.loads(lines[0])["format"] == "twolink-sweep" and len(lines) == len(cells) + 1
+    assert [p.name for p in tmp_path.iterdir()] == ["sweep.jsonl"]   # no temporary left
+
+
+def test_changed_policy_invalidates_stored_cells(tmp_path):
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[:2]
+    run_sweep(cells, path, executor="serial")
+    redone = []
+    run_sweep(cells, path, executor="serial", digests={"centralized": "other"},
+              on_task=lambda recs: redone.extend(recs))
+    assert len(redone) == len(cells)
+
+
+def test_corrupt_results_file_is_refused(tmp_path):
+    path = tmp_path / "sweep.jsonl"
+    path.write_text('{"format": "twolink-sweep", "format_version": 1}\n{"key": 1\n')
+    with pytest.raises(ValueError, match="line 2"):
+        run_sweep(_cells()[:1], path, executor="serial")
+    (tmp_path / "x.jsonl").write_text("hello\n")
+    with pytest.raises(ValueError, match="not a twolink sweep"):
+        load_results(tmp_path / "x.jsonl")
+    with pytest.raises(ValueError, match="executor"):
+        run_sweep(_cells()[:1], None, executor="mpi")
