@@ -73,6 +73,7 @@ def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
     r = rewards.reshape(-1)
     q = np.zeros(n_x * n_u)
     q_new = np.empty_like(q)
+    diff = np.empty_like(q)
     v = np.empty(n_x)
     history = []
     converged = False
@@ -81,7 +82,8 @@ def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
         _row_max(q.reshape(n_x, n_u), v)
         np.multiply(transitions @ v, gamma, out=q_new)
         q_new += r
-        change = float(np.max(np.abs(q_new - q)))
+        np.subtract(q_new, q, out=diff)
+        change = float(np.abs(diff, out=diff).max())
         q, q_new = q_new, q
         iterations += 1
         history.append(change)
