@@ -85,7 +85,8 @@ def bench_render(*, frames: int = 20, repeats: int = 2) -> tuple[list[Row], dict
             Row(sec, "twolink / bare, plain MJCF", pkg / plain, "x",
                 "what the package's render settings buy"),
         ]
-        summary[f"{width}x{height}"] = {"plain": plain, "bare": bare, "package": pkg, "ghost_overlay": full}
+        summary[f"{width}x{height}"] = {"plain": plain, "bare": bare, "package": pkg,
+                                        "ghost_overlay": full}
         video_frames = out
     width, height = SIZES[-1]
     sec = f"{SECTION}: video encoding"
@@ -100,7 +101,8 @@ def bench_render(*, frames: int = 20, repeats: int = 2) -> tuple[list[Row], dict
     rows += [
         Row(sec, f"mp4 encoding {width}x{height}", n / t, "frames/s",
             f"{n} frames, H.264 crf 20 veryfast via imageio-ffmpeg"),
-        Row(sec, "mp4 encoding time per frame", t / n * 1e3, "ms", f"{size / n / 1024:.1f} KiB per frame"),
+        Row(sec, "mp4 encoding time per frame", t / n * 1e3, "ms",
+            f"{size / n / 1024:.1f} KiB per frame"),
     ]
     summary["encode_fps"] = n / t
     return rows, summary

@@ -11,7 +11,6 @@ the torques the closed loop applied.
 from __future__ import annotations
 
 import os
-import time
 
 import mujoco
 import numpy as np

@@ -20,9 +20,11 @@ from benchmarks.common import Row, available_ram_bytes, format_table, total_ram_
 from twolink.artifacts import provenance, write_json  # noqa: E402
 
 MODES = {
-    "quick": {"repeats": 2, "full_setup": False, "central": (1, 2), "decentral": (1, 2, 3),
+    "quick": {"repeats": 2, "sweep_repeats": 3, "full_setup": False,
+              "central": (1, 2), "decentral": (1, 2, 3),
               "batch": 64, "frames": 10, "render_repeats": 1},
-    "full": {"repeats": 7, "full_setup": True, "central": (1, 2, 3), "decentral": (1, 2, 3, 6),
+    "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
+             "central": (1, 2, 3), "decentral": (1, 2, 3, 6),
              "batch": 256, "frames": 40, "render_repeats": 3},
 }
 SECTIONS = ("synthesis", "scaling", "rollouts", "rendering")
@@ -58,8 +60,9 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
         progress(f"[bench] {section} ...", file=sys.stderr)
         t0 = time.perf_counter()
         if section == "synthesis":
-            r, summary[section] = synthesis.bench_synthesis(repeats=cfg["repeats"],
-                                                            full_setup=cfg["full_setup"])
+            r, summary[section] = synthesis.bench_synthesis(
+                repeats=cfg["repeats"], sweep_repeats=cfg["sweep_repeats"],
+                full_setup=cfg["full_setup"])
         elif section == "scaling":
             r, summary[section] = synthesis.bench_scaling(cfg["central"], cfg["decentral"])
         elif section == "rollouts":
@@ -92,7 +95,8 @@ def _jsonable(obj):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.run", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.run",
+                                 description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="CI mode: fewer repeats, small grids")
     ap.add_argument("--json", type=Path, help="write the results as JSON to this path")
     ap.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS),
