@@ -10,8 +10,6 @@ values are checked against ours before any time is compared.
 from __future__ import annotations
 
 import contextlib
-import itertools
-import math
 import time
 import warnings
 from unittest import mock
@@ -21,95 +19,20 @@ import scipy.sparse as sp
 
 from benchmarks.common import (Row, available_ram_bytes, interleaved_best, peak_bytes,
                                total_ram_bytes)
-from twolink import dynamics, fuzzy
+from twolink import synthesis as core
 from twolink.fqi import fuzzy_q_iteration, transition_matrix
-from twolink.integrate import sample_step
-from twolink.parameters import GAMMA, TABLE_I
-from twolink.reward import agent_reward, centralized_reward
-from twolink.synthesis import Problem
+from twolink.parameters import GAMMA
 
 SECTION = "synthesis"
 SCALING = "scaling"
 
 
 # --------------------------------------------------------------------------- problems
-def refine_axis(axis: fuzzy.Axis, k: int) -> fuzzy.Axis:
-    """``axis`` with k - 1 evenly spaced centres inserted between neighbouring centres
-    (across the pi == -pi seam too for a circular axis): 12 -> 12k angle bins,
-    7 -> 6k + 1 speed bins. k = 1 returns the paper's axis."""
-    if k < 1:
-        raise ValueError(f"refinement factor must be a positive integer, got {k}")
-    c = np.asarray(axis.centers)
-    ext = np.append(c, c[0] + 2 * math.pi) if axis.circular else c
-    pts = [ext[i] + (ext[i + 1] - ext[i]) * j / k for i in range(len(ext) - 1) for j in range(k)]
-    if not axis.circular:
-        pts.append(c[-1])
-    return fuzzy.Axis(axis.name, tuple(pts), axis.circular)
-
-
-def _levels(tmax: float) -> np.ndarray:
-    return np.array([-tmax, 0.0, tmax])
-
-
-def centralized_problem(k: int = 1, p=TABLE_I) -> Problem:
-    """:func:`twolink.synthesis.centralized_problem` on the grid refined k times (model (11))."""
-    start = time.perf_counter()
-    accel = dynamics.MODELS["simplified"]
-    grid = fuzzy.Grid(tuple(refine_axis(a, k) for a in (
-        fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
-        fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"))))
-    actions = np.array(list(itertools.product(_levels(p.tau1_max), _levels(p.tau2_max))))
-    nxt = sample_step(accel, p, grid.centers()[:, None, :], actions[None, :, :])
-    return Problem("centralized", grid, actions, ("tau1", "tau2"), nxt,
-                   centralized_reward(nxt), time.perf_counter() - start)
-
-
-def agent2_problem(k: int = 1, p=TABLE_I) -> Problem:
-    """:func:`twolink.synthesis.agent2_problem` on the grid refined k times (model (11))."""
-    start = time.perf_counter()
-    accel = dynamics.MODELS["simplified"]
-    grid = fuzzy.Grid((refine_axis(fuzzy.angle_axis("theta2"), k),
-                       refine_axis(fuzzy.speed_axis("dtheta2"), k)))
-    actions = _levels(p.tau2_max)[:, None]
-    c = grid.centers()
-    x = np.zeros((len(c), 4))
-    x[:, 1], x[:, 3] = c[:, 0], c[:, 1]
-    tau = np.zeros((len(actions), 2))
-    tau[:, 1] = actions[:, 0]
-    nxt = sample_step(accel, p, x[:, None, :], tau[None, :, :])
-    return Problem("agent2", grid, actions, ("tau2",), nxt[..., [1, 3]],
-                   agent_reward(nxt, 2), time.perf_counter() - start)
-
-
-def agent1_problem(k: int = 1, p=TABLE_I) -> Problem:
-    """:func:`twolink.synthesis.agent1_problem` (frozen context, the default) on the grid
-    refined k times. The tau2 axis is the three torque values and is not refined."""
-    start = time.perf_counter()
-    accel = dynamics.MODELS["simplified"]
-    grid = fuzzy.Grid((refine_axis(fuzzy.angle_axis("theta1"), k),
-                       refine_axis(fuzzy.speed_axis("dtheta1"), k),
-                       refine_axis(fuzzy.angle_axis("theta2"), k),
-                       fuzzy.torque_axis("tau2", p.tau2_max)))
-    actions = _levels(p.tau1_max)[:, None]
-    c = grid.centers()
-    x = np.zeros((len(c), 4))
-    x[:, 0], x[:, 2], x[:, 1] = c[:, 0], c[:, 1], c[:, 2]
-    tau = np.zeros((len(c), len(actions), 2))
-    tau[:, :, 0] = actions[None, :, 0]
-    tau[:, :, 1] = c[:, 3:4]
-
-    def link1_only(pp, s, t):
-        return accel(pp, s, t) * np.array([1.0, 0.0])
-
-    nxt = sample_step(link1_only, p, x[:, None, :], tau)
-    tau2_next = np.broadcast_to(c[:, None, 3], nxt.shape[:-1])
-    points = np.stack([nxt[..., 0], nxt[..., 2], nxt[..., 1], tau2_next], -1)
-    return Problem("agent1", grid, actions, ("tau1",), points, agent_reward(nxt, 1),
-                   time.perf_counter() - start)
-
-
-BUILDERS = {"centralized": centralized_problem, "agent2": agent2_problem,
-            "agent1": agent1_problem}
+#: The package's problem builders on grids refined k times (k = 1: the paper's grids);
+#: agent 1 in its default (frozen) context, which needs no agent-2 controller.
+BUILDERS = {"centralized": lambda k=1: core.centralized_problem(refine=k),
+            "agent2": lambda k=1: core.agent2_problem(refine=k),
+            "agent1": lambda k=1: core.agent1_problem(None, refine=k)}
 
 
 # --------------------------------------------------------------------------- peers

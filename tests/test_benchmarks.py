@@ -12,9 +12,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # benchmarks/ 
 
 from benchmarks import rollouts, run, synthesis
 from benchmarks.common import Row
-from twolink import fuzzy
-from twolink import synthesis as core
-from twolink.synthesis import synthesize
 
 
 def _by_name(rows):
@@ -28,31 +25,6 @@ def _positive_finite(rows, allow_zero=("agreement",)):
             assert r.value >= 0, r
         else:
             assert r.value > 0, r
-
-
-@pytest.mark.parametrize("name", ["centralized", "agent2", "agent1"])
-def test_unrefined_problems_equal_the_package(name):
-    ours = synthesis.BUILDERS[name](1)
-    if name == "agent1":
-        ref = core.agent1_problem(synthesize("decentralized").agents[0], context="frozen")
-    else:
-        ref = getattr(core, f"{name}_problem")()
-    assert ours.grid == ref.grid
-    np.testing.assert_array_equal(ours.actions, ref.actions)
-    np.testing.assert_array_equal(ours.next_points, ref.next_points)
-    np.testing.assert_array_equal(ours.rewards, ref.rewards)
-
-
-def test_refine_axis_keeps_centres_and_subdivides():
-    a, s = fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1")
-    assert synthesis.refine_axis(a, 1) == a and synthesis.refine_axis(s, 1) == s
-    a2, s3 = synthesis.refine_axis(a, 2), synthesis.refine_axis(s, 3)
-    assert a2.size == 24 and a2.circular and s3.size == 19
-    assert set(a.centers) <= set(a2.centers)
-    np.testing.assert_allclose(s3.centers[::3], s.centers, rtol=0, atol=1e-12)
-    assert a2.centers[-1] == pytest.approx((a.centers[-1] + a.centers[0] + 2 * np.pi) / 2)
-    with pytest.raises(ValueError, match="positive integer"):
-        synthesis.refine_axis(a, 0)
 
 
 @pytest.mark.parametrize("name", ["centralized", "agent1"])
@@ -73,7 +45,7 @@ def test_peers_solve_the_same_mdp_and_agree(name):
 
 
 def test_mdptoolbox_full_setup_gives_the_same_values():
-    p = synthesis.agent2_problem(1)
+    p = synthesis.BUILDERS["agent2"](1)
     from twolink.fqi import transition_matrix
     t = transition_matrix(p.grid, p.next_points)
     fast = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=False)()

@@ -79,3 +79,15 @@ def test_axis_and_grid_refuse_bad_input():
         Axis("x", (0.0, 0.0, 1.0))
     with pytest.raises(ValueError, match="shape"):
         Grid((speed_axis("s"),)).memberships(np.zeros((3, 2)))
+
+
+def test_refined_axis_keeps_centres_and_subdivides():
+    a, s = angle_axis("theta1"), speed_axis("dtheta1")
+    assert a.refined(1) == a and s.refined(1) == s
+    a2, s3 = a.refined(2), s.refined(3)
+    assert a2.size == 24 and a2.circular and s3.size == 19
+    assert set(a.centers) <= set(a2.centers)
+    np.testing.assert_allclose(s3.centers[::3], s.centers, rtol=0, atol=1e-12)
+    assert a2.centers[-1] == pytest.approx((a.centers[-1] + a.centers[0] + 2 * np.pi) / 2)
+    with pytest.raises(ValueError, match="positive integer"):
+        a.refined(0)

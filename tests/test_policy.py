@@ -133,3 +133,13 @@ def test_save_leaves_no_partial_file(tmp_path, centralized):
     with pytest.raises(OSError, match="does not exist"):
         centralized.save(tmp_path / "no" / "such" / "dir.npz")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_refined_problems_for_scaling_studies():
+    from twolink.synthesis import agent1_problem, agent2_problem
+    a2 = agent2_problem(refine=2)
+    assert a2.grid.shape == (24, 13) and a2.next_points.shape == (24 * 13, 3, 2)
+    a1 = agent1_problem(None, refine=2)
+    assert a1.grid.shape == (24, 13, 24, 3) and a1.rewards.shape == (24 * 13 * 24 * 3, 3)
+    with pytest.raises(ValueError, match="needs agent 2"):
+        agent1_problem(None, context="propagated")

@@ -74,6 +74,20 @@ class Axis:
         np.put_along_axis(out, idx[..., 1:], tmp, -1)
         return out
 
+    def refined(self, k: int) -> "Axis":
+        """This axis with k - 1 evenly spaced centres inserted between neighbouring centres
+        (across the pi == -pi seam too when circular): 12 -> 12k angle bins, 7 -> 6k + 1
+        speed bins. ``refined(1)`` is the axis itself."""
+        if not isinstance(k, (int, np.integer)) or k < 1:
+            raise ValueError(f"refinement factor must be a positive integer, got {k}")
+        c = np.asarray(self.centers)
+        ext = np.append(c, c[0] + 2 * math.pi) if self.circular else c
+        pts = [ext[i] + (ext[i + 1] - ext[i]) * j / k
+               for i in range(len(ext) - 1) for j in range(k)]
+        if not self.circular:
+            pts.append(c[-1])
+        return Axis(self.name, tuple(pts), self.circular)
+
     def as_dict(self) -> dict:
         return {"name": self.name, "centers": list(self.centers), "circular": self.circular}
 

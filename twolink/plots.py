@@ -9,7 +9,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from twolink.artifacts import atomic_path  # noqa: E402
 from twolink.parameters import GOAL_ANGLE, GOAL_SPEED  # noqa: E402

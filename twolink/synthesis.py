@@ -57,12 +57,21 @@ def _levels(tmax: float) -> np.ndarray:
     return np.array([-tmax, 0.0, tmax])
 
 
-def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified") -> Problem:
-    """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2]."""
+def _grid(*axes: fuzzy.Axis, refine: int = 1) -> fuzzy.Grid:
+    """The product grid of ``axes``, each refined ``refine`` times (the paper's: 1)."""
+    return fuzzy.Grid(tuple(a.refined(refine) for a in axes))
+
+
+def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
+                        refine: int = 1) -> Problem:
+    """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2].
+
+    ``refine`` > 1 subdivides every bin (for scaling studies; see :meth:`fuzzy.Axis.refined`).
+    """
     start = time.perf_counter()
     accel = _accel(model)
-    grid = fuzzy.Grid((fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
-                       fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2")))
+    grid = _grid(fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
+                 fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"), refine=refine)
     actions = np.array(list(itertools.product(_levels(p.tau1_max), _levels(p.tau2_max))))
     centers = grid.centers()
     nxt = sample_step(accel, p, centers[:, None, :], actions[None, :, :])
@@ -70,7 +79,8 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified") -
                    centralized_reward(nxt), time.perf_counter() - start)
 
 
-def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified") -> Problem:
+def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
+                   refine: int = 1) -> Problem:
     """Agent 2's MDP over (theta2, dtheta2), u = tau2.
 
     Under (11) link 2 does not depend on link 1. Under the full model agent 2 cannot see
@@ -78,7 +88,7 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified") -> Pro
     """
     start = time.perf_counter()
     accel = _accel(model)
-    grid = fuzzy.Grid((fuzzy.angle_axis("theta2"), fuzzy.speed_axis("dtheta2")))
+    grid = _grid(fuzzy.angle_axis("theta2"), fuzzy.speed_axis("dtheta2"), refine=refine)
     actions = _levels(p.tau2_max)[:, None]
     c = grid.centers()
     x = np.zeros((len(c), 4))
@@ -90,15 +100,23 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified") -> Pro
                    agent_reward(nxt, 2), time.perf_counter() - start)
 
 
-def agent1_problem(agent2: Agent, p: ArmParameters = TABLE_I, model: str = "simplified",
-                   context: str = "frozen") -> Problem:
-    """Agent 1's MDP over (theta1, dtheta1, theta2, tau2), u = tau1 (see module docstring)."""
+def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
+                   model: str = "simplified", context: str = "frozen", *,
+                   refine: int = 1) -> Problem:
+    """Agent 1's MDP over (theta1, dtheta1, theta2, tau2), u = tau1 (see module docstring).
+
+    ``agent2`` (agent 2's synthesised controller) is needed by the propagated context only.
+    ``refine`` subdivides the state bins; the tau2 axis stays the three torque values.
+    """
     if context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of {', '.join(CONTEXTS)}")
+    if context == "propagated" and agent2 is None:
+        raise ValueError("the propagated context needs agent 2's controller")
     start = time.perf_counter()
     accel = _accel(model)
-    grid = fuzzy.Grid((fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
-                       fuzzy.angle_axis("theta2"), fuzzy.torque_axis("tau2", p.tau2_max)))
+    grid = fuzzy.Grid(_grid(fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
+                            fuzzy.angle_axis("theta2"), refine=refine).axes
+                      + (fuzzy.torque_axis("tau2", p.tau2_max),))
     actions = _levels(p.tau1_max)[:, None]
     c = grid.centers()
     x = np.zeros((len(c), 4))
