@@ -21,7 +21,8 @@ def add_parser(sub):
     p = sub.add_parser("mismatch", help="model mismatch, its closure and robustness sweeps",
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--quick", action="store_true",
-                   help="small sweep (17 states, fewer sizes): under a minute, for CI")
+                   help="small sweeps (5 initial states per cell, fewer sizes; the closed-loop "
+                        "table keeps all 65): under a minute, for CI")
     p.add_argument("--out", type=Path, default=None,
                    help="report folder (default renders/mismatch, or renders/mismatch-quick)")
     p.add_argument("--policies", nargs="+", default=list(POLICIES), metavar="POLICY",
