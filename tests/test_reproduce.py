@@ -46,6 +46,15 @@ def test_reproduce_stabilises_the_simplified_plant_and_reports_mujoco(reproduced
         assert "settle_time" in rep["rollouts"][name]["mujoco"]
 
 
+def test_reproduce_reports_the_evaluation_set(reproduced):
+    rep, _, _ = reproduced
+    for variant in ("centralized", "decentralized", "decentralized_propagated"):
+        sim = rep["evaluation_set"][variant]["simplified"]
+        assert sim["states"] == 65 and 0.3 < sim["success_rate"] < 1.0
+        assert sim["failures_stalled_at_band_edge"] == sim["failures"]
+        assert rep["evaluation_set"][variant]["mujoco"]["success_rate"] < sim["success_rate"]
+
+
 def test_reproduce_reports_integration_error(reproduced):
     rep, _, _ = reproduced
     for model in ("simplified", "full"):

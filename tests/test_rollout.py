@@ -109,3 +109,26 @@ def test_evaluation_set_is_fixed():
     assert ev.shape == (65, 4)
     np.testing.assert_array_equal(ev[0], PAPER_X0)
     assert np.all(ev[1:, 2:] == 0)
+
+
+def test_stalled_at_band_edge_is_a_diagnostic_beside_success():
+    from twolink.metrics import stalled_at_band_edge
+    parked = _traj([0] * 101)
+    parked.x[:] = [GOAL_ANGLE * 1.005, 0.0, 0.0, 0.0]     # at rest, 0.025 deg outside
+    assert not success(parked) and stalled_at_band_edge(parked)
+    far = _traj([0] * 101)
+    far.x[:] = [GOAL_ANGLE * 2, 0.0, 0.0, 0.0]             # at rest, 5 deg outside
+    assert not stalled_at_band_edge(far)
+    moving = _traj([0] * 101)
+    moving.x[:] = [GOAL_ANGLE * 1.005, 0.0, 0.5, 0.0]      # near the edge but moving
+    assert not stalled_at_band_edge(moving)
+    assert not stalled_at_band_edge(_traj([0] * 10 + [1] * 91))   # a success is no stall
+
+
+def test_paper_policy_failures_on_the_simplified_plant_are_edge_stalls(centralized):
+    from twolink.metrics import stalled_at_band_edge
+    tr = rollout(centralized, make_plant("simplified"), evaluation_set())
+    failed = ~success(tr)
+    assert 0 < failed.sum() < len(failed)
+    np.testing.assert_array_equal(stalled_at_band_edge(tr), failed)
+    assert np.abs(tr.u[failed, -1]).max() < 1e-4          # (14) barely pushes there

@@ -9,7 +9,8 @@ import math
 import numpy as np
 
 from twolink.integrate import wrap_angle
-from twolink.parameters import GAMMA, HORIZON, PAPER_X0, SUCCESS_MARGIN
+from twolink.parameters import (GAMMA, GOAL_ANGLE, GOAL_SPEED, PAPER_X0,
+                                SUCCESS_MARGIN)
 from twolink.reward import in_goal_band
 from twolink.rollout import Trajectory
 
@@ -47,6 +48,21 @@ def discounted_return(traj: Trajectory, *, gamma: float = GAMMA) -> np.ndarray:
     return traj.r @ (gamma ** np.arange(traj.r.shape[-1]))
 
 
+def stalled_at_band_edge(traj: Trajectory, *, slack_deg: float = 0.1) -> np.ndarray:
+    """Runs that never settled yet ended at rest just outside the angle band.
+
+    A diagnostic beside :func:`success`: the final speeds are inside the goal band and
+    every final angle lies within ``slack_deg`` of the 5 degree band. The paper's +-5
+    degree bin centres sit on the band's edge and their greedy action at rest is zero
+    torque, so policy (14) barely pushes there and damping can park the arm a hair
+    outside the band.
+    """
+    last = traj.x[..., -1, :]
+    resting = np.all(np.abs(last[..., 2:]) <= GOAL_SPEED, axis=-1)
+    near = np.all(np.abs(last[..., :2]) <= GOAL_ANGLE + math.radians(slack_deg), axis=-1)
+    return ~success(traj) & resting & near
+
+
 def final_offsets_deg(traj: Trajectory) -> np.ndarray:
     """Final link angles in degrees, shape (..., 2)."""
     return np.rad2deg(traj.x[..., -1, :2])
@@ -74,5 +90,3 @@ def summary(traj: Trajectory) -> dict:
             "final_state": traj.x[-1].tolist(),
             "duration": float(traj.t[-1])}
 
-
-HORIZON_S = HORIZON

@@ -16,7 +16,7 @@ import numpy as np
 from twolink import dynamics, paper
 from twolink.integrate import SUBSTEPS, integration_error
 from twolink.artifacts import provenance, write_json
-from twolink.metrics import summary
+from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import make_plant
 from twolink.plots import fig3
@@ -71,6 +71,7 @@ def reproduce(duration: float = HORIZON, *, progress: bool = True) -> tuple[dict
     """Run the experiment; returns the JSON-ready report and the trajectories."""
     x0 = np.asarray(PAPER_X0)
     report = {"x0": list(PAPER_X0), "duration": duration, "synthesis": {}, "rollouts": {},
+              "evaluation_set": {},
               "paper": {"iterations": paper.ITERATIONS, "q_sizes": paper.Q_SIZES,
                         "cpu_seconds": paper.CPU_SECONDS, "settle_time": paper.SETTLE_TIME},
               "provenance": provenance()}
@@ -85,10 +86,18 @@ def reproduce(duration: float = HORIZON, *, progress: bool = True) -> tuple[dict
                        for a in policy.agents},
             "matches_shipped_policy": _shipped_matches(name, policy)}
         report["rollouts"][name] = {}
+        report["evaluation_set"][name] = {}
         for plant_name in _PLANTS:
-            tr = rollout(policy, make_plant(plant_name), x0, duration=duration)
+            plant = make_plant(plant_name)
+            tr = rollout(policy, plant, x0, duration=duration)
             report["rollouts"][name][plant_name] = summary(tr)
             trajs[(name, plant_name)] = tr
+            ev = rollout(policy, plant, evaluation_set(), duration=duration)
+            ok, stalled = success(ev), stalled_at_band_edge(ev)
+            report["evaluation_set"][name][plant_name] = {
+                "states": int(len(ok)), "success_rate": float(ok.mean()),
+                "failures": int((~ok).sum()),
+                "failures_stalled_at_band_edge": int(stalled.sum())}
     return report, trajs
 
 
@@ -130,6 +139,12 @@ def table(report: dict) -> str:
             rows.append((f"final offsets [deg], {variant}, {plant}",
                          f"|.| <= {paper.OFFSET_BOUND_DEG:g}" if plant == "simplified" else "-",
                          off))
+    for variant in ("centralized", "decentralized", "decentralized_propagated"):
+        for plant in _PLANTS:
+            ev = report["evaluation_set"][variant][plant]
+            rows.append((f"evaluation-set success, {variant}, {plant}", "-",
+                         f"{100 * ev['success_rate']:.1f} % (edge stalls: "
+                         f"{ev['failures_stalled_at_band_edge']}/{ev['failures']})"))
     for model, err in report["integration_error"].items():
         rows.append((f"max one-step error, {model}, {err['substeps']} vs "
                      f"{err['reference_substeps']} RK4 substeps [rad, rad/s]", "-",
