@@ -21,7 +21,7 @@ from benchmarks.common import (Row, available_ram_bytes, interleaved_best, peak_
                                total_ram_bytes)
 from twolink import synthesis as core
 from twolink.fqi import fuzzy_q_iteration, transition_matrix
-from twolink.parameters import GAMMA
+from twolink.parameters import DELTA, GAMMA
 
 SECTION = "synthesis"
 SCALING = "scaling"
@@ -92,7 +92,7 @@ def mdptoolbox_solver(trans: sp.csr_matrix, rewards: np.ndarray, sweeps: int, *,
         if not full_setup:
             stack.enter_context(mock.patch.object(mdptoolbox.util, "check", _no_op))
             stack.enter_context(mock.patch.object(ValueIteration, "_boundIter", _no_op))
-        vi = ValueIteration(per_action, rewards, GAMMA, epsilon=0.01, max_iter=sweeps)
+        vi = ValueIteration(per_action, rewards, GAMMA, epsilon=DELTA, max_iter=sweeps)
 
     def solve():
         # Its constructor caps max_iter by an epsilon-optimality bound; force the count
@@ -152,7 +152,7 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         Row(sec, "transition matrix nnz", trans.nnz, "entries"),
         Row(sec, "model transitions f(c_m,u)", t_model, "s", "RK4 on model (11), all pairs"),
         Row(sec, "transition matrix T", t_matrix, "s", "memberships -> scipy CSR"),
-        Row(sec, "sweeps to convergence", n, "sweeps", "delta = 0.01"),
+        Row(sec, "sweeps to convergence", n, "sweeps", f"delta = {DELTA}"),
         Row(sec, "sweeps (to convergence)", t_sweeps, "s"),
         Row(sec, "total synthesis", t_model + t_matrix + t_sweeps, "s",
             f"best of {len(times)}"),
