@@ -36,3 +36,16 @@ def test_ci_runs_the_readme_test_command():
     readme = (ROOT / "README.md").read_text()
     assert "make test" in [line.strip() for line in ci.splitlines()]
     assert "make demo" in readme and "make test" in readme
+
+
+def test_every_cli_command_is_in_the_readme_and_help(capsys):
+    import pytest
+    from twolink.cli import COMMANDS, main
+    readme = (ROOT / "README.md").read_text()
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for name in COMMANDS:
+        assert f"`twolink {name}" in readme, name
+        assert name in out, name
