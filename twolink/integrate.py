@@ -24,11 +24,15 @@ def wrap_angle(a):
     return np.mod(np.asarray(a, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
 
 
-def finish_sample(p: ArmParameters, x: np.ndarray) -> np.ndarray:
-    """Wrap the angles and saturate the speeds at the end of a sample period."""
+def finish_sample(p: ArmParameters, x: np.ndarray, *, speed_max=None) -> np.ndarray:
+    """Wrap the angles and saturate the speeds at the end of a sample period.
+
+    ``speed_max`` (broadcastable to x[..., 2:], e.g. one row per perturbed plant)
+    overrides ``p.speed_max``.
+    """
     out = np.empty_like(x)
     out[..., :2] = wrap_angle(x[..., :2])
-    vmax = p.speed_max
+    vmax = p.speed_max if speed_max is None else speed_max
     out[..., 2:] = np.clip(x[..., 2:], -vmax, vmax)
     return out
 

@@ -14,7 +14,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from twolink import dynamics, mjcf
-from twolink.integrate import SUBSTEPS, finish_sample, sample_step, wrap_angle
+from twolink.integrate import SUBSTEPS, finish_sample, sample_step
 from twolink.parameters import TABLE_I, TS, ArmParameters
 
 PLANTS = ("simplified", "full", "mujoco")
@@ -104,9 +104,10 @@ class MujocoPlant(Plant):
         built: dict = {}        # one compiled model per distinct parameter set
         self.models = [built[p] if p in built else built.setdefault(p, mjcf.build_model(p))
                        for p in plist]
-        if self.per_row:
-            self._tau_max = np.stack([p.tau_max for p in plist])
-            self._speed_max = np.stack([p.speed_max for p in plist])
+        # Limits per batch row (per-row plants) or shared (one plant), broadcast alike.
+        self._tau_max = np.stack([p.tau_max for p in plist]) if self.per_row else plist[0].tau_max
+        self._speed_max = (np.stack([p.speed_max for p in plist]) if self.per_row
+                           else plist[0].speed_max)
         self.model = self.models[0]
         self.nstep = substeps_per_sample(self.model)
         self.nstate = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -127,20 +128,13 @@ class MujocoPlant(Plant):
         except Exception:
             pass
 
-    def _limits(self, n):
-        if not self.per_row:
-            p = self._plist[0]
-            return p.tau_max, p
-        if n != len(self._plist):
-            raise ValueError(f"{len(self._plist)} parameter sets for a batch of {n} states")
-        return self._tau_max, None
-
     def _step(self, x, tau):
         batch = x.shape[:-1]
         xf = x.reshape(-1, 4)
         n = len(xf)
-        tau_max, p = self._limits(n)
-        tau = np.clip(tau.reshape(-1, 2), -tau_max, tau_max)
+        if self.per_row and n != len(self._plist):
+            raise ValueError(f"{len(self._plist)} parameter sets for a batch of {n} states")
+        tau = np.clip(tau.reshape(-1, 2), -self._tau_max, self._tau_max)
         state0 = np.zeros((n, self.nstate))
         state0[:, 1:3] = xf[:, :2]
         state0[:, 3:5] = xf[:, 2:]
@@ -148,13 +142,7 @@ class MujocoPlant(Plant):
         models = self.models if self.per_row else self.model
         state, _ = self._pool.rollout(models, self._datas, state0, control,
                                       nstep=self.nstep, skip_checks=False)
-        last = state[:, -1, 1:5]
-        if self.per_row:      # finish_sample, row by row limits (elementwise, so identical)
-            out = np.empty_like(last)
-            out[:, :2] = wrap_angle(last[:, :2])
-            out[:, 2:] = np.clip(last[:, 2:], -self._speed_max, self._speed_max)
-        else:
-            out = finish_sample(p, last)
+        out = finish_sample(self._plist[0], state[:, -1, 1:5], speed_max=self._speed_max)
         return out.reshape(batch + (4,))
 
     def step_reference(self, x, tau) -> np.ndarray:
