@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from twolink.fqi import fuzzy_q_iteration, fuzzy_q_iteration_reference, transition_matrix
-from twolink.fuzzy import Axis, Grid, speed_axis
+from twolink.fuzzy import Axis, Grid
 from twolink.integrate import sample_step
 from twolink.dynamics import simplified_acceleration
 from twolink.parameters import TABLE_I

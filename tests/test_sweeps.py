@@ -1,6 +1,5 @@
 """Sweeps: batched path bit-for-bit against the one-rollout loop, Ray == local, resume."""
 import json
-import multiprocessing
 
 import numpy as np
 import pytest

@@ -44,8 +44,12 @@ def success(traj: Trajectory, *, margin: float = SUCCESS_MARGIN) -> np.ndarray:
 
 
 def discounted_return(traj: Trajectory, *, gamma: float = GAMMA) -> np.ndarray:
-    """sum_k gamma^k r_{k+1} with the centralized reward (15)."""
-    return traj.r @ (gamma ** np.arange(traj.r.shape[-1]))
+    """sum_k gamma^k r_{k+1} with the centralized reward (15).
+
+    Summed row by row (not a matrix product), so a row's value does not depend on the
+    batch it ran in.
+    """
+    return np.sum(traj.r * gamma ** np.arange(traj.r.shape[-1]), axis=-1)
 
 
 def stalled_at_band_edge(traj: Trajectory, *, slack_deg: float = 0.1) -> np.ndarray:

@@ -21,14 +21,15 @@ import numpy as np
 from twolink import dynamics
 from twolink.artifacts import provenance
 from twolink.integrate import integration_error
-from twolink.metrics import evaluation_set, settle_time, success, trajectory_gap
+from twolink.metrics import (discounted_return, evaluation_set, settle_time, success,
+                             trajectory_gap)
 from twolink.model_error import PREDICTIONS, one_step_error
 from twolink.parameters import HORIZON, TABLE_I, TS
 from twolink.perturbations import PERTURBABLE
 from twolink.plants import MujocoPlant, make_plant
 from twolink.policy import load_policy
 from twolink.rollout import rollout
-from twolink.sweeps import Cell, _returns, policy_digest, run_sweep, states_of
+from twolink.sweeps import Cell, policy_digest, run_sweep, states_of
 
 #: Policies compared, in report order: the paper's three, then the two synthesised on (6).
 POLICIES = ("centralized", "decentralized", "decentralized_propagated",
@@ -106,7 +107,7 @@ def closed_loop(policies=POLICIES, *, nthread=None, progress=False) -> tuple[dic
                     "success_rate": float(success(tr).mean()),
                     "x0_settle_time": float(st[0]) if math.isfinite(st[0]) else None,
                     "settle_time": _stats(st),
-                    "mean_return": float(_returns(tr).mean())}
+                    "mean_return": float(discounted_return(tr).mean())}
             for plant_name in ("simplified", "full"):
                 gap = trajectory_gap(trajs[plant_name], trajs["mujoco"])
                 out[name][plant_name]["gap_to_mujoco"] = {

@@ -38,8 +38,8 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.artifacts import write_text
-from twolink.metrics import evaluation_set, settle_time, success
-from twolink.parameters import GAMMA, GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
+from twolink.metrics import discounted_return, evaluation_set, settle_time, success
+from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
 from twolink.perturbations import (PERTURBABLE, ActuationDelay, perturbed, random_perturbation,
                                    torque_limited)
 from twolink.plants import MujocoPlant
@@ -211,19 +211,13 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
                        observe=_Observer(cells, counts))
     finally:
         plant.close()
-    st, ok, ret = settle_time(traj), success(traj), _returns(traj)
+    st, ok, ret = settle_time(traj), success(traj), discounted_return(traj)
     out, start = [], 0
     for c, n in zip(cells, counts):
         rows = slice(start, start + n)
         start += n
         out.append(_record(c, st[rows], ok[rows], ret[rows], policy_digest(policy)))
     return out
-
-
-def _returns(traj) -> np.ndarray:
-    """:func:`twolink.metrics.discounted_return`, summed row by row so that a row's value
-    does not depend on the batch it ran in (a matrix product does)."""
-    return np.sum(traj.r * GAMMA ** np.arange(traj.r.shape[-1]), axis=-1)
 
 
 def _record(c: Cell, st, ok, ret, digest: str) -> dict:
@@ -261,7 +255,7 @@ def reference_cell(c: Cell) -> dict:
         plant.close()
         st.append(float(settle_time(tr)))
         ok.append(bool(success(tr)))
-        ret.append(float(_returns(tr)))
+        ret.append(float(discounted_return(tr)))
     return _record(c, np.array(st), np.array(ok), np.array(ret), policy_digest(policy))
 
 
