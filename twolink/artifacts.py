@@ -16,6 +16,9 @@ from pathlib import Path
 
 from twolink import __version__
 
+#: Default folder of the commands' outputs (videos, figures, reports).
+RENDERS = Path(__file__).resolve().parent.parent / "renders"
+
 
 @contextlib.contextmanager
 def atomic_path(path: os.PathLike):

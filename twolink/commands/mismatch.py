@@ -10,11 +10,11 @@ import json
 import sys
 from pathlib import Path
 
+from twolink.artifacts import RENDERS
 from twolink.mismatch import POLICIES, build, summary, write
 from twolink.policy import load_policy
 from twolink.sweeps import EXECUTORS
 
-RENDERS = Path(__file__).resolve().parents[2] / "renders"
 
 
 def add_parser(sub):

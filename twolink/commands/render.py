@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from twolink.artifacts import RENDERS
 from twolink.commands.rollout import _X0_HELP, _label, parse_x0
 from twolink.parameters import HORIZON, TABLE_I, TS
 from twolink.plants import PLANTS, make_plant
@@ -23,7 +24,6 @@ from twolink.policy import load_policy, shipped_policies
 from twolink.rollout import rollout, steps_for
 from twolink.video import check_fps, check_size, video_format, write_video
 
-RENDERS = Path(__file__).resolve().parents[2] / "renders"
 
 
 def add_parser(sub):

@@ -15,7 +15,7 @@ import numpy as np
 
 from twolink import dynamics, paper
 from twolink.integrate import SUBSTEPS, integration_error
-from twolink.artifacts import provenance, write_json
+from twolink.artifacts import RENDERS, provenance, write_json
 from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import make_plant
@@ -24,7 +24,6 @@ from twolink.policy import POLICY_DIR, Policy
 from twolink.rollout import rollout
 from twolink.synthesis import centralized_problem, synthesize
 
-RENDERS = Path(__file__).resolve().parents[2] / "renders"
 _VARIANTS = (("centralized", "centralized", "frozen"),
              ("decentralized", "decentralized", "frozen"),
              ("decentralized_propagated", "decentralized", "propagated"))

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twolink.artifacts import RENDERS
 from twolink.metrics import summary, trajectory_gap
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import PLANTS, check_states, make_plant
@@ -21,7 +22,6 @@ from twolink.policy import load_policy, shipped_policies
 from twolink.rollout import rollout, steps_for
 from twolink.trajectory_io import save_csv, save_npz
 
-RENDERS = Path(__file__).resolve().parents[2] / "renders"
 _X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
             "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
             "'random' (angles uniform in [-pi, pi), at rest, drawn with --seed); "
