@@ -19,7 +19,8 @@ from mujoco import rollout as mj_rollout
 from benchmarks.common import Row, best_time, interleaved_best
 from twolink.parameters import TS
 from twolink.plants import MujocoPlant, make_plant
-from twolink.policy import POLICY_DIR, Policy
+from twolink.policy import Policy
+from twolink.registry import SHIPPED
 from twolink.rollout import rollout, steps_for
 
 SECTION = "rollouts"
@@ -27,7 +28,7 @@ SECTION = "rollouts"
 
 def _policy():
     """The shipped centralized policy, or one synthesised now if it is missing."""
-    path = POLICY_DIR / "centralized.npz"
+    path = SHIPPED["centralized"].file
     if path.is_file():
         return Policy.load(path)
     from twolink.synthesis import synthesize

@@ -3,6 +3,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from twolink.resources import model_file
 from twolink import dynamics, mjcf
 from twolink.parameters import TABLE_I, TS
 
@@ -13,11 +14,11 @@ def model():
 
 
 def test_committed_xml_equals_generated():
-    assert mjcf.MODEL_PATH.read_text() == mjcf.model_xml(TABLE_I)
+    assert model_file().read_text() == mjcf.model_xml(TABLE_I)
 
 
 def test_committed_xml_loads_with_table_i(model):
-    m = mujoco.MjModel.from_xml_path(str(mjcf.MODEL_PATH))
+    m = mujoco.MjModel.from_xml_path(str(model_file()))
     np.testing.assert_allclose(m.body_mass[1:], [TABLE_I.m1, TABLE_I.m2])
     np.testing.assert_allclose(m.dof_damping, [TABLE_I.b1, TABLE_I.b2])
     np.testing.assert_allclose(m.actuator_ctrlrange, [[-0.2, 0.2], [-0.1, 0.1]])

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from twolink import paper
-from twolink.policy import POLICY_DIR, Policy, PolicyFileError, load_policy
+from twolink.policy import Policy, PolicyFileError, load_policy
+from twolink.registry import SHIPPED
 from twolink.synthesis import synthesize
 
 
@@ -15,7 +16,7 @@ from twolink.synthesis import synthesize
     ("decentralized_propagated", "decentralized", "propagated"),
 ])
 def test_resynthesis_reproduces_shipped_policy_exactly(name, kind, context):
-    shipped = Policy.load(POLICY_DIR / f"{name}.npz")
+    shipped = Policy.load(SHIPPED[name].file)
     fresh = synthesize(kind, context=context)
     assert [a.name for a in fresh.agents] == [a.name for a in shipped.agents]
     for a, b in zip(fresh.agents, shipped.agents):

@@ -96,10 +96,10 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
 
 
 def test_mjcf_command_regenerates_the_committed_model(tmp_path):
-    from twolink.mjcf import MODEL_PATH
+    from twolink.resources import model_file
     out = tmp_path / "arm.xml"
     assert main(["mjcf", "-o", str(out)]) == 0
-    assert out.read_text() == MODEL_PATH.read_text()
+    assert out.read_text() == model_file().read_text()
 
 
 def test_written_files_get_the_usual_mode(tmp_path):

@@ -16,8 +16,6 @@ from pathlib import Path
 
 from twolink import __version__
 
-#: Default folder of the commands' outputs (videos, figures, reports).
-RENDERS = Path(__file__).resolve().parent.parent / "renders"
 
 
 @contextlib.contextmanager

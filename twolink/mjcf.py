@@ -17,7 +17,6 @@ from twolink.integrate import SUBSTEPS
 from twolink.parameters import TABLE_I, TS, ArmParameters
 
 #: The committed model file.
-MODEL_PATH = Path(__file__).resolve().parent.parent / "models" / "twolink.xml"
 JOINTS = ("shoulder", "elbow")
 LINKS = ("link1", "link2")
 
@@ -92,6 +91,6 @@ def model_xml(p: ArmParameters = TABLE_I) -> str:
     return spec.to_xml()
 
 
-def write_model(path: os.PathLike = MODEL_PATH, p: ArmParameters = TABLE_I) -> Path:
+def write_model(path: os.PathLike, p: ArmParameters = TABLE_I) -> Path:
     """Write the generated MJCF atomically to ``path``."""
     return write_text(path, model_xml(p))

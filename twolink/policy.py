@@ -23,11 +23,10 @@ import numpy as np
 from twolink.artifacts import atomic_path
 from twolink.fuzzy import Grid
 from twolink.parameters import STATE_NAMES
+from twolink.registry import SHIPPED
 
 FORMAT = "twolink-policy"
 FORMAT_VERSION = 1
-#: The policies shipped in policies/, by name.
-POLICY_DIR = Path(__file__).resolve().parent.parent / "policies"
 
 
 class PolicyFileError(ValueError):
@@ -182,17 +181,16 @@ class Policy:
 
 
 def shipped_policies() -> list[str]:
-    """Names of the policies committed under policies/."""
-    return sorted(p.stem for p in POLICY_DIR.glob("*.npz"))
+    """Names of the shipped policies (:data:`twolink.registry.SHIPPED`), in report order."""
+    return list(SHIPPED)
 
 
 def load_policy(name_or_path: str | os.PathLike) -> Policy:
     """A shipped policy by name (e.g. ``centralized``) or a policy file by path."""
     text = str(name_or_path)
-    candidate = POLICY_DIR / f"{text}.npz"
     if os.sep not in text and not text.endswith(".npz"):
-        if candidate.is_file():
-            return Policy.load(candidate)
+        if text in SHIPPED:
+            return Policy.load(SHIPPED[text].file)
         raise PolicyFileError(f"unknown policy {text!r}; shipped policies: "
-                              f"{', '.join(shipped_policies()) or 'none'} (or give a .npz path)")
+                              f"{', '.join(SHIPPED)} (or give a .npz path)")
     return Policy.load(Path(text))

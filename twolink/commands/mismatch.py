@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from twolink.artifacts import RENDERS
+from twolink.resources import output_dir
 from twolink.mismatch import POLICIES, build, summary, write
 from twolink.policy import load_policy
 from twolink.sweeps import EXECUTORS
@@ -46,7 +46,7 @@ def run(args) -> int:
         raise ValueError("--address needs --executor ray")
     for name in args.policies:                       # fail before anything is written
         load_policy(name)
-    out = args.out or RENDERS / ("mismatch-quick" if args.quick else "mismatch")
+    out = args.out or output_dir() / ("mismatch-quick" if args.quick else "mismatch")
     if not out.parent.is_dir():
         raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
     out.mkdir(exist_ok=True)

@@ -1,19 +1,32 @@
-"""``twolink mjcf``: regenerate models/twolink.xml from Table I."""
+"""``twolink mjcf``: write the MJCF model generated from Table I."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from twolink import mjcf
+from twolink.resources import MODEL_FILE, model_file, source_checkout
 
 
 def add_parser(sub):
     p = sub.add_parser("mjcf", help="write the MJCF model generated from Table I",
                        description="Generate the MJCF model of the arm from Table I (MjSpec) "
-                                   "and write it (default: models/twolink.xml).")
-    p.add_argument("-o", "--output", type=Path, default=mjcf.MODEL_PATH)
+                                   f"and write it (default: ./{MODEL_FILE}; --ship replaces "
+                                   "the committed models/twolink.xml of a source checkout).")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("-o", "--output", type=Path, default=None,
+                       help=f"file to write (default ./{MODEL_FILE})")
+    where.add_argument("--ship", action="store_true",
+                       help="overwrite the committed models/twolink.xml (source checkouts only)")
     return p
 
 
 def run(args) -> int:
-    print(f"wrote {mjcf.write_model(args.output)}")
+    if args.ship:
+        if source_checkout() is None:
+            raise OSError("--ship writes models/twolink.xml of a source checkout, but twolink "
+                          "runs from an installed package; use -o FILE")
+        out = model_file()
+    else:
+        out = args.output or Path(MODEL_FILE)
+    print(f"wrote {mjcf.write_model(out)}")
     return 0

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from twolink.artifacts import RENDERS
+from twolink.resources import output_dir
 from twolink.commands.rollout import _X0_HELP, _label, parse_x0
 from twolink.parameters import HORIZON, TABLE_I, TS
 from twolink.plants import PLANTS, make_plant
@@ -118,7 +118,7 @@ def run(args) -> int:
     if not np.isfinite(args.speed) or args.speed <= 0:
         raise ValueError(f"--speed must be a positive number, got {args.speed}")
     labels = [_label(n) for n in names]
-    out = args.output or RENDERS / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
+    out = args.output or output_dir() / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
     fmt = video_format(out)
     check_size(width * len(names), height, fmt)
     parent = out.parent if str(out.parent) else Path(".")

@@ -15,12 +15,14 @@ import numpy as np
 
 from twolink import dynamics, paper
 from twolink.integrate import SUBSTEPS, integration_error
-from twolink.artifacts import RENDERS, provenance, write_json
+from twolink.artifacts import provenance, write_json
+from twolink.resources import output_dir
 from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import make_plant
 from twolink.plots import fig3
-from twolink.policy import POLICY_DIR, Policy
+from twolink.policy import Policy
+from twolink.registry import SHIPPED
 from twolink.rollout import rollout
 from twolink.synthesis import centralized_problem, synthesize
 
@@ -35,7 +37,7 @@ def add_parser(sub):
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--duration", type=float, default=HORIZON,
                    help=f"rollout horizon in seconds (default {HORIZON})")
-    p.add_argument("--figure", type=Path, default=RENDERS / "fig3.png",
+    p.add_argument("--figure", type=Path, default=None,
                    help="Fig. 3 counterpart to write (default renders/fig3.png)")
     p.add_argument("--report", type=Path, default=None, help="also write the JSON report here")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -43,7 +45,7 @@ def add_parser(sub):
 
 
 def _shipped_matches(name: str, policy: Policy) -> bool | None:
-    path = POLICY_DIR / f"{name}.npz"
+    path = SHIPPED[name].file
     if not path.is_file():
         return None
     shipped = Policy.load(path)
@@ -162,6 +164,7 @@ def run(args) -> int:
     for name, title in (("centralized", "(a) centralized"),
                         ("decentralized", "(b) decentralized")):
         panels[title] = {plant: trajs[(name, plant)] for plant in _PLANTS}
+    args.figure = args.figure or output_dir() / "fig3.png"
     fig3(panels, args.figure, title="Fig. 3 from x0 = [-1, -3, 0, 0]: solid simplified (11), "
                                     "dashed MuJoCo")
     report["figure"] = str(args.figure)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink.artifacts import RENDERS
+from twolink.resources import output_dir
 from twolink.metrics import summary, trajectory_gap
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import PLANTS, check_states, make_plant
@@ -47,7 +47,7 @@ def add_parser(sub):
                    help=f"seconds to simulate (default {HORIZON:g})")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the random generator for --x0 random (default 0)")
-    p.add_argument("-o", "--output", type=Path, default=RENDERS / "rollout", metavar="PREFIX",
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="PREFIX",
                    help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png "
                         "(default renders/rollout)")
     p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
@@ -81,7 +81,7 @@ def parse_x0(values, *, degrees: bool = False, seed: int = 0) -> np.ndarray:
 def _outputs(args) -> dict:
     if args.no_save:
         return {}
-    prefix = args.output
+    prefix = args.output or output_dir() / "rollout"
     out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
            "npz": args.npz or prefix.with_name(prefix.name + ".npz"),
            "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}

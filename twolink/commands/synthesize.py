@@ -5,7 +5,7 @@ import json
 from pathlib import Path
 
 from twolink.parameters import DELTA, GAMMA, TABLE_I
-from twolink.policy import POLICY_DIR
+from twolink.registry import SHIPPED
 from twolink.synthesis import CONTEXTS, KINDS, SYNTHESIS_MODELS, synthesize
 
 
@@ -31,7 +31,7 @@ def add_parser(sub):
 def run(args) -> int:
     policy = synthesize(args.kind, TABLE_I, model=args.model, context=args.context,
                         gamma=args.gamma, delta=args.delta, progress=not args.json)
-    out = args.output or POLICY_DIR / f"{args.kind}.npz"
+    out = args.output or SHIPPED[args.kind].file
     policy.save(out)
     info = {a.name: a.info for a in policy.agents}
     if args.json:

@@ -1,0 +1,1 @@
+"""The committed MJCF model (installed as the package ``twolink._models``)."""

@@ -1,0 +1,1 @@
+"""The shipped policy files (installed as the package ``twolink._policies``)."""

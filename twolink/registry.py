@@ -1,0 +1,64 @@
+"""The registry of shipped policies: one table that the CLI, reports, tests and README read.
+
+Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
+(18), the model the transitions come from, agent 1's context) and whether it is one of
+the paper's policies or one of ours synthesised on the full model (6).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Optional
+
+
+@dataclasses.dataclass(frozen=True)
+class ShippedPolicy:
+    """One committed policy: its name, how it is synthesised and what it stands for."""
+
+    name: str
+    kind: str                       # "centralized" (16) or "decentralized" (18)
+    model: str                      # synthesis model: "simplified" (11) or "full" (6)
+    context: Optional[str]          # agent 1's context, decentralized only
+    paper: bool                     # one of the paper's policies (synthesised on (11))
+    description: str
+
+    @property
+    def file(self) -> Path:
+        from twolink.resources import shipped_policy_dir
+        return shipped_policy_dir() / f"{self.name}.npz"
+
+    def synthesis_options(self) -> dict:
+        """Keyword arguments of :func:`twolink.synthesis.synthesize` that rebuild it."""
+        opts = {"model": self.model}
+        if self.context is not None:
+            opts["context"] = self.context
+        return opts
+
+
+#: Every shipped policy, in report order: the paper's three, then the two on (6).
+SHIPPED = {p.name: p for p in (
+    ShippedPolicy("centralized", "centralized", "simplified", None, True,
+                  "the centralized policy (16) on the simplified model (11)"),
+    ShippedPolicy("decentralized", "decentralized", "simplified", "frozen", True,
+                  "the decentralized agents (18) on (11), agent 1 with a frozen context"),
+    ShippedPolicy("decentralized_propagated", "decentralized", "simplified", "propagated", True,
+                  "the decentralized agents (18) on (11), agent 1 with a propagated context"),
+    ShippedPolicy("centralized_full", "centralized", "full", None, False,
+                  "the centralized policy (16) synthesised on the full model (6)"),
+    ShippedPolicy("decentralized_full", "decentralized", "full", "frozen", False,
+                  "the decentralized agents (18) synthesised on (6), frozen context"),
+)}
+#: The paper's policies (synthesised on (11)).
+PAPER_POLICIES = tuple(n for n, p in SHIPPED.items() if p.paper)
+#: Which policy synthesised on (6) answers which paper policy.
+COUNTERPART = {"centralized": "centralized_full", "decentralized": "decentralized_full",
+               "decentralized_propagated": "decentralized_full"}
+
+
+def shipped(name: str) -> ShippedPolicy:
+    """The registry entry ``name``, or a ValueError listing the names."""
+    try:
+        return SHIPPED[name]
+    except KeyError:
+        raise ValueError(f"unknown shipped policy {name!r}; shipped policies: "
+                         f"{', '.join(SHIPPED)}") from None

@@ -1,0 +1,49 @@
+"""Where the package's files live, found the way an installed wheel finds them.
+
+* Shipped data (the committed policies under ``policies/`` and the MJCF model under
+  ``models/``) are installed as the packages ``twolink._policies`` and ``twolink._models``
+  (``pyproject.toml`` maps the top-level folders onto them), and found through
+  :mod:`importlib.resources`, in an editable checkout and in a wheel alike.
+* Outputs (figures, videos, reports) go under :func:`output_dir`: ``$TWOLINK_OUTPUT`` if
+  set, else ``renders/`` in the current working directory (the repository root's
+  ``renders/`` when run from a checkout).
+"""
+from __future__ import annotations
+
+import importlib.resources
+import os
+from pathlib import Path
+
+#: Environment variable naming the default output folder.
+OUTPUT_ENV = "TWOLINK_OUTPUT"
+#: Default output folder, relative to the working directory.
+DEFAULT_OUTPUT = "renders"
+MODEL_FILE = "twolink.xml"
+
+
+def _package_dir(package: str) -> Path:
+    return Path(str(importlib.resources.files(package)))
+
+
+def shipped_policy_dir() -> Path:
+    """The folder holding the shipped policy files (``policies/`` of the checkout)."""
+    return _package_dir("twolink._policies")
+
+
+def model_file() -> Path:
+    """The committed MJCF model (``models/twolink.xml`` of the checkout)."""
+    return _package_dir("twolink._models") / MODEL_FILE
+
+
+def source_checkout() -> Path | None:
+    """The repository root when the package runs from a source checkout, else None."""
+    root = shipped_policy_dir().parent
+    return root if (root / "pyproject.toml").is_file() and (root / "twolink").is_dir() else None
+
+
+def output_dir(*, create: bool = True) -> Path:
+    """The default output folder: ``$TWOLINK_OUTPUT`` or ``./renders``; created on demand."""
+    path = Path(os.environ.get(OUTPUT_ENV) or DEFAULT_OUTPUT)
+    if create and not path.is_dir():
+        path.mkdir(parents=True, exist_ok=True)
+    return path
