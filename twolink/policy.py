@@ -3,16 +3,21 @@
 A :class:`Policy` is an ordered list of :class:`Agent` objects. Each agent reads named
 signals (state components, and the outputs of the agents before it) through its fuzzy
 grid, and outputs the membership-weighted average of the per-bin greedy actions
-argmax_u Q(m, u) (14); ties go to the first action. The decentralized policy runs
-agent 2 first and hands its tau2 to agent 1, as in (18).
+argmax_u Q(m, u) (14); actions whose Q lies within :data:`TIE_TOLERANCE` of the best
+are tied and the first of them wins (SPEC.md), so round-off never decides an action. The
+decentralized policy runs agent 2 first and hands its tau2 to agent 1, as in (18).
 
 Policy files are ``.npz`` archives holding the Q-tables and a JSON header with the
-provenance (parameters, bins, gamma, delta, iterations, model, package version); they are
-written atomically and refused with a clear error when they are not twolink policies.
+provenance (parameters, bins, gamma, delta, iterations, model, package version) and a
+sha256 of the content (header, actions, grids and Q-tables). They are written atomically.
+Loading checks member sizes before decompressing anything, the data types (real, finite
+numbers only) and the sha256, and refuses anything else with one line naming the file.
+The hash detects edits and corruption; it is not a signature.
 """
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 import zipfile
@@ -26,7 +31,27 @@ from twolink.parameters import STATE_NAMES
 from twolink.registry import SHIPPED
 
 FORMAT = "twolink-policy"
-FORMAT_VERSION = 1
+#: Version 2 added the content sha256 and the per-agent tie tolerance.
+FORMAT_VERSION = 2
+
+#: Two Q-values closer than this are tied in policy (14); the first tied action wins.
+#: Q is in units of the reward (15)/(17), which lies in [-0.5, 0], so |Q| <= 0.5/(1-gamma)
+#: = 25. Round-off in the Q of the shipped policies is below 1.5e-14 (the 1e-16 relative
+#: precision of a float, times |Q| <= 25, summed over some 200 sweeps, stays under 1e-11),
+#: while the smallest genuine difference between the best two actions of a bin is 1.6e-5.
+#: 1e-9 sits two decades above the round-off bound and four below that smallest genuine
+#: gap, and is 1e-7 of the stopping threshold delta = 0.01 (Alg. 1 resolves Q no finer than
+#: about gamma*delta/(1-gamma) = 0.49, so no difference below 1e-9 means anything).
+#: ``scripts/tie_sensitivity.py`` measures what this choice moves.
+TIE_TOLERANCE = 1e-9
+
+#: The largest header a policy file may hold (bytes, uncompressed).
+_MAX_HEADER_BYTES = 1 << 20
+#: The largest Q-table a policy file may hold (bytes, uncompressed): 64 MiB, some 130 times
+#: the centralized table of the paper.
+_MAX_Q_BYTES = 64 << 20
+#: Room for the .npy header in front of a Q-table's data.
+_NPY_HEADER_BYTES = 4096
 
 
 class PolicyFileError(ValueError):
@@ -47,20 +72,24 @@ class Agent:
     q: np.ndarray
     outputs: tuple
     info: dict = dataclasses.field(default_factory=dict)
+    tie_tolerance: float = TIE_TOLERANCE
 
     def __post_init__(self):
-        self.actions = np.asarray(self.actions, dtype=float)
-        self.q = np.asarray(self.q, dtype=float)
+        self.actions = _real(self.actions, f"agent {self.name}: actions")
+        self.q = _real(self.q, f"agent {self.name}: Q")
         self.outputs = tuple(self.outputs)
+        tol = self.tie_tolerance
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 <= tol < 1:
+            raise ValueError(f"agent {self.name}: tie tolerance must be a number in [0, 1), "
+                             f"got {tol!r}")
+        self.tie_tolerance = float(tol)
         if self.actions.ndim != 2 or self.actions.shape[1] != len(self.outputs):
             raise ValueError(f"agent {self.name}: actions must have shape (N_U, "
                              f"{len(self.outputs)}), got {self.actions.shape}")
         if self.q.shape != (self.grid.size, len(self.actions)):
             raise ValueError(f"agent {self.name}: Q must have shape "
                              f"({self.grid.size}, {len(self.actions)}), got {self.q.shape}")
-        if not np.all(np.isfinite(self.q)):
-            raise ValueError(f"agent {self.name}: Q contains NaN or infinite values")
-        self._greedy = self.actions[np.argmax(self.q, axis=1)]
+        self._greedy = self.actions[greedy_indices(self.q, self.tie_tolerance)]
 
     @property
     def inputs(self) -> tuple:
@@ -68,7 +97,8 @@ class Agent:
 
     @property
     def greedy_actions(self) -> np.ndarray:
-        """argmax_u Q(m, u) for every bin m, shape (N_X, len(outputs))."""
+        """argmax_u Q(m, u) for every bin m, ties within the tolerance to the first action;
+        shape (N_X, len(outputs))."""
         return self._greedy
 
     def act(self, points: np.ndarray) -> np.ndarray:
@@ -78,6 +108,36 @@ class Agent:
     def q_values(self, points: np.ndarray) -> np.ndarray:
         """Interpolated Q-values (12) of points (..., d): shape (..., N_U)."""
         return self.grid.interpolate(self.q, points)
+
+
+def greedy_indices(q: np.ndarray, tolerance: float = TIE_TOLERANCE) -> np.ndarray:
+    """Index of the greedy action of every row of Q (N_X, N_U): the first action whose Q
+    lies within ``tolerance`` of the row's best (``tolerance=0``: plain ``argmax``)."""
+    q = np.asarray(q, dtype=float)
+    return np.argmax(q >= q.max(axis=1, keepdims=True) - tolerance, axis=1)
+
+
+def _real(value, what: str) -> np.ndarray:
+    """``value`` as a float array; a ValueError unless it holds finite real numbers."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":
+        raise ValueError(f"{what} must hold real numbers, got dtype {arr.dtype}")
+    arr = arr.astype(float)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} contains NaN or infinite values")
+    return arr
+
+
+def _content_hash(header: dict, q_tables: dict) -> str:
+    """sha256 of the header (without its hash, canonical JSON) and the Q-tables (float64,
+    little-endian, C order, in the header's agent order)."""
+    body = {k: v for k, v in header.items() if k != "sha256"}
+    h = hashlib.sha256(json.dumps(body, sort_keys=True, allow_nan=False).encode())
+    for entry in header["agents"]:
+        q = np.ascontiguousarray(q_tables[entry["name"]], dtype="<f8")
+        h.update(entry["name"].encode() + b"\0" + repr(q.shape).encode() + b"\0")
+        h.update(q.tobytes())
+    return h.hexdigest()
 
 
 class Policy:
@@ -128,56 +188,129 @@ class Policy:
             "kind": self.kind,
             "meta": self.meta,
             "agents": [{"name": a.name, "grid": a.grid.as_dict(), "outputs": list(a.outputs),
-                        "actions": a.actions.tolist(), "info": a.info} for a in self.agents],
+                        "actions": a.actions.tolist(), "q_shape": list(a.q.shape),
+                        "tie_tolerance": a.tie_tolerance, "info": a.info}
+                       for a in self.agents],
         }
 
     def save(self, path: os.PathLike) -> Path:
-        """Write the policy atomically (a temporary file, then a rename)."""
+        """Write the policy atomically (a temporary file, then a rename), with its sha256."""
         path = Path(path)
-        arrays = {f"q_{a.name}": a.q for a in self.agents}
-        header = np.array(json.dumps(self.header(), sort_keys=True))
+        header = self.header()
+        header["sha256"] = _content_hash(header, {a.name: a.q for a in self.agents})
+        arrays = {f"q_{a.name}": np.ascontiguousarray(a.q, dtype="<f8") for a in self.agents}
+        text = np.array(json.dumps(header, sort_keys=True, allow_nan=False))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
-                np.savez_compressed(fh, header=header, **arrays)
+                np.savez_compressed(fh, header=text, **arrays)
         return path
 
     @classmethod
     def load(cls, path: os.PathLike) -> "Policy":
-        """Load a policy file, refusing anything that is not a well-formed twolink policy."""
+        """Load a policy file, refusing anything that is not a well-formed twolink policy.
+
+        Sizes are checked against the header before any Q-table is decompressed; the data
+        must be real and finite, and the content must match the file's sha256.
+        """
         path = Path(path)
         if not path.is_file():
             raise PolicyFileError(f"policy file {path} does not exist")
         try:
-            with np.load(path, allow_pickle=False) as npz:
-                files = {k: npz[k] for k in npz.files}
-        except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-            raise PolicyFileError(f"{path} is not a twolink policy file (not a readable "
-                                  f".npz archive: {exc})") from None
-        try:
-            header = json.loads(str(files["header"]))
-        except (KeyError, json.JSONDecodeError):
-            raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)") \
-                from None
-        if not isinstance(header, dict) or header.get("format") != FORMAT:
-            raise PolicyFileError(f"{path} is not a twolink policy file "
-                                  f"(format {header.get('format') if isinstance(header, dict) else None!r})")
-        if header.get("format_version") != FORMAT_VERSION:
-            raise PolicyFileError(f"{path}: unsupported policy format version "
-                                  f"{header.get('format_version')!r} (expected {FORMAT_VERSION})")
-        agents = []
-        try:
-            for entry in header["agents"]:
-                key = f"q_{entry['name']}"
-                if key not in files:
-                    raise PolicyFileError(f"{path}: Q-table of agent {entry['name']} is missing")
-                agents.append(Agent(entry["name"], Grid.from_dict(entry["grid"]),
-                                    np.asarray(entry["actions"], dtype=float), files[key],
-                                    tuple(entry["outputs"]), entry.get("info", {})))
-            return cls(header["kind"], agents, header.get("meta", {}))
+            with zipfile.ZipFile(path) as zf:
+                header, q_tables = _read_policy_archive(zf, path)
         except PolicyFileError:
             raise
+        except (OSError, ValueError, zipfile.BadZipFile, EOFError, RuntimeError) as exc:
+            raise PolicyFileError(f"{path} is not a twolink policy file (not a readable "
+                                  f".npz archive: {exc})") from None
+        if _content_hash(header, q_tables) != header.get("sha256"):
+            raise PolicyFileError(f"{path}: content does not match the file's sha256 (the "
+                                  f"header or a Q-table was edited or corrupted)")
+        try:
+            agents = [Agent(e["name"], Grid.from_dict(e["grid"]),
+                            _real(e["actions"], f"agent {e['name']}: actions"),
+                            q_tables[e["name"]], tuple(e["outputs"]), e.get("info", {}),
+                            e["tie_tolerance"])
+                      for e in header["agents"]]
+            return cls(header["kind"], agents, header.get("meta", {}))
         except (KeyError, TypeError, ValueError) as exc:
             raise PolicyFileError(f"{path}: malformed twolink policy ({exc})") from None
+
+
+def _member_size(zf: zipfile.ZipFile, name: str, limit: int, path: Path, what: str,
+                 needs: str = "a policy file allows") -> None:
+    """Refuse a member whose declared uncompressed size exceeds ``limit`` (reading never
+    goes past the declared size, so this check holds before anything is decompressed)."""
+    size = zf.getinfo(name).file_size
+    if size > limit:
+        raise PolicyFileError(f"{path}: {what} ({name}) holds {size} bytes uncompressed, more "
+                              f"than the {limit} {needs}; refused before decompressing")
+
+
+def _read_member(zf: zipfile.ZipFile, name: str) -> np.ndarray:
+    with zf.open(name) as fh:
+        return np.lib.format.read_array(fh, allow_pickle=False)
+
+
+def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
+    """The header and the Q-tables of a policy archive, each member's size checked first."""
+    names = set(zf.namelist())
+    if "header.npy" not in names:
+        raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)")
+    _member_size(zf, "header.npy", _MAX_HEADER_BYTES, path, "the header")
+    raw = _read_member(zf, "header.npy")
+    if raw.dtype.kind != "U" or raw.ndim != 0:
+        raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)")
+    try:
+        header = json.loads(str(raw))
+    except json.JSONDecodeError:
+        raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)") \
+            from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise PolicyFileError(f"{path} is not a twolink policy file "
+                              f"(format {header.get('format') if isinstance(header, dict) else None!r})")
+    version = header.get("format_version")
+    if version != FORMAT_VERSION:
+        hint = (" (written before policy files carried a sha256); re-synthesise it with "
+                "`twolink synthesize`" if isinstance(version, int) and version < FORMAT_VERSION
+                else "")
+        raise PolicyFileError(f"{path}: unsupported policy format version {version!r}, "
+                              f"expected {FORMAT_VERSION}{hint}")
+    try:
+        agents = header["agents"]
+        shapes = {e["name"]: tuple(int(n) for n in e["q_shape"]) for e in agents}
+        grid_sizes = {e["name"]: Grid.from_dict(e["grid"]).size for e in agents}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise PolicyFileError(f"{path}: malformed twolink policy ({exc})") from None
+    expected = {f"q_{n}.npy" for n in shapes} | {"header.npy"}
+    if names - expected:
+        raise PolicyFileError(f"{path}: unexpected members {sorted(names - expected)} in a "
+                              f"policy file")
+    q_tables = {}
+    for name, shape in shapes.items():
+        member = f"q_{name}.npy"
+        if member not in names:
+            raise PolicyFileError(f"{path}: Q-table of agent {name} is missing")
+        if len(shape) != 2 or shape[0] != grid_sizes[name] or min(shape) < 1:
+            raise PolicyFileError(f"{path}: agent {name}: Q must have shape "
+                                  f"({grid_sizes[name]}, N_U), header says {shape}")
+        nbytes = 8 * shape[0] * shape[1]
+        if nbytes > _MAX_Q_BYTES:
+            raise PolicyFileError(f"{path}: agent {name}: a Q-table of shape {shape} is "
+                                  f"larger than the {_MAX_Q_BYTES} bytes a policy may hold")
+        _member_size(zf, member, nbytes + _NPY_HEADER_BYTES, path, f"agent {name}'s Q-table",
+                     f"a float64 table of shape {shape} needs")
+        q = _read_member(zf, member)
+        if q.dtype != np.dtype("<f8"):
+            raise PolicyFileError(f"{path}: agent {name}: Q must hold float64 numbers, got "
+                                  f"dtype {q.dtype}")
+        if q.shape != shape:
+            raise PolicyFileError(f"{path}: agent {name}: Q must have shape {shape} "
+                                  f"(header), got {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise PolicyFileError(f"{path}: agent {name}: Q contains NaN or infinite values")
+        q_tables[name] = q
+    return header, q_tables
 
 
 def shipped_policies() -> list[str]:
