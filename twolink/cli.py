@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 import zipfile
 
@@ -31,9 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     try:
         parser = build_parser()
-    except (ImportError, RuntimeError, AttributeError) as exc:   # e.g. a bad MUJOCO_GL
-        print(f"twolink: error: cannot load MuJoCo ({type(exc).__name__}: {exc}); "
-              f"MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}", file=sys.stderr)
+    except ImportError as exc:   # a broken installation: one line, not a traceback
+        print(f"twolink: error: cannot load the commands ({exc})", file=sys.stderr)
         return 2
     args = parser.parse_args(argv)
     try:

@@ -1,19 +1,23 @@
 """Offscreen rendering of the arm with MuJoCo's EGL backend.
 
-The package sets ``MUJOCO_GL=egl`` before mujoco is imported (a user's own value wins),
-so the same code renders on an NVIDIA GPU or, without one, on Mesa's software EGL
-device. A frame shows the arm from the top camera, the goal region (the tip's reach
-over the 5 deg band, and link 1's band), optionally a translucent "ghost" arm (the
-simplified-model rollout of the same policy, so the model mismatch is visible) and a
-text overlay with time, torques and reward.
+The GL backend is chosen when the first renderer is made, not when mujoco is imported
+(:func:`use_gl_backend`): ``MUJOCO_GL`` if set (egl, osmesa or glfw), else EGL, so the
+same code renders on an NVIDIA GPU or, without one, on Mesa's software EGL device, and
+everything that does not render works without any GL library. A frame shows the arm
+from the top camera, the goal region (the tip's reach over the 5 deg band, and link 1's
+band), optionally a translucent "ghost" arm (the simplified-model rollout of the same
+policy, so the model mismatch is visible) and a text overlay with time, torques and
+reward.
 """
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
 import glob
+import importlib
 import math
 import os
+import sys
 
 import mujoco
 import numpy as np
@@ -33,6 +37,68 @@ _GOAL_Z = -0.028
 
 class RenderError(RuntimeError):
     """Headless rendering is impossible on this machine; the message says why in one line."""
+
+
+# --------------------------------------------------------------------------- GL backend
+#: MUJOCO_GL values a renderer can use: mujoco's GLContext module and dm_control's
+#: render-context class for each.
+_BACKENDS = {
+    "egl": ("mujoco.egl", "dm_control._render.pyopengl.egl_renderer", "EGLContext"),
+    "osmesa": ("mujoco.osmesa", "dm_control._render.pyopengl.osmesa_renderer",
+               "OSMesaContext"),
+    "glfw": ("mujoco.glfw", "dm_control._render.glfw_renderer", "GLFWContext"),
+}
+
+
+def gl_backend() -> str:
+    """The GL backend renderers use: ``MUJOCO_GL`` when set, else ``egl``."""
+    return (os.environ.get("MUJOCO_GL") or "egl").strip().lower()
+
+
+def _unavailable(exc: BaseException | None = None) -> RenderError:
+    return RenderError(f"headless rendering is unavailable: {diagnose(exc)}")
+
+
+def use_gl_backend() -> str:
+    """Bind mujoco's offscreen GL backend (:func:`gl_backend`) and return its name.
+
+    ``import twolink`` imports mujoco with ``MUJOCO_GL=disable`` so that importing never
+    touches a GL library; this completes what mujoco's ``gl_context`` module would have
+    done at import. Raises :class:`RenderError` with :func:`diagnose`'s line.
+    """
+    name = gl_backend()
+    if name not in _BACKENDS:
+        raise _unavailable()
+    try:
+        context = importlib.import_module(_BACKENDS[name][0]).GLContext
+    except Exception as exc:  # a missing library surfaces as several exception types
+        raise _unavailable(exc) from None
+    renderer_module = sys.modules[mujoco.Renderer.__module__]
+    renderer_module.gl_context.GLContext = context
+    mujoco.GLContext = context
+    return name
+
+
+def dm_control_context(*args, **kwargs):
+    """dm_control's render context on :func:`gl_backend` (what ``physics.render`` makes).
+
+    ``import twolink`` installs this as ``dm_control._render.Renderer``, so a dm_control
+    environment picks its GL backend at its first render, as :class:`Renderer` does.
+    """
+    from dm_control import _render
+
+    name = use_gl_backend()
+    try:
+        module, cls = _BACKENDS[name][1:]
+        context = getattr(importlib.import_module(module), cls)
+    except Exception as exc:
+        raise _unavailable(exc) from None
+    _render.Renderer, _render.BACKEND = context, name
+    _render.USING_GPU = name in ("egl", "glfw")
+    try:
+        return context(*args, **kwargs)
+    except Exception as exc:
+        raise _unavailable(exc) from None
 
 
 # --------------------------------------------------------------------------- diagnosis
@@ -57,7 +123,7 @@ def diagnose(exc: BaseException | None = None) -> str:
     """One line naming what stops headless EGL rendering (missing library, setting)."""
     fix = "run scripts/install-system-deps.sh as root, or apt-get install"
     backend = os.environ.get("MUJOCO_GL", "")
-    if backend.lower() != "egl":
+    if gl_backend() != "egl":
         return (f"MUJOCO_GL={backend!r} is set; headless rendering needs MUJOCO_GL=egl "
                 f"(unset it or set it to egl)")
     if not _loadable("libEGL.so.1"):
@@ -164,11 +230,12 @@ class Renderer:
                                        height=self.height, samples=samples).compile()
         self.data = mujoco.MjData(self.model)
         self._cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)
+        self._renderer = None
+        use_gl_backend()
         try:
             self._renderer = mujoco.Renderer(self.model, self.height, self.width)
         except Exception as exc:  # EGL/GL failures surface as several exception types
-            self._renderer = None
-            raise RenderError(f"headless rendering is unavailable: {diagnose(exc)}") from None
+            raise _unavailable(exc) from None
         self._font = None
 
     def close(self) -> None:
