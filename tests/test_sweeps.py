@@ -1,16 +1,24 @@
-"""Sweeps: batched path bit-for-bit against the one-rollout loop, Ray == local, resume."""
+"""Sweeps: batched path bit-for-bit against the one-rollout loop, Ray == local, resume,
+locking, torn lines, workers that die with their run."""
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
 from twolink.metrics import evaluation_set, settle_time, success
 from twolink.parameters import TABLE_I
-from twolink.perturbations import ActuationDelay, perturbed
+from reference_sweeps import reference_cell
+from twolink.perturbations import perturbed
 from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
 from twolink.rollout import rollout
-from twolink.sweeps import Cell, load_results, reference_cell, run_cells, run_sweep, states_of
+from twolink.sweep_store import SweepFile, SweepLocked
+from twolink.sweeps import Cell, load_results, run_cells, run_sweep, states_of
 
 pytestmark = pytest.mark.robustness
 
@@ -66,17 +74,6 @@ def test_perturbations_change_the_outcome():
                       Cell("centralized_full", "delay", 2.0, states="quick")])
     assert recs[0]["success_rate"] == 1.0
     assert recs[1]["success_rate"] < 1.0 and recs[2]["success_rate"] < 1.0
-
-
-def test_actuation_delay_shifts_the_torques():
-    policy = load_policy("centralized")
-    x = evaluation_set()[:3]
-    delayed = ActuationDelay(policy, 2)
-    outs = [delayed(x) for _ in range(3)]
-    assert np.all(outs[0] == 0) and np.all(outs[1] == 0)
-    assert np.array_equal(outs[2], policy(x))
-    with pytest.raises(ValueError, match="delay"):
-        ActuationDelay(policy, 1.5)
 
 
 @pytest.mark.parametrize("bad, match", [
@@ -145,9 +142,9 @@ def test_changed_policy_invalidates_stored_cells(tmp_path):
     assert len(redone) == len(cells)
 
 
-def test_corrupt_results_file_is_refused(tmp_path):
+def test_a_bad_line_in_the_middle_is_refused(tmp_path):
     path = tmp_path / "sweep.jsonl"
-    path.write_text('{"format": "twolink-sweep", "format_version": 1}\n{"key": 1\n')
+    path.write_text('{"format": "twolink-sweep", "format_version": 1}\n{"key": 1\n{}\n')
     with pytest.raises(ValueError, match="line 2"):
         run_sweep(_cells()[:1], path, executor="serial")
     (tmp_path / "x.jsonl").write_text("hello\n")
@@ -155,3 +152,102 @@ def test_corrupt_results_file_is_refused(tmp_path):
         load_results(tmp_path / "x.jsonl")
     with pytest.raises(ValueError, match="executor"):
         run_sweep(_cells()[:1], None, executor="mpi")
+
+
+@pytest.mark.parametrize("tail", ['{"key": "torn", "cel', '{"key": "torn"}\n', "\x00\x00"])
+def test_a_torn_last_line_is_dropped_reported_and_its_cell_rerun(tmp_path, capsys, tail):
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[:3]
+    whole = run_sweep(cells, path, executor="serial")
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines[:-1]) + tail)          # the last record torn mid-write
+    redone = []
+    again = run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    assert again == whole
+    assert [r["key"] for r in redone] == [cells[-1].key]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "torn last line (line 4" in err[0] and str(path) in err[0]
+    assert path.read_text() == "".join(lines)            # cut back, then appended to
+    assert load_results(path) == whole
+
+
+def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path):
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[:2]
+    whole = run_sweep(cells, path, executor="serial")
+    path.write_text(path.read_text().rstrip("\n"))
+    redone = []
+    assert run_sweep(cells, path, executor="serial", on_task=redone.extend) == whole
+    assert not redone and path.read_text().endswith("}\n")
+
+
+def test_a_second_run_on_a_locked_file_refuses_at_once(tmp_path):
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[:2]
+    with SweepFile(path):
+        t0 = time.perf_counter()
+        with pytest.raises(SweepLocked, match=f"{path}.*in use by another run \\(pid {os.getpid()}\\)"):
+            run_sweep(cells, path, executor="serial")
+        assert time.perf_counter() - t0 < 1.0
+        assert load_results(path) == {}                    # nothing computed, nothing written
+    run_sweep(cells, path, executor="serial")            # released on leaving the block
+    assert len(load_results(path)) == 2
+
+
+def test_results_come_back_in_cell_order_whatever_the_completion_order(tmp_path):
+    cells = _cells(duration=0.5)
+    done = run_sweep(cells[::-1], tmp_path / "s.jsonl", executor="serial")
+    again = run_sweep(cells, tmp_path / "s.jsonl", executor="serial")
+    assert list(again) == [c.key for c in cells]
+    assert list(done) == [c.key for c in cells[::-1]]
+
+
+_KILL_SCRIPT = """
+from twolink.sweeps import Cell, run_sweep
+cells = [Cell("centralized", "parameter", s / 100, "m1") for s in range(-40, 41)]
+run_sweep(cells, None, executor="local", workers=2)
+"""
+
+
+def _children(pid):
+    out = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid and fields[0] != "Z":
+                out.append(int(d))
+    return out
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_die_with_a_killed_run():
+    run = subprocess.Popen([sys.executable, "-c", _KILL_SCRIPT])
+    try:
+        deadline = time.monotonic() + 60
+        while len(_children(run.pid)) < 3 and time.monotonic() < deadline:   # 2 + tracker
+            time.sleep(0.2)
+        workers = _children(run.pid)
+        assert len(workers) >= 2, "the sweep started no workers"
+        time.sleep(2.0)                                   # workers initialised, computing
+    finally:
+        run.send_signal(signal.SIGKILL)
+        run.wait()
+    deadline = time.monotonic() + 15
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    survivors = [w for w in workers if _alive(w)]
+    for w in survivors:                                   # do not leave them behind
+        os.kill(w, signal.SIGKILL)
+    assert not survivors

@@ -82,7 +82,7 @@ class ArmTask(base.Task):
         super().__init__(random=random)
         self.params = params
         self._x0 = _check_x0(x0)
-        self._noise = ObservationNoise(angle_noise, speed_noise, rng=self.random)
+        self._noise = ObservationNoise(angle_noise, speed_noise, rngs=[self.random])  # one row
 
     def initialize_episode(self, physics):
         """Set x0: the paper's, random angles at rest, or the given one."""

@@ -1,13 +1,13 @@
 """Model mismatch and imperfect observation: perturbed parameters, state noise, delay.
 
-Shared by the robustness sweeps (``twolink mismatch``) and the dm_env tasks, so the
-same perturbation means the same thing everywhere. Randomness only through an injected
-``numpy.random.Generator``.
+One implementation of each perturbation, per batch row, shared by the dm_env tasks
+(:mod:`twolink.env`), rollouts and the robustness sweeps (:mod:`twolink.sweeps`), so the
+same perturbation means the same thing everywhere. Randomness only through injected
+generators, one per batch row: a row's noise never depends on which rows share its batch.
 """
 from __future__ import annotations
 
-import dataclasses
-from typing import Optional
+from typing import Sequence
 
 import numpy as np
 
@@ -31,28 +31,6 @@ def random_perturbation(rng: np.random.Generator, size: float,
     return perturbed(base, **{n: rng.uniform(-size, size) for n in names})
 
 
-@dataclasses.dataclass
-class ObservationNoise:
-    """Gaussian noise on the measured state: std of (angle [rad], speed [rad/s])."""
-
-    angle_std: float = 0.0
-    speed_std: float = 0.0
-    rng: Optional[np.random.Generator] = None
-
-    def __post_init__(self):
-        if not (np.isfinite(self.angle_std) and np.isfinite(self.speed_std)) or \
-                self.angle_std < 0 or self.speed_std < 0:
-            raise ValueError("noise standard deviations must be finite and non-negative")
-        if self.rng is None:
-            self.rng = np.random.default_rng(0)
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        if self.angle_std == 0 and self.speed_std == 0:
-            return x
-        std = np.array([self.angle_std, self.angle_std, self.speed_std, self.speed_std])
-        return x + std * self.rng.standard_normal(np.shape(x))
-
-
 def torque_limited(base: ArmParameters = TABLE_I, relative: float = 0.0) -> ArmParameters:
     """The plant's torque limits tau1_max and tau2_max both changed by ``relative``.
 
@@ -61,26 +39,78 @@ def torque_limited(base: ArmParameters = TABLE_I, relative: float = 0.0) -> ArmP
     return perturbed(base, tau1_max=relative, tau2_max=relative)
 
 
-class ActuationDelay:
-    """A policy whose torque reaches the plant ``samples`` sample periods late.
+def row_generators(entropy, rows: int) -> list[np.random.Generator]:
+    """``rows`` independent generators, row i's from ``SeedSequence(entropy).spawn``'s i-th child."""
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(entropy).spawn(rows)]
 
-    Until the first command arrives the actuators hold zero torque. Wraps a batched
-    policy; state lives in the wrapper, so make a new one per rollout.
+
+class ObservationNoise:
+    """Gaussian noise on the measured state, row by row.
+
+    Row i of a batch (B, 4) sees x_i + std_i * z_i, where std_i = (angle, angle, speed,
+    speed) std of that row and z_i is the next standard normal 4-vector of row i's own
+    generator ``rngs[i]``. Rows with zero std draw nothing. A single state (4,) is one row.
+    ``rngs`` may be numpy Generators or RandomStates (anything with ``standard_normal``).
     """
 
-    def __init__(self, policy, samples: int = 1):
-        if int(samples) != samples or samples < 0:
+    def __init__(self, angle_std=0.0, speed_std=0.0, *, rngs: Sequence):
+        angle = np.atleast_1d(np.asarray(angle_std, dtype=float))
+        speed = np.atleast_1d(np.asarray(speed_std, dtype=float))
+        if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(speed))) or \
+                np.any(angle < 0) or np.any(speed < 0):
+            raise ValueError("noise standard deviations must be finite and non-negative")
+        self.rngs = list(rngs)
+        rows = len(self.rngs)
+        try:
+            angle, speed = (np.broadcast_to(v, (rows,)) for v in (angle, speed))
+        except ValueError:
+            raise ValueError(f"{rows} generators for noise levels of {len(angle)} and "
+                             f"{len(speed)} rows") from None
+        self.std = np.stack([angle, angle, speed, speed], -1)            # (rows, 4)
+        self._noisy = np.flatnonzero(np.any(self.std > 0, axis=-1))
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The measured state(s): x (4,) or (rows, 4) plus this step's noise."""
+        if not len(self._noisy):
+            return x
+        x = np.asarray(x, dtype=float)
+        flat = x.reshape(-1, 4)
+        if len(flat) != len(self.rngs):
+            raise ValueError(f"{len(self.rngs)} noise generators for a batch of {len(flat)} states")
+        seen = flat.copy()
+        for i in self._noisy:
+            seen[i] += self.std[i] * self.rngs[i].standard_normal(4)
+        return seen.reshape(x.shape)
+
+
+class ActuationDelay:
+    """A batched policy whose torque reaches the plant late, row by row.
+
+    Row i gets the torque the policy computed ``samples[i]`` sample periods ago (one
+    number applies to every row); until that first command arrives its actuators hold
+    zero torque. State lives in the wrapper, so make a new one per rollout.
+    """
+
+    def __init__(self, policy, samples=1):
+        d = np.asarray(samples, dtype=float)
+        if not np.all(np.isfinite(d)) or np.any(d < 0) or np.any(d != np.round(d)):
             raise ValueError(f"delay must be a non-negative whole number of samples, got {samples}")
         self.policy = policy
-        self.samples = int(samples)
+        self.samples = d.astype(int)
         self.kind = getattr(policy, "kind", "")
-        self._queue: list = []
+        self._history: list = []
 
     def __call__(self, x) -> np.ndarray:
-        u = self.policy(x)
-        if self.samples == 0:
+        u = np.asarray(self.policy(x))
+        if not self.samples.any():
             return u
-        if not self._queue:
-            self._queue = [np.zeros_like(u)] * self.samples
-        self._queue.append(u)
-        return self._queue.pop(0)
+        self._history.append(u)
+        delays = np.broadcast_to(self.samples, u.shape[:-1])
+        out = np.zeros_like(u)
+        for d in np.unique(delays):
+            if len(self._history) > d:
+                rows = delays == d
+                out[rows] = self._history[-1 - d][rows]
+        del self._history[:-1 - int(self.samples.max())]
+        return out
+

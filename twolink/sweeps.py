@@ -15,12 +15,14 @@ state of an evaluation set. Families:
 Cells of one policy are concatenated into a single batch (many states x many plants),
 the policy is evaluated for the whole batch at once and MuJoCo advances it with
 ``mujoco.rollout`` on a thread pool (:class:`twolink.plants.MujocoPlant`). A result never
-depends on which cells share its batch (held bit-for-bit by tests against
-:func:`reference_cell`, a one-rollout-at-a-time loop).
+depends on which cells share its batch: noise and delay are the per-row perturbations
+of :mod:`twolink.perturbations`, each noisy row drawing from its own generator (held
+bit-for-bit by tests against a one-rollout-at-a-time reference loop).
 
-Tasks run in this process, on local worker processes, or on a Ray cluster; every finished
-task is added to a JSON-lines results file, rewritten atomically, so an interrupted
-sweep resumes without redoing finished cells and never leaves a corrupt file.
+Tasks run in this process, on local worker processes (which die with the run), or on a
+Ray cluster; every finished task is appended to a locked JSON-lines results file
+(:mod:`twolink.sweep_store`), so an interrupted sweep resumes without redoing finished
+cells and two runs never share one file.
 """
 from __future__ import annotations
 
@@ -31,30 +33,33 @@ import json
 import math
 import multiprocessing
 import os
+import sys
+import threading
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
 from tqdm import tqdm
 
-from twolink.artifacts import write_text
 from twolink.metrics import discounted_return, evaluation_set, settle_time, success
 from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
-from twolink.perturbations import (PERTURBABLE, ActuationDelay, perturbed, random_perturbation,
-                                   torque_limited)
+from twolink.perturbations import (PERTURBABLE, ActuationDelay, ObservationNoise, perturbed,
+                                   random_perturbation, row_generators, torque_limited)
 from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
-from twolink.rollout import rollout, steps_for
+from twolink.rollout import rollout
+from twolink.sweep_store import SweepFile, load_results  # noqa: F401  (re-exported)
 
 FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
 EXECUTORS = ("serial", "local", "ray")
 #: Evaluation sets a cell can use: all 65 states of SPEC.md, or every 13th (the paper's x0
 #: and 4 grid states) for quick runs.
 STATE_SETS = ("full", "quick")
-FORMAT = "twolink-sweep"
-FORMAT_VERSION = 1
 #: Speed noise std per degree of angle noise: 5 deg of angle noise <-> 0.1 rad/s.
-_SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
+SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
+#: Second word of a noise cell's seed: row i of the cell draws from the i-th child of
+#: ``SeedSequence([cell.seed, NOISE_STREAM])`` (every size of a seed sees the same normals).
+NOISE_STREAM = 7919
 #: Rows per batch a task aims for (more rows, fewer Python steps per MuJoCo step).
 _ROWS_PER_TASK = 1100
 
@@ -138,49 +143,11 @@ def _check_cell(c: Cell) -> None:
 
 
 # --------------------------------------------------------------------------- running
-class _Observer:
-    """Measured state seen by the policy: per-cell Gaussian noise from per-cell generators."""
-
-    def __init__(self, cells: Sequence[Cell], counts: Sequence[int]):
-        self.parts = []
-        start = 0
-        for c, n in zip(cells, counts):
-            if c.family == "noise" and c.size > 0:
-                std = np.array([1.0, 1.0, _SPEED_PER_DEG, _SPEED_PER_DEG]) * c.size
-                std[:2] = np.deg2rad(std[:2])
-                self.parts.append((slice(start, start + n), std,
-                                   np.random.default_rng([c.seed, 7919])))
-            start += n
-
-    def __call__(self, k, x):
-        if not self.parts:
-            return x
-        seen = np.array(x)
-        for rows, std, rng in self.parts:
-            seen[rows] += std * rng.standard_normal(seen[rows].shape)
-        return seen
-
-
-class _RowDelay:
-    """Per-row actuation delay: row i gets the torque computed ``delays[i]`` samples ago,
-    zero before that (:class:`twolink.perturbations.ActuationDelay`, row by row)."""
-
-    def __init__(self, policy, delays: np.ndarray):
-        self.policy = policy
-        self.kind = getattr(policy, "kind", "")
-        self.delays = delays.astype(int)
-        self._history: list = []
-
-    def __call__(self, x):
-        u = self.policy(x)
-        self._history.append(u)
-        out = np.zeros_like(u)
-        for d in np.unique(self.delays):
-            if len(self._history) > d:
-                rows = self.delays == d
-                out[rows] = self._history[-1 - d][rows]
-        del self._history[:-1 - int(self.delays.max())]
-        return out
+def _noise_rows(c: Cell, rows: int) -> tuple[np.ndarray, list]:
+    """Per-row angle noise std [deg] of a cell and its rows' generators (None: no noise)."""
+    level = c.size if c.family == "noise" else 0.0
+    rngs = row_generators([c.seed, NOISE_STREAM], rows) if level > 0 else [None] * rows
+    return np.full(rows, level), rngs
 
 
 def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dict] = None
@@ -204,11 +171,14 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
     x0 = np.concatenate(x0)
     delays = np.concatenate([np.full(n, c.size if c.family == "delay" else 0)
                              for c, n in zip(cells, counts)])
-    actor = _RowDelay(policy, delays) if delays.any() else policy
+    parts = [_noise_rows(c, n) for c, n in zip(cells, counts)]
+    level = np.concatenate([lv for lv, _ in parts])
+    noise = ObservationNoise(np.deg2rad(level), level * SPEED_PER_DEG,
+                             rngs=[g for _, rngs in parts for g in rngs])
     plant = MujocoPlant(plist, nthread=nthread)
     try:
-        traj = rollout(actor, plant, x0, duration=durations.pop(),
-                       observe=_Observer(cells, counts))
+        traj = rollout(ActuationDelay(policy, delays), plant, x0, duration=durations.pop(),
+                       observe=lambda k, x: noise(x))
     finally:
         plant.close()
     st, ok, ret = settle_time(traj), success(traj), discounted_return(traj)
@@ -216,78 +186,18 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
     for c, n in zip(cells, counts):
         rows = slice(start, start + n)
         start += n
-        out.append(_record(c, st[rows], ok[rows], ret[rows], policy_digest(policy)))
+        out.append(cell_record(c, st[rows], ok[rows], ret[rows], policy_digest(policy)))
     return out
 
 
-def _record(c: Cell, st, ok, ret, digest: str) -> dict:
+def cell_record(c: Cell, st, ok, ret, digest: str) -> dict:
+    """A cell's result: per-row settle times, successes, and their summaries (JSON-ready)."""
     return {"key": c.key, "cell": dataclasses.asdict(c), "rows": int(len(ok)),
             "policy_digest": digest,
             "success_rate": float(np.mean(ok)),
             "settle_times": [float(v) if math.isfinite(v) else None for v in st],
             "successes": [bool(v) for v in ok],
             "mean_return": math.fsum(float(v) for v in ret) / len(ret)}
-
-
-def reference_cell(c: Cell) -> dict:
-    """The slow, obviously correct path: one rollout per (plant, state), ``mj_step`` loops."""
-    policy = load_policy(c.policy)
-    plist, x0 = c.rows()
-    observe = _Observer([c], [len(x0)])
-    st, ok, ret = [], [], []
-    noise = [observe.parts[0][1], observe.parts[0][2]] if observe.parts else None
-    draws = None
-    if noise is not None:     # the batched path draws the whole cell's noise per step
-        steps = steps_for(c.duration)
-        draws = noise[1].standard_normal((steps, len(x0), 4)) * noise[0]
-    for i, (p, x) in enumerate(zip(plist, x0)):
-        plant = MujocoPlant(p, nthread=1)
-
-        class _Ref:
-            name = "mujoco"
-
-            def step(self, xx, uu):
-                return plant.step_reference(xx, uu)
-
-        seen = None if draws is None else (lambda k, xx, i=i: xx + draws[k, i])
-        actor = ActuationDelay(policy, int(c.size)) if c.family == "delay" else policy
-        tr = rollout(actor, _Ref(), x, duration=c.duration, observe=seen)
-        plant.close()
-        st.append(float(settle_time(tr)))
-        ok.append(bool(success(tr)))
-        ret.append(float(discounted_return(tr)))
-    return _record(c, np.array(st), np.array(ok), np.array(ret), policy_digest(policy))
-
-
-# --------------------------------------------------------------------------- results file
-def load_results(path: os.PathLike) -> dict:
-    """Finished cells of a results file, by key ({} when the file does not exist)."""
-    path = Path(path)
-    if not path.exists():
-        return {}
-    lines = path.read_text().splitlines()
-    try:
-        header = json.loads(lines[0]) if lines else None
-    except json.JSONDecodeError:
-        header = None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a twolink sweep results file")
-    if header.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{path}: unsupported sweep results version {header.get('format_version')!r}")
-    out = {}
-    for n, line in enumerate(lines[1:], start=2):
-        try:
-            rec = json.loads(line)
-            out[rec["key"]] = rec
-        except (json.JSONDecodeError, KeyError, TypeError):
-            raise ValueError(f"{path}: line {n} is not a sweep result") from None
-    return out
-
-
-def _save(path: Path, results: dict) -> None:
-    header = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION})
-    body = [json.dumps(r, sort_keys=True) for r in results.values()]
-    write_text(path, "\n".join([header] + body) + "\n")
 
 
 # --------------------------------------------------------------------------- executors
@@ -318,40 +228,46 @@ def _check_executor(executor: str, workers: int) -> None:
 
 
 def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
+              store: Optional[SweepFile] = None,
               executor: str = "local", workers: Optional[int] = None, nthread: int = 1,
               address: Optional[str] = None, progress: bool = False,
               digests: Optional[dict] = None,
               on_task: Optional[Callable[[list], None]] = None) -> dict:
-    """Run every cell not already in ``path``; returns all results by key.
+    """Run every cell not already stored; returns all results by key, in ``cells`` order.
 
-    ``executor``: ``serial`` (this process), ``local`` (worker processes) or ``ray``
-    (the cluster at ``address``, or an already initialised Ray, or a new local one).
-    Stored cells are reused only when their policy's digest matches ``digests`` (by
-    default the digests of the policies as they are now). The results file is rewritten atomically after every finished task.
+    Results go to an open ``store`` (:class:`twolink.sweep_store.SweepFile`), or to the
+    file ``path`` (opened and locked for the run), or nowhere. ``executor``: ``serial``
+    (this process), ``local`` (worker processes) or ``ray`` (the cluster at ``address``,
+    or an already initialised Ray, or a new local one). Stored cells are reused only when
+    their policy's digest matches ``digests`` (by default the digests of the policies as
+    they are now). Every finished task is appended to the file at once.
     """
     cells = list(dict.fromkeys(cells))
     workers = workers or max(1, (os.cpu_count() or 1) // nthread)
     _check_executor(executor, workers)
-    path = Path(path) if path is not None else None
-    if path is not None and not path.parent.is_dir():
-        raise OSError(f"cannot write {path}: directory {path.parent} does not exist")
-    results = load_results(path) if path is not None else {}
+    if store is None and path is not None:
+        with SweepFile(path) as opened:
+            if opened.note:
+                print(f"twolink: {opened.note}", file=sys.stderr)
+            return run_sweep(cells, store=opened, executor=executor, workers=workers,
+                             nthread=nthread, address=address, progress=progress,
+                             digests=digests, on_task=on_task)
     if digests is None:
         digests = {n: policy_digest(load_policy(n)) for n in {c.policy for c in cells}}
-    results = {k: r for k, r in results.items()      # policies changed since: redo those
+    stored = store.records if store is not None else {}
+    results = {k: r for k, r in stored.items()      # policies changed since: redo those
                if digests.get(r["cell"]["policy"], r.get("policy_digest"))
                == r.get("policy_digest")}
-    wanted = {c.key for c in cells}
     pending = [c for c in cells if c.key not in results]
     tasks = _tasks(pending)
     bar = tqdm(total=len(pending), desc="sweep cells", unit=" cells",
                disable=None if progress else True, leave=False)
 
     def done(records):
+        if store is not None:
+            store.append(records)
         for r in records:
             results[r["key"]] = r
-        if path is not None:
-            _save(path, results)
         bar.update(len(records))
         if on_task is not None:
             on_task(records)
@@ -361,22 +277,46 @@ def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
             for t in tasks:
                 done(run_cells(t, nthread=nthread))
         elif executor == "local":
-            ctx = multiprocessing.get_context("spawn")
-            with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)),
-                                        mp_context=ctx) as pool:
-                futures = [pool.submit(run_cells, t, nthread=nthread) for t in tasks]
-                try:
-                    for f in cf.as_completed(futures):
-                        done(f.result())
-                except BaseException:
-                    for f in futures:
-                        f.cancel()
-                    raise
+            _run_local(tasks, done, nthread=nthread, workers=workers)
         else:
             _run_ray(tasks, done, nthread=nthread, address=address, workers=workers)
     finally:
         bar.close()
-    return {k: v for k, v in results.items() if k in wanted}
+    return {c.key: results[c.key] for c in cells}
+
+
+def _die_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the run that started it ends, even by
+    SIGKILL (Linux: PR_SET_PDEATHSIG; elsewhere a thread watching the parent)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent:                     # the parent died before we asked
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent:
+            threading.Event().wait(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="twolink-parent-watch").start()
+
+
+def _run_local(tasks, done, *, nthread, workers) -> None:
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx,
+                                initializer=_die_with_parent,
+                                initargs=(os.getpid(),)) as pool:
+        futures = [pool.submit(run_cells, t, nthread=nthread) for t in tasks]
+        try:
+            for f in cf.as_completed(futures):
+                done(f.result())
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
 
 
 def _run_ray(tasks, done, *, nthread, address, workers) -> None:
