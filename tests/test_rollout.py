@@ -1,4 +1,4 @@
-"""Plants, closed-loop rollouts and the metrics of SPEC.md."""
+"""Closed-loop rollouts and the metrics of SPEC.md (the plants: test_plants.py)."""
 import numpy as np
 import pytest
 
@@ -6,7 +6,7 @@ from twolink.metrics import (discounted_return, evaluation_set, settle_time, suc
                              trajectory_gap)
 from twolink.parameters import GOAL_ANGLE, PAPER_X0, TS
 from twolink.plants import PLANTS, make_plant
-from twolink.rollout import Trajectory, rollout
+from twolink.rollout import MAX_DURATION, Trajectory, rollout, steps_for
 
 
 @pytest.mark.parametrize("name", ["centralized", "decentralized"])
@@ -19,23 +19,6 @@ def test_paper_policies_stabilise_the_simplified_plant(name, request):
     assert np.all(np.abs(s["final_offsets_deg"]) <= 5.0)
 
 
-def test_full_and_mujoco_plants_agree_to_round_off(rng):
-    x = rng.uniform(-3, 3, (300, 4))
-    tau = rng.uniform(-0.25, 0.25, (300, 2))
-    a = make_plant("full").step(x, tau)
-    b = make_plant("mujoco").step(x, tau)
-    d = a - b
-    d[:, :2] = (d[:, :2] + np.pi) % (2 * np.pi) - np.pi
-    assert np.abs(d).max() < 1e-12
-
-
-def test_batched_mujoco_equals_mj_step_loop(rng):
-    plant = make_plant("mujoco")
-    x = rng.uniform(-3, 3, (40, 4))
-    tau = rng.uniform(-0.2, 0.2, (40, 2))
-    np.testing.assert_array_equal(plant.step(x, tau), plant.step_reference(x, tau))
-
-
 def test_batched_rollout_equals_one_at_a_time(centralized):
     x0 = evaluation_set()[:6]
     plant = make_plant("simplified")
@@ -46,16 +29,9 @@ def test_batched_rollout_equals_one_at_a_time(centralized):
         np.testing.assert_array_equal(batch.u[i], one.u)
 
 
-def test_unknown_plant_and_bad_states():
+def test_unknown_plant():
     with pytest.raises(ValueError, match="unknown plant 'real'"):
         make_plant("real")
-    plant = make_plant("simplified")
-    with pytest.raises(ValueError, match="4 components"):
-        plant.step(np.zeros(3), np.zeros(2))
-    with pytest.raises(ValueError, match="NaN"):
-        plant.step(np.array([0.0, np.nan, 0.0, 0.0]), np.zeros(2))
-    with pytest.raises(ValueError, match="2 components"):
-        plant.step(np.zeros(4), np.zeros(3))
 
 
 def test_rollout_rejects_bad_x0(centralized):
@@ -66,6 +42,30 @@ def test_rollout_rejects_bad_x0(centralized):
         rollout(centralized, make_plant("simplified"), [np.nan, 0, 0, 0])
     with pytest.raises(ValueError, match="duration"):
         rollout(centralized, make_plant("simplified"), PAPER_X0, duration=-1)
+    with pytest.raises(ValueError, match="x0 has a speed of magnitude 100"):
+        rollout(centralized, make_plant("mujoco"), [0, 0, 100, 0])
+
+
+def test_horizon_is_bounded_before_allocating(centralized):
+    assert steps_for(MAX_DURATION) == round(MAX_DURATION / TS)
+    for duration in (1e12, MAX_DURATION + 1, float("inf")):
+        with pytest.raises(ValueError, match="duration must be"):
+            steps_for(duration)
+    with pytest.raises(ValueError, match=r"100000 states x 72000 sample periods need .* GiB"):
+        rollout(centralized, make_plant("simplified"), np.zeros((100000, 4)),
+                duration=MAX_DURATION)
+
+
+def test_trajectory_carries_label_and_kind(decentralized):
+    plant = make_plant("simplified")
+    tr = rollout(decentralized, plant, evaluation_set()[:3], duration=0.2,
+                 label="decentralized_propagated")
+    assert (tr.plant, tr.label, tr.kind) == ("simplified", "decentralized_propagated",
+                                             "decentralized")
+    row = tr[1]
+    assert (row.plant, row.label, row.kind) == (tr.plant, tr.label, tr.kind)
+    np.testing.assert_array_equal(row.x, tr.x[1])
+    assert rollout(decentralized, plant, PAPER_X0, duration=0.1).label == "decentralized"
 
 
 def _traj(inside):

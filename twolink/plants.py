@@ -2,11 +2,18 @@
 
 Every plant advances a batch of states (..., 4) by one sample period Ts under
 zero-order-hold torques (..., 2), with the conventions of SPEC.md (torques clipped,
-angles wrapped, speeds saturated at the end of the period).
+angles wrapped, speeds saturated at the end of the period). Plants are context managers
+(``with make_plant("mujoco") as plant:``); only the MuJoCo plant holds resources.
+
+States a plant accepts are finite, with angles within :data:`MAX_ANGLE` and speeds
+within :data:`SPEED_BOUND` times the plant's speed limit. A step that goes unstable (a
+MuJoCo warning, a non-finite state) raises :class:`SimulationError`; it never returns.
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
 from typing import Optional, Sequence
 
 import mujoco
@@ -18,16 +25,46 @@ from twolink.integrate import SUBSTEPS, finish_sample, sample_step
 from twolink.parameters import TABLE_I, TS, ArmParameters
 
 PLANTS = ("simplified", "full", "mujoco")
+#: Largest |angle| (rad) a plant accepts. Angles are wrapped at the end of every sample
+#: period, so a larger one can only be a typo (MuJoCo resets itself beyond 1e10).
+MAX_ANGLE = 1e3
+#: Largest |speed| a plant accepts, as a multiple of its speed limit (2 pi rad/s in
+#: Table I, so 62.8 rad/s). Speeds saturate at the limit after the first sample period.
+SPEED_BOUND = 10.0
 
 
-def check_states(x, *, what: str = "state") -> np.ndarray:
-    """A float array of shape (..., 4) with finite entries, or a clear ValueError."""
+class SimulationError(RuntimeError):
+    """A sample period that went unstable: a MuJoCo warning or a non-finite state.
+
+    ``rows`` are the flat batch rows concerned.
+    """
+
+    def __init__(self, message: str, rows=()):
+        super().__init__(message)
+        self.rows = tuple(int(r) for r in rows)
+
+
+def check_states(x, *, what: str = "state", speed_max=None) -> np.ndarray:
+    """A float array of shape (..., 4), finite, |angles| <= MAX_ANGLE and, when
+    ``speed_max`` is given, |speeds| <= SPEED_BOUND * speed_max; else a clear ValueError."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != 4:
         raise ValueError(f"{what} must have 4 components [theta1, theta2, dtheta1, dtheta2], "
                          f"got shape {x.shape}")
     if not np.all(np.isfinite(x)):
         raise ValueError(f"{what} contains NaN or infinite values")
+    big = np.abs(x[..., :2]).max(initial=0.0)
+    if big > MAX_ANGLE:
+        raise ValueError(f"{what} has an angle of magnitude {big:.4g} rad, beyond the "
+                         f"bound {MAX_ANGLE:g} rad")
+    if speed_max is not None:
+        bound = SPEED_BOUND * np.asarray(speed_max, dtype=float)
+        over = np.abs(x[..., 2:]) > bound
+        if np.any(over):
+            worst = np.abs(x[..., 2:])[over].max()
+            raise ValueError(f"{what} has a speed of magnitude {worst:.4g} rad/s, beyond the "
+                             f"bound {np.max(bound):.4g} rad/s ({SPEED_BOUND:g} x the speed "
+                             f"limit)")
     return x
 
 
@@ -40,6 +77,40 @@ def check_torques(tau) -> np.ndarray:
     return tau
 
 
+def _fmt_state(x) -> str:
+    return "[" + ", ".join(f"{v:+.4g}" for v in np.asarray(x).ravel()) + "]"
+
+
+# --------------------------------------------------------------------------- MuJoCo state
+#: x = [qpos, qvel] inside MuJoCo's full-physics state [time, qpos, qvel] (checked on load).
+_TIME, _X = 0, slice(1, 5)
+
+
+def _check_layout(model: mujoco.MjModel) -> None:
+    size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    if (model.nq, model.nv, model.na, size) != (2, 2, 0, 5):
+        raise RuntimeError(f"unexpected MuJoCo state layout (nq={model.nq}, nv={model.nv}, "
+                           f"na={model.na}, full physics size {size})")
+
+
+def physics_state(x: np.ndarray) -> np.ndarray:
+    """Full-physics states (n, 5) at time 0 for states x (n, 4)."""
+    state = np.zeros((len(x), 5))
+    state[:, _X] = x
+    return state
+
+
+def set_data(data: mujoco.MjData, x) -> None:
+    """Put the state x (4,) into ``data`` (qpos, qvel)."""
+    data.qpos[:] = x[:2]
+    data.qvel[:] = x[2:]
+
+
+def data_state(data: mujoco.MjData) -> np.ndarray:
+    """The state x (4,) of ``data``."""
+    return np.concatenate([data.qpos, data.qvel])
+
+
 def substeps_per_sample(model: mujoco.MjModel) -> int:
     """MuJoCo timesteps in one sample period Ts (the MJCF sets timestep = Ts / SUBSTEPS)."""
     return int(round(TS / model.opt.timestep))
@@ -47,12 +118,42 @@ def substeps_per_sample(model: mujoco.MjModel) -> int:
 
 def finish_data(p: ArmParameters, data: mujoco.MjData) -> np.ndarray:
     """End a sample period on an ``MjData`` in place (:func:`finish_sample`); returns x."""
-    x = finish_sample(p, np.concatenate([data.qpos, data.qvel]))
-    data.qpos[:] = x[:2]
-    data.qvel[:] = x[2:]
+    x = finish_sample(p, data_state(data))
+    set_data(data, x)
     return x
 
 
+_warn_lock = threading.Lock()
+_warn_depth = 0
+_warn_previous = None
+_warn_messages: list = []
+
+
+@contextlib.contextmanager
+def mujoco_warnings():
+    """Collect MuJoCo's warning messages (a list) instead of printing them and appending
+    to MUJOCO_LOG.TXT; the previous handler is restored afterwards."""
+    global _warn_depth, _warn_previous
+    with _warn_lock:
+        if _warn_depth == 0:
+            _warn_previous = mujoco.get_mju_user_warning()
+            _warn_messages.clear()
+            mujoco.set_mju_user_warning(_warn_messages.append)
+        _warn_depth += 1
+        start = len(_warn_messages)
+    mine: list = []
+    try:
+        yield mine
+    finally:
+        with _warn_lock:
+            mine.extend(_warn_messages[start:])
+            _warn_depth -= 1
+            if _warn_depth == 0:
+                mujoco.set_mju_user_warning(_warn_previous)
+                _warn_previous = None
+
+
+# --------------------------------------------------------------------------- plants
 class Plant:
     """A discrete-time plant x_{k+1} = f(x_k, tau_k) with sample time Ts."""
 
@@ -60,14 +161,35 @@ class Plant:
 
     def __init__(self, params: ArmParameters = TABLE_I):
         self.params = params
+        self._speed_max = params.speed_max
+
+    def check_states(self, x, *, what: str = "state") -> np.ndarray:
+        """``x`` as a float array, or a ValueError if this plant refuses it."""
+        return check_states(x, what=what, speed_max=self._speed_max)
 
     def step(self, x, tau) -> np.ndarray:
-        x = check_states(x)
+        x = self.check_states(x)
         tau = np.broadcast_to(check_torques(tau), x.shape[:-1] + (2,))
-        return self._step(x, tau)
+        out = self._step(x, tau)
+        bad = ~np.all(np.isfinite(out), axis=-1).reshape(-1)
+        if bad.any():
+            rows = np.flatnonzero(bad)
+            raise SimulationError(
+                f"the {self.name} plant reached a non-finite state from "
+                f"x = {_fmt_state(x.reshape(-1, 4)[rows[0]])} (batch row {rows[0]})", rows)
+        return out
 
     def _step(self, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
         raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the plant holds (nothing for the numpy plants)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 class ModelPlant(Plant):
@@ -84,13 +206,15 @@ class ModelPlant(Plant):
             self._accel = (lambda p, x, tau: dynamics.full_acceleration(p, x, tau, gravity=gravity))
 
     def _step(self, x, tau):
-        return sample_step(self._accel, self.params, x, tau, substeps=self.substeps)
+        with np.errstate(all="ignore"):      # a blow-up is reported by step(), once
+            return sample_step(self._accel, self.params, x, tau, substeps=self.substeps)
 
 
 class MujocoPlant(Plant):
     """The MJCF arm stepped by MuJoCo, a whole batch per call through ``mujoco.rollout``.
 
     ``params`` may be a sequence (one parameter set per batch row) for perturbed models.
+    Holds a thread pool: use it as a context manager or call :meth:`close`.
     """
 
     name = "mujoco"
@@ -99,7 +223,11 @@ class MujocoPlant(Plant):
                  nthread: Optional[int] = None):
         self.per_row = not isinstance(params, ArmParameters)
         plist = list(params) if self.per_row else [params]
-        super().__init__(plist[0] if not self.per_row else plist)
+        if not plist:
+            raise ValueError("no parameter sets given")
+        self._pool = None
+        Plant.__init__(self, plist[0])
+        self.params = plist if self.per_row else plist[0]
         self._plist = plist
         built: dict = {}        # one compiled model per distinct parameter set
         self.models = [built[p] if p in built else built.setdefault(p, mjcf.build_model(p))
@@ -109,10 +237,8 @@ class MujocoPlant(Plant):
         self._speed_max = (np.stack([p.speed_max for p in plist]) if self.per_row
                            else plist[0].speed_max)
         self.model = self.models[0]
+        _check_layout(self.model)
         self.nstep = substeps_per_sample(self.model)
-        self.nstate = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        if self.nstate != 1 + self.model.nq + self.model.nv:
-            raise RuntimeError("unexpected MuJoCo state layout")
         self.nthread = max(1, nthread if nthread is not None else (os.cpu_count() or 1))
         self._datas = [mujoco.MjData(self.model) for _ in range(self.nthread)]
         self._pool = mj_rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)
@@ -129,39 +255,34 @@ class MujocoPlant(Plant):
             pass
 
     def _step(self, x, tau):
+        if self._pool is None:
+            raise RuntimeError("the mujoco plant is closed")
         batch = x.shape[:-1]
         xf = x.reshape(-1, 4)
         n = len(xf)
         if self.per_row and n != len(self._plist):
             raise ValueError(f"{len(self._plist)} parameter sets for a batch of {n} states")
         tau = np.clip(tau.reshape(-1, 2), -self._tau_max, self._tau_max)
-        state0 = np.zeros((n, self.nstate))
-        state0[:, 1:3] = xf[:, :2]
-        state0[:, 3:5] = xf[:, 2:]
         control = np.repeat(tau[:, None, :], self.nstep, axis=1)
         models = self.models if self.per_row else self.model
-        state, _ = self._pool.rollout(models, self._datas, state0, control,
-                                      nstep=self.nstep, skip_checks=False)
-        out = finish_sample(self._plist[0], state[:, -1, 1:5], speed_max=self._speed_max)
+        with mujoco_warnings() as messages:
+            state, _ = self._pool.rollout(models, self._datas, physics_state(xf), control,
+                                          nstep=self.nstep, skip_checks=False)
+        end = state[:, -1]
+        # After a warning MuJoCo resets the row and the rollout stops, so its clock
+        # falls short of the sample period.
+        timestep = np.array([m.opt.timestep for m in self.models]) if self.per_row \
+            else self.model.opt.timestep
+        bad = (end[:, _TIME] < (self.nstep - 0.5) * timestep) | ~np.all(np.isfinite(end), -1)
+        if bad.any() or messages:
+            rows = np.flatnonzero(bad)
+            where = (f"from x = {_fmt_state(xf[rows[0]])}, tau = {_fmt_state(tau[rows[0]])} "
+                     f"(batch row {rows[0]}{f' and {len(rows) - 1} more' if len(rows) > 1 else ''})"
+                     if len(rows) else f"in a batch of {n} states")
+            why = f": {messages[0].strip()}" if messages else ""
+            raise SimulationError(f"MuJoCo went unstable {where}{why}", rows)
+        out = finish_sample(self._plist[0], end[:, _X], speed_max=self._speed_max)
         return out.reshape(batch + (4,))
-
-    def step_reference(self, x, tau) -> np.ndarray:
-        """The same sample period with ``mj_step`` in a plain loop over states (for tests)."""
-        x = check_states(x)
-        tau = np.broadcast_to(check_torques(tau), x.shape[:-1] + (2,))
-        xf, tf = x.reshape(-1, 4), tau.reshape(-1, 2)
-        out = np.empty_like(xf)
-        for i in range(len(xf)):
-            model = self.models[i] if self.per_row else self.model
-            p = self._plist[i] if self.per_row else self._plist[0]
-            data = mujoco.MjData(model)
-            data.qpos[:] = xf[i, :2]
-            data.qvel[:] = xf[i, 2:]
-            data.ctrl[:] = np.clip(tf[i], -p.tau_max, p.tau_max)
-            for _ in range(self.nstep):
-                mujoco.mj_step(model, data)
-            out[i] = finish_data(p, data)
-        return out.reshape(x.shape)
 
 
 def make_plant(name: str, params: ArmParameters = TABLE_I, **kwargs) -> Plant:

@@ -2,6 +2,9 @@
 
 At each sample k the policy sees x_k, the plant holds tau_k over Ts and returns x_{k+1};
 the rewards r_{k+1} of (15) and (17) are evaluated on x_{k+1}.
+
+Horizons are bounded: at most :data:`MAX_DURATION` seconds, and the trajectory arrays
+of a batch at most :data:`MAX_TRAJECTORY_BYTES`, checked before anything is allocated.
 """
 from __future__ import annotations
 
@@ -10,14 +13,25 @@ import dataclasses
 import numpy as np
 
 from twolink.parameters import HORIZON, TS
-from twolink.plants import Plant, check_states
+from twolink.plants import Plant, SimulationError, check_states
 from twolink.reward import agent_reward, centralized_reward
+
+#: Longest horizon a rollout accepts: one hour, 72 000 sample periods.
+MAX_DURATION = 3600.0
+#: Memory budget of one rollout's trajectory arrays (states, torques, rewards).
+MAX_TRAJECTORY_BYTES = 2 * 2**30
+#: Bytes per batch row and sample: x (4), u (2), r (1), r_links (2) as float64.
+_BYTES_PER_SAMPLE = 9 * 8
 
 
 @dataclasses.dataclass
 class Trajectory:
     """Times (K+1,), states (..., K+1, 4), torques (..., K, 2), rewards (..., K) of (15)
-    and per-link rewards (..., K, 2) of (17)."""
+    and per-link rewards (..., K, 2) of (17).
+
+    ``label`` names the policy (``decentralized_propagated``, a file's stem), ``kind`` says
+    what it is (``centralized`` (16) or ``decentralized`` (18), whose reward is (17)).
+    """
 
     t: np.ndarray
     x: np.ndarray
@@ -25,7 +39,8 @@ class Trajectory:
     r: np.ndarray
     r_links: np.ndarray
     plant: str = ""
-    policy: str = ""
+    label: str = ""
+    kind: str = ""
 
     @property
     def steps(self) -> int:
@@ -33,26 +48,43 @@ class Trajectory:
 
     def __getitem__(self, i) -> "Trajectory":
         """The trajectory of batch row ``i``."""
-        return Trajectory(self.t, self.x[i], self.u[i], self.r[i], self.r_links[i],
-                          self.plant, self.policy)
+        return dataclasses.replace(self, x=self.x[i], u=self.u[i], r=self.r[i],
+                                   r_links=self.r_links[i])
 
 
-def steps_for(duration: float) -> int:
-    """Number of sample periods in ``duration`` seconds."""
+def steps_for(duration: float, *, rows: int = 1) -> int:
+    """Number of sample periods in ``duration`` seconds, for a batch of ``rows`` states;
+    a ValueError beyond :data:`MAX_DURATION` or :data:`MAX_TRAJECTORY_BYTES`."""
     if not np.isfinite(duration) or duration <= 0:
         raise ValueError(f"duration must be a positive number of seconds, got {duration}")
-    return max(1, int(round(duration / TS)))
+    if duration > MAX_DURATION:
+        raise ValueError(f"duration must be at most {MAX_DURATION:g} s "
+                         f"({round(MAX_DURATION / TS)} sample periods), got {duration:g}")
+    n = max(1, int(round(duration / TS)))
+    need = rows * (n + 1) * _BYTES_PER_SAMPLE
+    if need > MAX_TRAJECTORY_BYTES:
+        raise ValueError(f"{rows} states x {n} sample periods need {need / 2**30:.1f} GiB of "
+                         f"trajectory arrays, over the {MAX_TRAJECTORY_BYTES / 2**30:g} GiB "
+                         f"budget; shorten the duration or the batch")
+    return n
 
 
-def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON,
-            observe=None) -> Trajectory:
+def _fmt(x) -> str:
+    return "[" + ", ".join(f"{v:+.4g}" for v in np.asarray(x).ravel()) + "]"
+
+
+def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None,
+            label: str | None = None) -> Trajectory:
     """Run ``policy`` on ``plant`` from x0 (4,) or a batch (B, 4) for ``duration`` seconds.
 
     ``observe(k, x)`` may return the state the policy sees (for noise or delays); by
-    default it sees the true state.
+    default it sees the true state. ``label`` names the policy in the trajectory (default:
+    its kind). A plant that goes unstable raises :class:`SimulationError` naming the
+    initial state and the time.
     """
-    x0 = check_states(x0, what="x0")
-    n = steps_for(duration)
+    check = getattr(plant, "check_states", None)
+    x0 = check(x0, what="x0") if check is not None else check_states(x0, what="x0")
+    n = steps_for(duration, rows=int(np.prod(x0.shape[:-1], dtype=int)))
     xs = np.empty(x0.shape[:-1] + (n + 1, 4))
     us = np.empty(x0.shape[:-1] + (n, 2))
     x = x0
@@ -60,10 +92,17 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON,
     for k in range(n):
         seen = x if observe is None else observe(k, x)
         u = policy(seen)
-        x = plant.step(x, u)
+        try:
+            x = plant.step(x, u)
+        except SimulationError as exc:
+            row = exc.rows[0] if exc.rows else 0
+            start = x0.reshape(-1, 4)[row] if x0.ndim > 1 else x0
+            raise SimulationError(f"rollout from x0 = {_fmt(start)} failed at "
+                                  f"t = {k * TS:.2f} s: {exc}", exc.rows) from None
         us[..., k, :] = u
         xs[..., k + 1, :] = x
     nxt = xs[..., 1:, :]
     r_links = np.stack([agent_reward(nxt, 1), agent_reward(nxt, 2)], -1)
+    kind = getattr(policy, "kind", "")
     return Trajectory(np.arange(n + 1) * TS, xs, us, centralized_reward(nxt), r_links,
-                      getattr(plant, "name", ""), getattr(policy, "kind", ""))
+                      getattr(plant, "name", ""), kind if label is None else label, kind)
