@@ -2,12 +2,15 @@
 import numpy as np
 import pytest
 
-from twolink.fqi import fuzzy_q_iteration, fuzzy_q_iteration_reference, transition_matrix
-from twolink.fuzzy import Axis, Grid
+from reference_fqi import dense_memberships, fuzzy_q_iteration_reference
+from twolink import fqi
+from twolink.fqi import fuzzy_q_iteration, transition_matrix
+from twolink.fuzzy import Axis, Grid, angle_axis, speed_axis, torque_axis
 from twolink.integrate import sample_step
 from twolink.dynamics import simplified_acceleration
 from twolink.parameters import TABLE_I
 from twolink.reward import agent_reward
+from twolink.synthesis import agent1_problem, agent2_problem, solve
 
 
 def _small_problem():
@@ -32,6 +35,63 @@ def test_vectorised_sweeps_equal_alg1_loop():
     np.testing.assert_allclose(res.q, q_ref, rtol=0, atol=1e-12)
     assert res.history[-1] <= 0.01 < res.history[-2]
     assert res.history[0] == pytest.approx(0.5)   # Q_1 = rho, Q_0 = 0
+
+
+def _coarse_agent1(context):
+    """Agent 1's problem (its grid includes the tau2 torque axis) on a coarse state grid."""
+    axes = (Axis("theta1", tuple(np.deg2rad([-180, -60, 0, 30, 100])), circular=True),
+            Axis("dtheta1", tuple(np.deg2rad([-360, 0, 40, 360]))),
+            Axis("theta2", tuple(np.deg2rad([-180, -20, 0, 90])), circular=True))
+    agent2 = solve(agent2_problem())
+    return agent1_problem(agent2, context=context, axes=axes)
+
+
+@pytest.mark.parametrize("context", ["frozen", "propagated"])
+def test_vectorised_sweeps_equal_alg1_loop_on_a_grid_with_a_torque_axis(context):
+    problem = _coarse_agent1(context)
+    assert problem.grid.names == ("theta1", "dtheta1", "theta2", "tau2")
+    assert problem.grid.shape == (5, 4, 4, 3)
+    tau2_next = problem.next_points[..., 3]
+    if context == "propagated":      # the next tau2 falls between the torque bins
+        assert np.mean(~np.isin(tau2_next, [-0.1, 0.0, 0.1])) > 0.3
+    q_ref, it_ref = fuzzy_q_iteration_reference(problem.grid, problem.next_points,
+                                                problem.rewards)
+    res = fuzzy_q_iteration(transition_matrix(problem.grid, problem.next_points),
+                            problem.rewards)
+    assert res.converged and res.iterations == it_ref
+    np.testing.assert_allclose(res.q, q_ref, rtol=0, atol=1e-12)
+
+
+def test_transition_rows_equal_the_printed_memberships_on_agent1s_grid(rng):
+    """Rows of T on the paper's agent-1 grid (theta1, dtheta1, theta2, tau2), propagated
+    context, against the memberships of (13) computed independently."""
+    agent2 = solve(agent2_problem())
+    problem = agent1_problem(agent2, context="propagated")
+    t = transition_matrix(problem.grid, problem.next_points).toarray()
+    n_u = problem.rewards.shape[1]
+    for row in rng.choice(t.shape[0], 200, replace=False):
+        m, j = divmod(row, n_u)
+        np.testing.assert_allclose(t[row], dense_memberships(problem.grid,
+                                                             problem.next_points[m, j]),
+                                   rtol=0, atol=1e-14)
+
+
+def test_reference_memberships_follow_the_fast_path_on_the_paper_axes(rng):
+    grid = Grid((angle_axis("a"), speed_axis("s"), torque_axis("tau2", 0.1)))
+    pts = np.stack([rng.uniform(-7, 7, 300), rng.uniform(-8, 8, 300),
+                    rng.uniform(-0.2, 0.2, 300)], -1)
+    pts[:12, 0] = grid.axes[0].centers        # exactly on the centres, pi == -pi included
+    pts[12, 0] = np.pi
+    idx, w = grid.memberships(pts)
+    for p, i_row, w_row in zip(pts, idx, w):
+        fast = np.zeros(grid.size)
+        np.add.at(fast, i_row, w_row)
+        np.testing.assert_allclose(fast, dense_memberships(grid, p), rtol=0, atol=1e-12)
+
+
+def test_the_reference_lives_in_the_tests():
+    assert not hasattr(fqi, "fuzzy_q_iteration_reference")
+    assert not hasattr(fqi, "grid_dense_memberships")
 
 
 def test_transition_rows_are_memberships():

@@ -4,7 +4,8 @@ Q_{l+1}(m, u) = rho(c_m, u) + gamma * sum_m~ mu_m~(f(c_m, u)) max_u~ Q_l(m~, u~)
 
 The transitions f(c_m, u_j) of every (bin centre, action) pair are computed once and
 stored as a sparse membership matrix T of shape (N_X * N_U, N_X); each synchronous
-sweep is then one sparse matrix-vector product.
+sweep is then one sparse matrix-vector product. ``tests/reference_fqi.py`` holds the
+plain loop of Alg. 1 this is checked against.
 """
 from __future__ import annotations
 
@@ -103,35 +104,3 @@ def _row_max(q: np.ndarray, out: np.ndarray) -> np.ndarray:
     for j in range(1, q.shape[1]):
         np.maximum(out, q[:, j], out=out)
     return out
-
-
-def fuzzy_q_iteration_reference(grid: Grid, next_points: np.ndarray, rewards: np.ndarray,
-                                *, gamma: float = GAMMA, delta: float = DELTA,
-                                max_iterations: int = 10000) -> tuple[np.ndarray, int]:
-    """Alg. 1 as printed, with plain loops over m, u_j and m~ (slow; for tests)."""
-    n_x, n_u = rewards.shape
-    mu = [[grid_dense_memberships(grid, next_points[m, j]) for j in range(n_u)]
-          for m in range(n_x)]
-    q = np.zeros((n_x, n_u))
-    ell = 0
-    while True:
-        q_next = np.zeros_like(q)
-        for m in range(n_x):
-            for j in range(n_u):
-                total = 0.0
-                for m_t in range(n_x):
-                    total += mu[m][j][m_t] * max(q[m_t, u] for u in range(n_u))
-                q_next[m, j] = rewards[m, j] + gamma * total
-        ell += 1
-        change = np.max(np.abs(q_next - q))
-        q = q_next
-        if change <= delta or ell >= max_iterations:
-            return q, ell
-
-
-def grid_dense_memberships(grid: Grid, point: np.ndarray) -> np.ndarray:
-    """mu_m(point) for every bin m, as the product of per-axis memberships (13)."""
-    dense = np.ones(())
-    for k, axis in enumerate(grid.axes):
-        dense = np.multiply.outer(dense, axis.dense(point[k]))
-    return dense.reshape(-1)

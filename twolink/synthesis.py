@@ -102,20 +102,26 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
 
 def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
                    model: str = "simplified", context: str = "frozen", *,
-                   refine: int = 1) -> Problem:
+                   refine: int = 1, axes: Optional[tuple] = None) -> Problem:
     """Agent 1's MDP over (theta1, dtheta1, theta2, tau2), u = tau1 (see module docstring).
 
     ``agent2`` (agent 2's synthesised controller) is needed by the propagated context only.
-    ``refine`` subdivides the state bins; the tau2 axis stays the three torque values.
+    ``refine`` subdivides the state bins; ``axes`` replaces the paper's (theta1, dtheta1,
+    theta2) axes (coarse grids for tests). The tau2 axis stays the three torque values.
     """
     if context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of {', '.join(CONTEXTS)}")
     if context == "propagated" and agent2 is None:
         raise ValueError("the propagated context needs agent 2's controller")
+    if axes is None:
+        axes = (fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
+                fuzzy.angle_axis("theta2"))
+    if tuple(a.name for a in axes) != ("theta1", "dtheta1", "theta2"):
+        raise ValueError(f"agent 1's state axes must be theta1, dtheta1, theta2, got "
+                         f"{', '.join(a.name for a in axes)}")
     start = time.perf_counter()
     accel = _accel(model)
-    grid = fuzzy.Grid(_grid(fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
-                            fuzzy.angle_axis("theta2"), refine=refine).axes
+    grid = fuzzy.Grid(_grid(*axes, refine=refine).axes
                       + (fuzzy.torque_axis("tau2", p.tau2_max),))
     actions = _levels(p.tau1_max)[:, None]
     c = grid.centers()
