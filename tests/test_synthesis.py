@@ -1,0 +1,84 @@
+"""`twolink synthesize`: where policy files go, and re-synthesising the shipped ones."""
+import json
+
+import numpy as np
+import pytest
+
+from twolink.cli import main
+from twolink.commands import synthesize as synthesize_command
+from twolink.commands.synthesize import default_file_name
+from twolink.policy import Policy
+from twolink.registry import SHIPPED
+
+
+def test_default_names_are_the_registry_names():
+    for name, entry in SHIPPED.items():
+        assert default_file_name(entry.kind, entry.model, entry.context or "frozen") \
+            == f"{name}.npz"
+    assert default_file_name("decentralized", "full", "propagated") \
+        == "decentralized_full_propagated.npz"
+
+
+def test_default_output_is_a_new_file_in_the_cwd_and_shipped_files_stay(tmp_path, monkeypatch,
+                                                                        capsys):
+    shipped = {n: e.file.read_bytes() for n, e in SHIPPED.items()}
+    monkeypatch.chdir(tmp_path)
+    assert main(["synthesize", "decentralized", "--context", "propagated", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["path"] == "decentralized_propagated.npz"
+    pol = Policy.load(tmp_path / "decentralized_propagated.npz")
+    assert pol.meta["context"] == "propagated"
+    assert {n: e.file.read_bytes() for n, e in SHIPPED.items()} == shipped
+
+
+def test_an_existing_file_is_kept_unless_forced(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "centralized.npz").write_bytes(b"mine")
+    assert main(["synthesize", "centralized"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("twolink synthesize: error: centralized.npz exists; give --force to "
+                   "overwrite it or -o another file")
+    assert (tmp_path / "centralized.npz").read_bytes() == b"mine"
+    assert main(["synthesize", "centralized", "--force"]) == 0
+    assert Policy.load(tmp_path / "centralized.npz").kind == "centralized"
+
+
+def test_ship_rewrites_a_registry_policy_into_the_checkout(tmp_path, monkeypatch, capsys):
+    import twolink.resources
+    monkeypatch.setattr(twolink.resources, "shipped_policy_dir", lambda: tmp_path)
+    monkeypatch.setattr(synthesize_command, "source_checkout", lambda: tmp_path)
+    assert main(["synthesize", "--ship", "decentralized_full", "--json"]) == 0
+    written = Policy.load(tmp_path / "decentralized_full.npz")
+    original = Policy.load(_real_file("decentralized_full"))
+    assert written.meta["model"] == "full" and written.meta["context"] == "frozen"
+    for a, b in zip(written.agents, original.agents):
+        np.testing.assert_array_equal(a.q, b.q)
+    assert json.loads(capsys.readouterr().out)[0]["path"].endswith("decentralized_full.npz")
+
+
+def _real_file(name):
+    from twolink.resources import _package_dir
+    return _package_dir("twolink._policies") / f"{name}.npz"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--ship", "centralized", "centralized"], "--ship takes everything from the registry"),
+    (["--ship", "centralized", "--model", "full"], "--ship takes everything from the registry"),
+    (["--ship", "nonsense"], "unknown shipped policy 'nonsense'"),
+    ([], "give a policy kind"),
+    (["centralized", "--context", "propagated"], "--context applies to the decentralized"),
+])
+def test_bad_combinations_are_one_line_errors(tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(["synthesize", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("twolink synthesize: error:") and message in err
+    assert len(err.splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_ship_refuses_outside_a_source_checkout(monkeypatch, capsys):
+    shipped = SHIPPED["centralized"].file.read_bytes()
+    monkeypatch.setattr(synthesize_command, "source_checkout", lambda: None)
+    assert main(["synthesize", "--ship", "centralized"]) == 2
+    assert "installed package" in capsys.readouterr().err
+    assert SHIPPED["centralized"].file.read_bytes() == shipped
