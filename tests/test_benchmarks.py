@@ -120,3 +120,39 @@ def test_render_rows():
             "mp4 encoding 640x480"} <= names
     assert {r.section for r in rows} >= {"rendering: 320x240", "rendering: 640x480"}
     _positive_finite(rows)
+
+
+def test_one_throughput_measurement_for_the_report_and_the_benchmarks(monkeypatch):
+    from twolink import mismatch, throughput
+
+    assert rollouts.measure is throughput.measure and mismatch.measure is throughput.measure
+    calls = []
+
+    def spy(policy, x0, **kwargs):
+        calls.append((x0.shape, kwargs))
+        return throughput.measure(policy, x0, **kwargs)
+
+    monkeypatch.setattr(rollouts, "measure", spy)
+    rows, summary = rollouts.bench_rollouts(batch=4, duration=0.2, repeats=1, threads=[1])
+    assert calls == [((4, 4), dict(samples=4, nthread=1, repeats=1))]
+    by = _by_name(rows)
+    sec = "rollouts: mujoco, 1 thread"
+    assert by[(sec, "closed / open loop")].value == pytest.approx(
+        summary[1]["closed_steps_per_s"] / summary[1]["open_steps_per_s"], rel=1e-12)
+
+
+def test_throughput_figures_are_the_steps_over_the_times():
+    from twolink.throughput import measure
+
+    x0 = rollouts.initial_states(6) * 0.3
+    tp = measure(run_policy(), x0, samples=3, nthread=1, repeats=1)
+    d = tp.as_dict()
+    assert d["mujoco_steps"] == 6 * 3 * d["nstep"] and d["nstep"] == 10
+    assert d["closed_loop_steps_per_s"] == d["mujoco_steps"] / d["closed_loop_seconds"]
+    assert d["open_loop_steps_per_s"] == d["mujoco_steps"] / d["open_loop_seconds"]
+    assert d["ratio_closed_to_open"] == d["open_loop_seconds"] / d["closed_loop_seconds"]
+    assert 0 < d["policy_seconds"] < d["closed_loop_seconds"]
+    for bad in (dict(x0=x0[0]), dict(samples=0), dict(nthread=0), dict(samples=1.5)):
+        kwargs = dict(dict(x0=x0, samples=3, nthread=1), **bad)
+        with pytest.raises(ValueError):
+            measure(run_policy(), kwargs.pop("x0"), repeats=1, **kwargs)

@@ -1,12 +1,18 @@
 """Model-mismatch robustness: what the measurements establish, and the report's honesty."""
 import json
+import random
+import time
 
 import numpy as np
 import pytest
 
 from twolink.cli import main
 from twolink.metrics import evaluation_set, settle_time, success
-from twolink.mismatch import margin, margins
+from twolink.mismatch import THRESHOLD, margin, margins, robustness
+from twolink.mismatch_plan import CURVES, FAMILIES, PLANS, plan, report_order
+from twolink.mismatch_report import robustness_tables
+from twolink.registry import SHIPPED
+from twolink.sweep_store import SweepFile, load_results
 from twolink.parameters import TABLE_I
 from twolink.plants import MujocoPlant, make_plant
 from twolink.policy import load_policy
@@ -60,9 +66,11 @@ def test_margin_definition():
 def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     out = tmp_path / "report"
     rc = main(["mismatch", "--quick", "--json", "--out", str(out), "--executor", "serial",
-               "--policies", "centralized", "centralized_full"])
+               "--policies", "centralized_full", "centralized"])       # out of order
     assert rc == 0
     printed = json.loads(capsys.readouterr().out)
+    assert printed["plan"] == "quick" and list(printed["success_rate"]) == \
+        ["centralized", "centralized_full"]                          # registry order
     # success rates recomputed from fresh rollouts, not stored
     for name in ("centralized", "centralized_full"):
         assert printed["success_rate"][name]["mujoco"] == _success(name, mujoco_plant).mean()
@@ -71,17 +79,100 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     ol = printed["open_loop"]
     assert max(v["max"] for v in ol["full"].values()) < 1e-12
     assert ol["simplified"]["dtheta2"]["max"] > 1.0
-    assert printed["margins"]["centralized"]["joint"] is None       # fails nominally
-    assert printed["margins"]["centralized_full"]["every_parameter_alone"] is not None
-    assert printed["throughput"]["ratio_closed_to_open"] > 0
     report = json.loads((out / "report.json").read_text())
+    # the robustness analysis is the sweep file's records, analysed again
+    records = load_results(out / "sweep.jsonl")
+    assert len(records) == report["robustness"]["cells"] == len(PLANS["quick"].cells(
+        ["centralized", "centralized_full"]))
+    curves = robustness(records, ["centralized", "centralized_full"])
+    assert report["robustness"]["curves"] == json.loads(json.dumps(curves))
+    assert printed["margins"] == json.loads(json.dumps(margins(curves)))
+    for pol, m in printed["margins"].items():
+        nominal = curves[pol]["nominal"]
+        assert (m["joint"] is None) == (nominal < THRESHOLD), pol
+    # throughput: the steps are what was asked for, the rates are the steps over the times
+    tp = printed["throughput"]
+    quick = PLANS["quick"]
+    assert (tp["rows"], tp["samples"], tp["nstep"]) == \
+        (quick.throughput_rows, quick.throughput_samples, mujoco_plant.nstep)
+    assert tp["mujoco_steps"] == tp["rows"] * tp["samples"] * tp["nstep"]
+    assert tp["closed_loop_steps_per_s"] == tp["mujoco_steps"] / tp["closed_loop_seconds"]
+    assert tp["ratio_closed_to_open"] == tp["open_loop_seconds"] / tp["closed_loop_seconds"]
+    assert 0 < tp["policy_seconds"] < tp["closed_loop_seconds"]   # the loop includes the policy
     md = (out / "report.md").read_text()
     for fig in report["figures"].values():
         assert (out / fig).stat().st_size > 10_000 and f"]({fig})" in md
     g = report["gap_closure"]["centralized"]
-    assert f"{100 * g['success_mujoco']:.1f} %" in md
-    assert report["closed_loop"]["centralized_full"]["mujoco"]["success_rate"] == 1.0
+    cl = report["closed_loop"]
+    assert g["success_mujoco"] == cl["centralized"]["mujoco"]["success_rate"]
+    assert g["success_mujoco_full_model_policy"] == cl["centralized_full"]["mujoco"]["success_rate"]
+    assert f"{100 * g['success_mujoco']:.1f} % ({cl['centralized']['mujoco']['successes']}/65)" in md
     assert f"{100 * g['success_mujoco_full_model_policy']:.1f} %" in md
+    # every table lists the policies in registry order
+    tables = [t for t in md.split("\n\n") if t.startswith(("| policy", "| paper policy"))]
+    assert len(tables) == 4
+    for table in tables:
+        names = [line.split("|")[1].strip() for line in table.splitlines()[2:]]
+        ranks = [list(SHIPPED).index(n) for n in names]
+        assert ranks == sorted(ranks), names
+
+
+def test_robustness_tables_do_not_follow_completion_order():
+    """Records arriving in any order give the same curves, margins and Markdown tables."""
+    policies = ["decentralized_full", "centralized"]
+    cells = PLANS["quick"].cells(policies)
+    rng = np.random.default_rng(0)
+    records = {c.key: {"cell": dict(c.__dict__), "success_rate": float(rng.uniform(0.9, 1))}
+               for c in cells}
+    keys = list(records)
+    shuffled = [dict(zip(ks, (records[k] for k in ks)))
+                for ks in (keys[::-1], random.Random(3).sample(keys, len(keys)))]
+    first = robustness(records, policies)
+    assert list(first) == ["centralized", "decentralized_full"]
+    assert list(first["centralized"]) == list(CURVES) + ["nominal"]
+    assert all(list(pts) == sorted(pts) for pts in first["centralized"].values()
+               if isinstance(pts, dict))
+    for recs in shuffled:
+        again = robustness(recs, policies)
+        assert json.dumps(again) == json.dumps(first)
+        assert json.dumps(margins(again)) == json.dumps(margins(first))
+        report = {"robustness": {"margins": margins(again), "curves": again}}
+        assert _tables(report) == _tables({"robustness": {"margins": margins(first),
+                                                          "curves": first}})
+
+
+def _tables(report):
+    """The robustness tables of the Markdown for a report holding only robustness."""
+    return robustness_tables(report["robustness"])
+
+
+def test_plans_are_one_table_of_named_plans():
+    assert list(PLANS) == ["full", "quick"]
+    with pytest.raises(ValueError, match="unknown plan 'huge'; choose one of full, quick"):
+        plan("huge")
+    for p in PLANS.values():
+        cells = p.cells(["centralized"])
+        assert len(set(cells)) == len(cells)
+        assert {c.family for c in cells} == {"nominal", *FAMILIES}
+        assert all(c.states == p.states for c in cells)
+        assert all(c.size != 0 for c in cells if c.family != "nominal")
+        assert sorted(p.sizes) == sorted(FAMILIES)
+    assert len(PLANS["quick"].cells(["centralized"])) == 1 + 11 * 2 + 4
+    assert report_order(["centralized_full", "x.npz", "centralized", "centralized"]) == \
+        ("centralized", "centralized_full", "x.npz")
+
+
+def test_a_second_run_on_one_folder_is_refused_at_once(tmp_path, capsys):
+    out = tmp_path / "r"
+    out.mkdir()
+    with SweepFile(out / "sweep.jsonl"):
+        t0 = time.perf_counter()
+        assert main(["mismatch", "--quick", "--out", str(out), "--executor", "serial"]) == 2
+        assert time.perf_counter() - t0 < 5.0               # before any measurement
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "sweep.jsonl is in use by another run (pid" in err[0]
+    assert err[0].startswith("twolink mismatch: error: ")
+    assert sorted(p.name for p in out.iterdir()) == ["sweep.jsonl"]
 
 
 @pytest.mark.parametrize("argv, match", [

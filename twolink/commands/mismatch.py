@@ -10,23 +10,31 @@ import json
 import sys
 from pathlib import Path
 
-from twolink.resources import output_dir
-from twolink.mismatch import POLICIES, build, summary, write
+from twolink.mismatch import build
+from twolink.mismatch_plan import PLANS, plan
+from twolink.mismatch_report import summary, write
 from twolink.policy import load_policy
+from twolink.registry import SHIPPED
+from twolink.resources import output_dir
+from twolink.sweep_store import SweepFile
 from twolink.sweeps import EXECUTORS
-
 
 
 def add_parser(sub):
     p = sub.add_parser("mismatch", help="model mismatch, its closure and robustness sweeps",
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
-    p.add_argument("--quick", action="store_true",
-                   help="small sweeps (5 initial states per cell, fewer sizes; the closed-loop "
-                        "table keeps all 65): under a minute, for CI")
+    p.add_argument("--plan", choices=list(PLANS), default="full",
+                   help="what to measure: full (the committed report) or quick (5 initial "
+                        "states per sweep cell, fewer sizes; the closed-loop table keeps "
+                        "all 65): under a minute, for CI")
+    p.add_argument("--quick", action="store_const", dest="plan", const="quick",
+                   help="the same as --plan quick")
     p.add_argument("--out", type=Path, default=None,
-                   help="report folder (default renders/mismatch, or renders/mismatch-quick)")
-    p.add_argument("--policies", nargs="+", default=list(POLICIES), metavar="POLICY",
-                   help=f"shipped policy names (default: {' '.join(POLICIES)})")
+                   help="report folder (default renders/mismatch, or renders/mismatch-quick); "
+                        "one run at a time per folder, which resumes from its sweep.jsonl")
+    p.add_argument("--policies", nargs="+", default=list(SHIPPED), metavar="POLICY",
+                   help=f"shipped policy names, reported in registry order "
+                        f"(default: {' '.join(SHIPPED)})")
     p.add_argument("--executor", choices=EXECUTORS, default="local",
                    help="where sweep cells run: this process, local worker processes "
                         "(default) or a Ray cluster")
@@ -40,22 +48,27 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    chosen = plan(args.plan)
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.executor != "ray":
         raise ValueError("--address needs --executor ray")
     for name in args.policies:                       # fail before anything is written
         load_policy(name)
-    out = args.out or output_dir() / ("mismatch-quick" if args.quick else "mismatch")
+    out = args.out or output_dir() / chosen.folder
     if not out.parent.is_dir():
         raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
     out.mkdir(exist_ok=True)
-    report, data = build(quick=args.quick, policies=args.policies,
-                         results_path=out / "sweep.jsonl", executor=args.executor,
-                         workers=args.workers, address=args.address,
-                         progress=not args.json and sys.stderr.isatty())
-    command = "twolink mismatch" + (" --quick" if args.quick else "")
-    report = write(report, data, out, command)
+    progress = not args.json and sys.stderr.isatty()
+    with SweepFile(out / "sweep.jsonl") as store:    # a second run on `out` stops here
+        if store.note:
+            print(f"twolink mismatch: {store.note}", file=sys.stderr)
+        report, data = build(chosen, args.policies, store=store, executor=args.executor,
+                             workers=args.workers, address=args.address,
+                             log=(lambda m: print(m, file=sys.stderr, flush=True))
+                             if progress else None, progress=progress)
+        command = "twolink mismatch" + ("" if chosen.name == "full" else f" --plan {chosen.name}")
+        report = write(report, data, out, command)
     if args.json:
         print(json.dumps(summary(report), indent=2))
     else:

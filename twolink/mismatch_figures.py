@@ -1,0 +1,119 @@
+"""Figures of the model-mismatch report: one-step error heat maps, closed-loop success and
+settle times, robustness curves. Each policy keeps one colour in every figure (its place
+in the registry), whatever the subset of policies or the order results arrived in."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import LogNorm  # noqa: E402
+
+from twolink import fuzzy  # noqa: E402
+from twolink.artifacts import atomic_path  # noqa: E402
+from twolink.mismatch_plan import UNITS  # noqa: E402
+from twolink.model_error import PREDICTIONS  # noqa: E402
+from twolink.parameters import HORIZON  # noqa: E402
+from twolink.registry import SHIPPED  # noqa: E402
+
+_PLANT_STYLES = {"simplified": ":", "full": "--", "mujoco": "-"}
+
+
+def policy_color(name: str) -> str:
+    """The colour of policy ``name`` in every figure: fixed by its registry position."""
+    names = list(SHIPPED)
+    return f"C{names.index(name) if name in names else len(names)}"
+
+
+def _save(fig, path: Path) -> str:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
+    plt.close(fig)
+    return path.name
+
+
+def heatmap_figure(err, path: Path) -> str:
+    """Max |speed error| of each prediction over (theta1, dtheta1) and (theta2, dtheta2)."""
+    ang = np.rad2deg(fuzzy.angle_axis("t").centers)
+    spd = np.rad2deg(fuzzy.speed_axis("s").centers)
+    titles = {"simplified": "(11) vs MuJoCo", "full": "(6) vs MuJoCo",
+              "agent2_assumption": "agent 2 on (6), link 1 at rest, vs MuJoCo"}
+    fig, axes = plt.subplots(len(PREDICTIONS), 2, figsize=(10, 3.2 * len(PREDICTIONS)))
+    for r, name in enumerate(PREDICTIONS):
+        for col, link in enumerate((1, 2)):
+            ax = axes[r, col]
+            h = np.maximum(err.heat(name, link), 1e-17)
+            im = ax.imshow(h.T, origin="lower", aspect="auto", cmap="viridis",
+                           norm=LogNorm(vmin=1e-16, vmax=10.0))
+            ax.set_xticks(range(len(ang)), [f"{v:.0f}" for v in ang], fontsize=7)
+            ax.set_yticks(range(len(spd)), [f"{v:.0f}" for v in spd], fontsize=7)
+            ax.set_xlabel(f"theta{link} bin centre [deg]")
+            ax.set_ylabel(f"dtheta{link} [deg/s]")
+            ax.set_title(f"{titles[name]}: max |speed error| [rad/s]", fontsize=9)
+            fig.colorbar(im, ax=ax)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def closed_loop_figure(report: dict, settle: dict, path: Path) -> str:
+    """Success rate per policy x plant, and the settle-time distribution on each plant."""
+    cl, plants = report["closed_loop"], report["plants"]
+    pols = list(cl)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 4.2))
+    w = 0.8 / len(plants)
+    for j, plant in enumerate(plants):
+        a.bar(np.arange(len(pols)) + (j - 1) * w, [cl[p][plant]["success_rate"] for p in pols],
+              w, label=plant)
+    a.set_xticks(range(len(pols)), pols, rotation=20, fontsize=8)
+    a.set_ylabel("success rate")
+    a.set_ylim(0, 1.05)
+    a.set_title(f"success over the evaluation set "
+                f"({report['evaluation_set']['closed_loop']} states)")
+    a.legend(fontsize=8)
+    for p in pols:
+        for plant in ("simplified", "mujoco"):
+            st = np.sort(settle[(p, plant)])
+            frac = np.arange(1, len(st) + 1) / len(st)
+            fin = np.isfinite(st)
+            b.step(np.append(st[fin], HORIZON),
+                   np.append(frac[fin], frac[fin][-1] if fin.any() else 0.0),
+                   _PLANT_STYLES[plant], color=policy_color(p), where="post",
+                   label=f"{p} ({plant})")
+    b.set_xlabel("settle time [s]")
+    b.set_ylabel("fraction of initial states settled")
+    b.set_xlim(0, HORIZON)
+    b.set_title("settle-time distribution: dotted simplified, solid MuJoCo")
+    b.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def robustness_figure(report: dict, keys, path: Path, title: str) -> str:
+    """Success rate against perturbation size, one panel per curve, one line per policy."""
+    curves = report["robustness"]["curves"]
+    threshold = report["robustness"]["threshold"]
+    n = len(keys)
+    ncol = min(4, n)
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.6 * ncol, 2.9 * nrow), squeeze=False)
+    for ax, key in zip(axes.ravel(), keys):
+        for p in curves:
+            pts = curves[p].get(key, {})
+            if pts:
+                ax.plot([float(s) for s in pts], list(pts.values()), "o-", ms=3,
+                        color=policy_color(p), label=p)
+        ax.axhline(threshold, color="grey", lw=0.8, ls=":")
+        ax.set_title(key.replace("parameter:", "parameter "), fontsize=9)
+        ax.set_xlabel(UNITS[key.split(":")[0]], fontsize=8)
+        ax.set_ylim(-0.03, 1.03)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    axes[0, 0].set_ylabel("success rate")
+    axes[0, 0].legend(fontsize=6)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -1,0 +1,103 @@
+"""Closed-loop rollout throughput against MuJoCo's own limit, measured in one run.
+
+A closed-loop rollout of B initial states over K sample periods does B * K * nstep MuJoCo
+steps (nstep = Ts / timestep), one ``mujoco.rollout`` call of nstep steps per sample for
+the whole batch, with the policy (14) evaluated in numpy between calls. The open-loop
+reference does the same B * K * nstep steps in a single ``mujoco.rollout`` call, with the
+torques the closed loop applied. The sweeps' report and ``benchmarks/rollouts.py`` both
+measure through :func:`measure`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from twolink.parameters import TS
+from twolink.plants import MujocoPlant, check_states
+from twolink.rollout import rollout
+
+
+@dataclasses.dataclass(frozen=True)
+class Throughput:
+    """Best-of-``repeats`` wall times of the closed loop, the open-loop reference over the
+    same steps, and the policy alone over the closed loop's states."""
+
+    rows: int
+    samples: int
+    nstep: int
+    nthread: int
+    repeats: int
+    closed_loop_seconds: float
+    open_loop_seconds: float
+    policy_seconds: float
+
+    @property
+    def mujoco_steps(self) -> int:
+        return self.rows * self.samples * self.nstep
+
+    @property
+    def closed_loop_steps_per_s(self) -> float:
+        return self.mujoco_steps / self.closed_loop_seconds
+
+    @property
+    def open_loop_steps_per_s(self) -> float:
+        return self.mujoco_steps / self.open_loop_seconds
+
+    @property
+    def ratio_closed_to_open(self) -> float:
+        """Closed-loop over open-loop steps per second: 1 is MuJoCo's own limit."""
+        return self.open_loop_seconds / self.closed_loop_seconds
+
+    @property
+    def policy_share(self) -> float:
+        return self.policy_seconds / self.closed_loop_seconds
+
+    def as_dict(self) -> dict:
+        names = ("mujoco_steps", "closed_loop_steps_per_s", "open_loop_steps_per_s",
+                 "ratio_closed_to_open", "policy_share")
+        return dict(dataclasses.asdict(self), **{n: getattr(self, n) for n in names})
+
+
+def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Throughput:
+    """Time ``policy`` closed-loop on MuJoCo from ``x0`` (B, 4) for ``samples`` periods
+    against open-loop ``mujoco.rollout`` of the same steps, turn about, best of each."""
+    x0 = check_states(x0, what="x0")
+    if x0.ndim != 2:
+        raise ValueError(f"x0 must be a batch of states (B, 4), got shape {x0.shape}")
+    if int(samples) != samples or samples < 1 or int(nthread) != nthread or nthread < 1:
+        raise ValueError(f"samples and nthread must be positive whole numbers, got "
+                         f"{samples} and {nthread}")
+    duration = samples * TS
+    plant = MujocoPlant(nthread=nthread)
+    try:
+        traj = rollout(policy, plant, x0, duration=duration)
+        nstep, model = plant.nstep, plant.model
+        nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        state0 = np.zeros((len(x0), nstate))
+        state0[:, 1:3], state0[:, 3:5] = x0[:, :2], x0[:, 2:]
+        control = np.repeat(traj.u, nstep, axis=1)
+        datas = [mujoco.MjData(model) for _ in range(nthread)]
+        runs = {"closed": lambda: rollout(policy, plant, x0, duration=duration),
+                "open": lambda: pool.rollout(model, datas, state0, control),
+                "policy": lambda: [policy(traj.x[:, k]) for k in range(samples)]}
+        best = dict.fromkeys(runs, math.inf)
+        with mj_rollout.Rollout(nthread=nthread if nthread > 1 else 0) as pool:
+            for _ in range(max(1, repeats)):     # interleaved: each sees the same load
+                for key, run in runs.items():
+                    t0 = time.perf_counter()
+                    out = run()
+                    best[key] = min(best[key], time.perf_counter() - t0)
+                    if key == "open":
+                        state = out[0]
+    finally:
+        plant.close()
+    if state.shape != (len(x0), samples * nstep, nstate) or \
+            not np.all(np.isfinite(state)):
+        raise RuntimeError("open-loop rollout returned an unexpected state array")
+    return Throughput(len(x0), samples, nstep, nthread, max(1, repeats),
+                      best["closed"], best["open"], best["policy"])
