@@ -25,7 +25,8 @@ from twolink.rollout import rollout
 @dataclasses.dataclass(frozen=True)
 class Throughput:
     """Best-of-``repeats`` wall times of the closed loop, the open-loop reference over the
-    same steps, and the policy alone over the closed loop's states."""
+    same ``mujoco_steps``, and the policy alone over the closed loop's states; the rates
+    are steps over those times, and ``ratio_closed_to_open`` = 1 is MuJoCo's own limit."""
 
     rows: int
     samples: int
@@ -35,32 +36,24 @@ class Throughput:
     closed_loop_seconds: float
     open_loop_seconds: float
     policy_seconds: float
+    mujoco_steps: int = dataclasses.field(init=False)
+    closed_loop_steps_per_s: float = dataclasses.field(init=False)
+    open_loop_steps_per_s: float = dataclasses.field(init=False)
+    ratio_closed_to_open: float = dataclasses.field(init=False)
+    policy_share: float = dataclasses.field(init=False)
 
-    @property
-    def mujoco_steps(self) -> int:
-        return self.rows * self.samples * self.nstep
-
-    @property
-    def closed_loop_steps_per_s(self) -> float:
-        return self.mujoco_steps / self.closed_loop_seconds
-
-    @property
-    def open_loop_steps_per_s(self) -> float:
-        return self.mujoco_steps / self.open_loop_seconds
-
-    @property
-    def ratio_closed_to_open(self) -> float:
-        """Closed-loop over open-loop steps per second: 1 is MuJoCo's own limit."""
-        return self.open_loop_seconds / self.closed_loop_seconds
-
-    @property
-    def policy_share(self) -> float:
-        return self.policy_seconds / self.closed_loop_seconds
+    def __post_init__(self):
+        steps = self.rows * self.samples * self.nstep
+        derived = {"mujoco_steps": steps,
+                   "closed_loop_steps_per_s": steps / self.closed_loop_seconds,
+                   "open_loop_steps_per_s": steps / self.open_loop_seconds,
+                   "ratio_closed_to_open": self.open_loop_seconds / self.closed_loop_seconds,
+                   "policy_share": self.policy_seconds / self.closed_loop_seconds}
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)
 
     def as_dict(self) -> dict:
-        names = ("mujoco_steps", "closed_loop_steps_per_s", "open_loop_steps_per_s",
-                 "ratio_closed_to_open", "policy_share")
-        return dict(dataclasses.asdict(self), **{n: getattr(self, n) for n in names})
+        return dataclasses.asdict(self)
 
 
 def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Throughput:
