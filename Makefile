@@ -1,17 +1,26 @@
 # The two set-up commands of the README: `make demo` and `make test`.
+# PYTHON picks the interpreter (3.11 to 3.13); a .venv of another version is rebuilt.
 PYTHON ?= python3
-VENV := .venv
+VENV ?= .venv
 PY := $(VENV)/bin/python
+# The installed-stamps name the interpreter's version, so a new PYTHON misses them.
+PYVER := $(shell $(PYTHON) -c 'import platform; print(platform.python_version())' 2>/dev/null)
 
-.PHONY: demo test system-deps venv bench bench-quick clean
+.PHONY: demo test system-deps venv venv-test bench bench-quick clean
 
-$(VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+# demo needs twolink alone; test and the benchmarks also need '.[test]' (pytest and
+# the peer libraries the benchmarks and tests compare against).
+$(VENV)/.installed-$(PYVER): pyproject.toml scripts/venv.sh
+	bash scripts/venv.sh $(PYTHON) $(VENV)
 	touch $@
 
-venv: $(VENV)/.installed
+$(VENV)/.installed-test-$(PYVER): pyproject.toml scripts/venv.sh
+	bash scripts/venv.sh $(PYTHON) $(VENV) test
+	touch $@ $(VENV)/.installed-$(PYVER)
+
+venv: $(VENV)/.installed-$(PYVER)
+
+venv-test: $(VENV)/.installed-test-$(PYVER)
 
 system-deps:
 	@bash scripts/install-system-deps.sh
@@ -19,15 +28,15 @@ system-deps:
 demo: venv system-deps
 	$(VENV)/bin/twolink reproduce
 
-test: venv system-deps
+test: venv-test system-deps
 	$(PY) -m pytest -q
 
 # Benchmarks (benchmarks/run.py): full mode writes the README's figures to
 # benchmarks/results.json; quick mode is the CI form (well under two minutes).
-bench: venv system-deps
+bench: venv-test system-deps
 	$(PY) -m benchmarks.run --json benchmarks/results.json
 
-bench-quick: venv system-deps
+bench-quick: venv-test system-deps
 	$(PY) -m benchmarks.run --quick
 
 clean:
