@@ -181,6 +181,10 @@ def test_non_real_actions_are_refused(tmp_path, decentralized):
     header["agents"][1]["actions"] = [[True], [False], [True]]
     with pytest.raises(PolicyFileError, match="actions must hold real numbers"):
         Policy.load(_write(tmp_path / "b.npz", header, **qs))
+    header["agents"][1]["actions"] = [[float("nan")], [0.0], [0.2]]
+    np.savez(tmp_path / "n.npz", header=np.array(json.dumps(header)), **qs)
+    with pytest.raises(PolicyFileError, match=r"n\.npz: malformed twolink policy"):
+        Policy.load(tmp_path / "n.npz")
     with pytest.raises(ValueError, match="Q must hold real numbers"):
         a = decentralized.agents[1]
         Agent(a.name, a.grid, a.actions, a.q.astype(complex), a.outputs)

@@ -40,9 +40,10 @@ FORMAT_VERSION = 2
 #: precision of a float, times |Q| <= 25, summed over some 200 sweeps, stays under 1e-11),
 #: while the smallest genuine difference between the best two actions of a bin is 1.6e-5.
 #: 1e-9 sits two decades above the round-off bound and four below that smallest genuine
-#: gap, and is 1e-7 of the stopping threshold delta = 0.01 (Alg. 1 resolves Q no finer than
-#: about gamma*delta/(1-gamma) = 0.49, so no difference below 1e-9 means anything).
-#: ``scripts/tie_sensitivity.py`` measures what this choice moves.
+#: gap; it is 1e-7 of the stopping threshold delta = 0.01 and 4e-11 of the Q scale 25.
+#: It absorbs round-off only: it is not a convergence margin (Alg. 1 stops with Q up to
+#: gamma*delta/(1-gamma) = 0.49 from its fixed point, which no tolerance could absorb
+#: without changing the policy). ``scripts/tie_sensitivity.py`` measures what it moves.
 TIE_TOLERANCE = 1e-9
 
 #: The largest header a policy file may hold (bytes, uncompressed).
@@ -223,7 +224,11 @@ class Policy:
         except (OSError, ValueError, zipfile.BadZipFile, EOFError, RuntimeError) as exc:
             raise PolicyFileError(f"{path} is not a twolink policy file (not a readable "
                                   f".npz archive: {exc})") from None
-        if _content_hash(header, q_tables) != header.get("sha256"):
+        try:
+            digest = _content_hash(header, q_tables)
+        except (TypeError, ValueError) as exc:     # e.g. NaN or Infinity in the header
+            raise PolicyFileError(f"{path}: malformed twolink policy ({exc})") from None
+        if digest != header.get("sha256"):
             raise PolicyFileError(f"{path}: content does not match the file's sha256 (the "
                                   f"header or a Q-table was edited or corrupted)")
         try:
