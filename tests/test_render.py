@@ -1,8 +1,10 @@
 """Headless EGL rendering: real frames, checked on their pixels; videos decoded back."""
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -192,6 +194,11 @@ def test_render_cli_gif_at_chosen_rate(tmp_path, capsys):
     (["--policy", "nope"], "unknown policy"),
     (["--policy", "centralized", "--policy", "decentralized", "--policy", "centralized"],
      "one or two --policy"),
+    (["--speed", "1e-9", "--duration", "0.1"], "more than the limit of 18000"),
+    (["--speed", "0"], "--speed must be a positive"),
+    (["--duration", "500", "--size", "2048x2048"], "pixels"),
+    (["--duration", "1e12"], "duration must be at most 3600 s"),
+    (["--x0", "0", "0", "1e9", "0"], "beyond the bound"),
 ])
 def test_render_bad_input_one_line_no_file(argv, message, tmp_path, capsys):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
@@ -200,6 +207,49 @@ def test_render_bad_input_one_line_no_file(argv, message, tmp_path, capsys):
     code, _, err = _render(capsys, "--duration", 0.2, *argv)
     assert code == 2 and err.count("\n") == 1 and message in err
     assert err.startswith("twolink render: error: ")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_render_to_a_directory_is_refused(tmp_path, capsys):
+    (tmp_path / "v.mp4").mkdir()
+    code, _, err = _render(capsys, "--duration", 0.2, "-o", tmp_path / "v.mp4")
+    assert code == 2 and err.count("\n") == 1 and "is a directory" in err
+    assert [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
+
+
+def test_gif_frames_are_streamed_not_kept(plain, tmp_path):
+    """Each frame is in the (temporary) file before the next one is asked for."""
+    sizes = []
+
+    def frames():
+        for k in range(6):
+            tmp = [p for p in tmp_path.iterdir() if p.name.startswith(".clip.")]
+            sizes.append(tmp[0].stat().st_size if tmp else 0)
+            yield plain.frame([0.3 * k, -0.2 * k, 0, 0])
+
+    assert write_video(tmp_path / "clip.gif", frames(), 20) == 6
+    assert all(b > a for a, b in zip(sizes[1:], sizes[2:])), sizes
+    assert [p.name for p in tmp_path.iterdir()] == ["clip.gif"]
+
+
+@pytest.mark.parametrize("ext", ["mp4", "gif"])
+def test_sigterm_during_render_leaves_no_file(tmp_path, ext):
+    out = tmp_path / f"v.{ext}"
+    proc = subprocess.Popen([sys.executable, "-m", "twolink.cli", "render", "--duration", "600",
+                             "--size", "64x48", "--no-progress", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not any(p.stat().st_size > 0 for p in tmp_path.iterdir()):
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0
+    assert len(err.strip().splitlines()) == 1, err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -102,8 +102,14 @@ def test_rollout_x0_degrees_and_random_seed(tmp_path, capsys):
     (["--duration", "0"], "duration must be a positive"),
     (["--figure", "{tmp}/fig.jpg"], "use a .png"),
     (["-o", "{tmp}/no/such/dir/run"], "does not exist"),
-    (["-o", "{tmp}/afile/run"], "does not exist"),
+    (["-o", "{tmp}/afile/run"], "afile is not a directory"),
     (["--npz", "{tmp}"], "is a directory"),
+    (["--x0", "2e10", "0", "0", "0"], "--x0 has an angle of magnitude 2e+10 rad, beyond the bound"),
+    (["--x0", "0", "0", "1e9", "0"], "--x0 has a speed of magnitude 1e+09 rad/s, beyond the bound"),
+    (["--duration", "1e12"], "duration must be at most 3600 s"),
+    (["--csv", "{tmp}/x.png", "--figure", "{tmp}/x.png"], "--csv and --figure both write"),
+    (["--npz", "{tmp}/afile/../r.npz", "--csv", "{tmp}/r.npz"], "does not exist"),
+    (["-o", "{tmp}/r", "--npz", "{tmp}/r.csv"], "--csv and --npz both write"),
 ])
 def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
@@ -125,3 +131,47 @@ def test_rollout_cli_entry_point_exit_status(tmp_path):
         "twolink rollout: error: --x0 must be four numbers (theta1 theta2 dtheta1 dtheta2), "
         "got 2: '1 2'"]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_rollout_output_directory_gets_the_default_names(tmp_path, capsys):
+    (tmp_path / "results").mkdir()
+    for prefix in (tmp_path / "results", f"{tmp_path / 'new'}/"):
+        if str(prefix).endswith("/"):
+            (tmp_path / "new").mkdir()
+        code, _, _ = _run(capsys, "--plant", "simplified", "--duration", 0.2, "-o", prefix)
+        assert code == 0
+    for d in ("results", "new"):
+        assert sorted(p.name for p in (tmp_path / d).iterdir()) == [
+            "rollout.csv", "rollout.npz", "rollout_fig3.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new", "results"]
+
+
+def test_mujoco_instability_fails_the_run_loudly(tmp_path, capsys, monkeypatch):
+    from twolink import plants
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(plants, "MAX_ANGLE", 1e12)     # let MuJoCo see a state it rejects
+    code, out, err = _run(capsys, "--x0", "2e10", "0", "0", "0", "--plant", "mujoco",
+                          "-o", tmp_path / "r")
+    assert code == 2 and "success" not in out
+    assert err.count("\n") == 1 and "MuJoCo went unstable" in err and "x0 = [+2e+10" in err
+    assert list(tmp_path.iterdir()) == []                # no MUJOCO_LOG.TXT, no outputs
+
+
+def test_reloaded_runs_keep_their_kind_and_are_plotted_with_its_reward(tmp_path, capsys,
+                                                                        monkeypatch):
+    code, _, _ = _run(capsys, "--policy", "decentralized_propagated", "--policy", "centralized",
+                      "--plant", "simplified", "--duration", 0.5, "-o", tmp_path / "r")
+    assert code == 0
+    runs = load_npz(tmp_path / "r.npz")
+    prop = runs[("decentralized_propagated", "simplified")]
+    assert (prop.label, prop.kind, prop.plant) == ("decentralized_propagated", "decentralized",
+                                                   "simplified")
+    assert runs[("centralized", "simplified")].kind == "centralized"
+    from twolink import plots
+    figures = []
+    monkeypatch.setattr(plots.plt, "close", figures.append)
+    plots.fig3({"p": {"": prop}, "c": {"": runs[("centralized", "simplified")]}},
+               tmp_path / "f.png")
+    reward_axes = figures[0].axes[6:8]                    # row 4 of a 4 x 2 grid
+    colors = [[line.get_color() for line in ax.get_lines()] for ax in reward_axes]
+    assert colors == [["tab:orange", "tab:blue"], ["k"]]   # (17) per link vs (15)

@@ -2,8 +2,9 @@
 
 Every file the package writes (policies, trajectories, figures, reports, videos) goes
 through :func:`atomic_path`: the content is written to a temporary file beside the
-target and renamed over it only when complete, so an error never leaves a half-written
-file behind.
+target and renamed over it only when complete, so an error, Ctrl-C or SIGTERM never
+leaves a half-written file behind. Commands check all their outputs up front with
+:func:`check_outputs`, before any work.
 """
 from __future__ import annotations
 
@@ -11,31 +12,93 @@ import contextlib
 import json
 import os
 import platform
+import signal
 import tempfile
+import threading
 from pathlib import Path
+from typing import Mapping
 
 from twolink import __version__
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that cleanup (``finally``) runs."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated("terminated by SIGTERM")
+
+
+@contextlib.contextmanager
+def sigterm_raises():
+    """Within the block, SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) instead
+    of killing the process, so temporary files are removed as on Ctrl-C. Only the main
+    thread can take signals; elsewhere, and when nested, this does nothing."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is _raise_terminated:
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def check_writable(path: os.PathLike) -> Path:
+    """``path`` if a file can be written there (an existing, writable directory; not a
+    directory itself), else a one-line OSError."""
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise OSError(f"cannot write {path}: it is a directory")
+    if not parent.is_dir():
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise OSError(f"cannot write {path}: directory {parent} {what}")
+    if not os.access(parent, os.W_OK):
+        raise OSError(f"cannot write {path}: directory {parent} is not writable")
+    return path
+
+
+def check_outputs(outputs: Mapping[str, os.PathLike | None]) -> dict:
+    """Check every output of a command before any work: each can be written
+    (:func:`check_writable`) and no two are the same file. ``outputs`` maps a name (the
+    option, e.g. ``--csv``) to a path or None (not written); returns the given paths."""
+    seen: dict = {}
+    out = {}
+    for name, path in outputs.items():
+        if path is None:
+            continue
+        path = check_writable(path)
+        key = os.path.realpath(path)
+        if key in seen:
+            raise ValueError(f"{seen[key]} and {name} both write {path}; give them "
+                             f"different paths")
+        seen[key] = name
+        out[name] = path
+    return out
+
 
 @contextlib.contextmanager
 def atomic_path(path: os.PathLike):
-    """Yield a temporary path beside ``path``; rename it onto ``path`` on success."""
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise OSError(f"cannot write {path}: directory {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise OSError(f"cannot write {path}: directory {parent} is not writable")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())     # mkstemp makes 0600; give the usual mode
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
+
+    The temporary file is removed on any error, on Ctrl-C and (in the main thread) on
+    SIGTERM.
+    """
+    path = check_writable(path)
+    tmp = None
+    with sigterm_raises():
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix,
+                                       dir=path.parent)
+            os.close(fd)
+            yield Path(tmp)
+            os.chmod(tmp, 0o666 & ~_umask())     # mkstemp makes 0600; give the usual mode
+            os.replace(tmp, path)
+        finally:
+            if tmp is not None and os.path.exists(tmp):
+                os.unlink(tmp)
 
 
 def _umask() -> int:

@@ -41,7 +41,7 @@ def fig3(panels: dict, path: os.PathLike, *, title: str | None = None) -> Path:
                 ax[0].step(tr.t[:-1], tr.u[:, i], where="post", label=name, **kw)
                 ax[1].plot(tr.t, tr.x[:, i], **kw)
                 ax[2].plot(tr.t, tr.x[:, 2 + i], **kw)
-            if tr.policy == "decentralized":
+            if tr.kind == "decentralized":             # per-link rewards (17)
                 for i in range(2):
                     ax[3].step(tr.t[1:], tr.r_links[:, i], where="pre", color=_LINK_COLORS[i],
                                ls=ls, lw=1.4)
@@ -67,3 +67,16 @@ def fig3(panels: dict, path: os.PathLike, *, title: str | None = None) -> Path:
     finally:
         plt.close(fig)
     return path
+
+
+def paper_fig3(trajectories: dict, path: os.PathLike, *,
+               plants=("simplified", "mujoco")) -> Path:
+    """The counterpart of the paper's Fig. 3 from ``{(policy, plant): Trajectory}``:
+    (a) centralized, (b) decentralized, one line style per plant (solid: the first)."""
+    panels = {title: {plant: trajectories[(name, plant)] for plant in plants}
+              for name, title in (("centralized", "(a) centralized"),
+                                  ("decentralized", "(b) decentralized"))}
+    x0 = trajectories[("centralized", plants[0])].x[0]
+    styles = ", ".join(f"{s} {p}" for s, p in zip(("solid", "dashed", "dotted"), plants))
+    return fig3(panels, path, title=f"Fig. 3 from x0 = [{', '.join(f'{v:.3g}' for v in x0)}]: "
+                                    f"{styles}")

@@ -51,14 +51,15 @@ def save_csv(path: os.PathLike, runs: dict) -> Path:
 
 
 def save_npz(path: os.PathLike, runs: dict, *, meta: dict | None = None) -> Path:
-    """NPZ with arrays ``<policy>/<plant>/{t,x,u,r,r_links}`` and a JSON ``header``."""
+    """NPZ with arrays ``<policy>/<plant>/{t,x,u,r,r_links}`` and a JSON ``header`` whose
+    ``runs`` list [policy label, plant, policy kind] per run."""
     _check(runs)
     arrays = {}
     for (policy, plant), tr in runs.items():
         for name in ("t", "x", "u", "r", "r_links"):
             arrays[f"{policy}/{plant}/{name}"] = getattr(tr, name)
-    header = {"format": FORMAT, "runs": [list(k) for k in runs], "meta": meta or {},
-              "provenance": provenance()}
+    header = {"format": FORMAT, "runs": [[*k, tr.kind] for k, tr in runs.items()],
+              "meta": meta or {}, "provenance": provenance()}
     path = Path(path)
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
@@ -67,12 +68,23 @@ def save_npz(path: os.PathLike, runs: dict, *, meta: dict | None = None) -> Path
     return path
 
 
+def _kind(label: str) -> str:
+    """The kind of a run saved before kinds were recorded: a shipped policy's, else ''."""
+    from twolink.registry import SHIPPED
+    return SHIPPED[label].kind if label in SHIPPED else ""
+
+
 def load_npz(path: os.PathLike) -> dict:
     """The runs saved by :func:`save_npz`, as ``{(policy, plant): Trajectory}``."""
     with np.load(path, allow_pickle=False) as npz:
         header = json.loads(str(npz["header"]))
         if header.get("format") != FORMAT:
             raise ValueError(f"{path} is not a twolink trajectory file")
-        return {(pol, pl): Trajectory(*(npz[f"{pol}/{pl}/{n}"]
-                                        for n in ("t", "x", "u", "r", "r_links")), pl, pol)
-                for pol, pl in header["runs"]}
+        out = {}
+        for run in header["runs"]:
+            pol, pl = run[:2]
+            kind = run[2] if len(run) > 2 else _kind(pol)
+            out[(pol, pl)] = Trajectory(*(npz[f"{pol}/{pl}/{n}"]
+                                          for n in ("t", "x", "u", "r", "r_links")),
+                                        plant=pl, label=pol, kind=kind)
+        return out

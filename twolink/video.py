@@ -1,8 +1,10 @@
 """Writing frames to MP4 (H.264 through imageio-ffmpeg's bundled ffmpeg) or GIF (Pillow).
 
-Videos are written atomically: frames go to a temporary file beside the target, which
-is renamed over it only once the last frame is in, so an interrupted render leaves
-nothing behind.
+Frames are streamed: each is encoded as it arrives and none is kept, so memory does not
+grow with the length of a video. Videos are bounded (:data:`MAX_FRAMES` frames,
+:data:`MAX_PIXELS` pixels in all; :func:`check_budget`) and written atomically: frames go
+to a temporary file beside the target, which is renamed over it only once the last
+frame is in, so an interrupted render (error, Ctrl-C, SIGTERM) leaves nothing behind.
 """
 from __future__ import annotations
 
@@ -15,6 +17,10 @@ import numpy as np
 from twolink.artifacts import atomic_path
 
 FORMATS = ("mp4", "gif")
+#: Most frames in one video: 15 minutes at 20 frames per second.
+MAX_FRAMES = 18_000
+#: Most pixels in one video, all frames together: 18 000 frames of 640x480.
+MAX_PIXELS = MAX_FRAMES * 640 * 480
 
 
 def video_format(path: os.PathLike) -> str:
@@ -36,6 +42,18 @@ def check_size(width: int, height: int, fmt: str = "mp4") -> None:
 def check_fps(fps: float) -> None:
     if not np.isfinite(fps) or fps <= 0 or fps > 240:
         raise ValueError(f"frame rate must be in (0, 240] frames per second, got {fps}")
+
+
+def check_budget(frames: float, width: int, height: int) -> None:
+    """A clear ValueError if a video of ``frames`` frames of width x height is over
+    :data:`MAX_FRAMES` or :data:`MAX_PIXELS`; call it before rendering anything."""
+    if not frames <= MAX_FRAMES:            # also catches NaN and inf
+        raise ValueError(f"the video would have {frames:.4g} frames, more than the limit of "
+                         f"{MAX_FRAMES}; lower the duration or --fps, or raise --speed")
+    if frames * width * height > MAX_PIXELS:
+        raise ValueError(f"the video would have {frames * width * height:.3g} pixels "
+                         f"({frames:.0f} frames of {width}x{height}), more than the limit of "
+                         f"{MAX_PIXELS:.3g}; lower the size, the duration or --fps")
 
 
 def write_video(path: os.PathLike, frames: Iterable[np.ndarray], fps: float, *,
@@ -80,21 +98,22 @@ def _write_mp4(path: Path, frames, fps: float, crf: int) -> int:
 
 
 def _write_gif(path: Path, frames, fps: float) -> int:
-    from PIL import Image
+    """Stream frames into an animated GIF with imageio's Pillow-based GIF writer: each
+    frame is quantized (median cut, its own 256-colour table) and written at once."""
+    import imageio.v2 as iio
 
-    images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
-    if not images:
+    n = 0
+    with iio.get_writer(path, format="GIF-PIL", mode="I", duration=1.0 / fps, loop=0,
+                        subrectangles=False) as writer:
+        for frame in frames:
+            frame = np.ascontiguousarray(frame, dtype=np.uint8)
+            if n == 0:
+                check_size(frame.shape[1], frame.shape[0], "gif")
+            writer.append_data(frame)
+            n += 1
+    if n == 0:
         raise ValueError("no frames to write")
-    # One adaptive palette, from frames spread over the clip, keeps the file small and
-    # the colours stable. Pillow merges identical consecutive frames into one longer
-    # frame, so playback timing is kept.
-    picks = np.linspace(0, len(images) - 1, min(len(images), 8)).round().astype(int)
-    montage = Image.fromarray(np.concatenate([np.asarray(images[i]) for i in picks], 0))
-    palette = montage.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
-    quantized = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
-    quantized[0].save(path, format="GIF", save_all=True, append_images=quantized[1:],
-                      duration=round(1000.0 / fps), loop=0, optimize=False, disposal=1)
-    return len(images)
+    return n
 
 
 def read_video(path: os.PathLike) -> np.ndarray:

@@ -3,7 +3,7 @@
 The arm is seen from the top camera with the goal region marked, a translucent ghost
 arm following the simplified-model (11) rollout of the same policy from the same x0,
 and a text overlay with time, torques and reward. Two ``--policy`` values render side
-by side. ``--benchmark N`` measures rendering speed instead of writing a video.
+by side. Rendering speed is measured by the benchmarks (``make bench``).
 """
 from __future__ import annotations
 
@@ -16,14 +16,14 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from twolink.resources import output_dir
+from twolink.artifacts import check_outputs
 from twolink.commands.rollout import _X0_HELP, _label, parse_x0
 from twolink.parameters import HORIZON, TABLE_I, TS
 from twolink.plants import PLANTS, make_plant
 from twolink.policy import load_policy, shipped_policies
+from twolink.resources import output_dir
 from twolink.rollout import rollout, steps_for
-from twolink.video import check_fps, check_size, video_format, write_video
-
+from twolink.video import check_budget, check_fps, check_size, video_format, write_video
 
 
 def add_parser(sub):
@@ -58,9 +58,6 @@ def add_parser(sub):
                    help="video to write, .mp4 (H.264) or .gif "
                         "(default renders/<policy>[_vs_<policy>]_<plant>.mp4)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.add_argument("--benchmark", type=int, default=0, metavar="N",
-                   help="render N frames with and without the ghost, print frames per "
-                        "second and write nothing")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     return p
 
@@ -72,44 +69,9 @@ def parse_size(text: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-def _benchmark(args, width, height, x0) -> dict:
-    from twolink.render import Renderer
-
-    policy = load_policy((args.policy or ["centralized"])[0])
-    n = args.benchmark
-    tr = rollout(policy, make_plant(args.plant, TABLE_I), x0, duration=max(n - 1, 1) * TS)
-    gh = rollout(policy, make_plant("simplified", TABLE_I), x0, duration=max(n - 1, 1) * TS)
-    result = {"width": width, "height": height, "frames": n, "overlay": args.overlay,
-              "antialias": args.antialias}
-    for ghost in (False, True):
-        with Renderer(width=width, height=height, ghost=ghost, overlay=args.overlay,
-                      samples=4 if args.antialias else 0) as r:
-            r.frame(tr.x[0], ghost_x=gh.x[0], lines=["warm-up"])
-            t0 = time.perf_counter()
-            for k in range(n):
-                r.frame(tr.x[k], ghost_x=gh.x[k] if ghost else None,
-                        lines=[f"t = {tr.t[k]:.2f} s"])
-            dt = time.perf_counter() - t0
-        result["fps_with_ghost" if ghost else "fps_without_ghost"] = n / dt
-    return result
-
-
 def run(args) -> int:
     width, height = parse_size(args.size)
     x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
-    if args.benchmark < 0:
-        raise ValueError(f"--benchmark needs a positive number of frames, got {args.benchmark}")
-    if args.benchmark:
-        check_size(width, height, "png")
-        result = _benchmark(args, width, height, x0)
-        if args.json:
-            print(json.dumps(result, indent=2))
-        else:
-            print(f"{width}x{height}, {result['frames']} frames: "
-                  f"{result['fps_without_ghost']:.1f} fps without ghost, "
-                  f"{result['fps_with_ghost']:.1f} fps with ghost")
-        return 0
-
     names = args.policy or ["centralized"]
     if len(names) > 2:
         raise ValueError(f"give one or two --policy values (side by side), got {len(names)}")
@@ -121,19 +83,19 @@ def run(args) -> int:
     out = args.output or output_dir() / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
     fmt = video_format(out)
     check_size(width * len(names), height, fmt)
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise OSError(f"cannot write {out}: directory {parent} does not exist")
+    check_budget(args.duration / args.speed * args.fps + 1, width * len(names), height)
+    check_outputs({"--output": out})
 
     policies = [load_policy(n) for n in names]
-    plant = make_plant(args.plant, TABLE_I)
-    ghost_plant = make_plant("simplified", TABLE_I)
     panels = []
-    for label, policy in zip(labels, policies):
-        tr = rollout(policy, plant, x0, duration=args.duration)
-        gh = rollout(policy, ghost_plant, x0, duration=args.duration) if args.ghost else None
-        panels.append((f"{label} on {args.plant}" + (" (ghost: simplified)" if gh else ""),
-                       tr, gh))
+    with make_plant(args.plant, TABLE_I) as plant, \
+            make_plant("simplified", TABLE_I) as ghost_plant:
+        for label, policy in zip(labels, policies):
+            tr = rollout(policy, plant, x0, duration=args.duration, label=label)
+            gh = (rollout(policy, ghost_plant, x0, duration=args.duration, label=label)
+                  if args.ghost else None)
+            panels.append((f"{label} on {args.plant}" + (" (ghost: simplified)" if gh else ""),
+                           tr, gh))
 
     from twolink.render import Renderer, frame_count, trajectory_frames
 

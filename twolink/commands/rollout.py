@@ -5,6 +5,7 @@ Fig. 3-style figure (one column per policy, one line style per plant).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -13,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink.resources import output_dir
+from twolink.artifacts import check_outputs
 from twolink.metrics import summary, trajectory_gap
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import PLANTS, check_states, make_plant
 from twolink.plots import fig3
 from twolink.policy import load_policy, shipped_policies
+from twolink.resources import output_dir
 from twolink.rollout import rollout, steps_for
 from twolink.trajectory_io import save_csv, save_npz
 
@@ -47,9 +49,9 @@ def add_parser(sub):
                    help=f"seconds to simulate (default {HORIZON:g})")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the random generator for --x0 random (default 0)")
-    p.add_argument("-o", "--output", type=Path, default=None, metavar="PREFIX",
-                   help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png "
-                        "(default renders/rollout)")
+    p.add_argument("-o", "--output", default=None, metavar="PREFIX",
+                   help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png; a directory "
+                        "writes DIR/rollout.* (default renders/rollout)")
     p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
     p.add_argument("--npz", type=Path, help="trajectory NPZ path (overrides the prefix)")
     p.add_argument("--figure", type=Path, help="Fig. 3 PNG path (overrides the prefix)")
@@ -74,28 +76,25 @@ def parse_x0(values, *, degrees: bool = False, seed: int = 0) -> np.ndarray:
     if x0.shape != (4,):
         raise ValueError(f"--x0 must be four numbers (theta1 theta2 dtheta1 dtheta2), got "
                          f"{len(x0)}: {' '.join(values)!r}")
-    x0 = check_states(np.deg2rad(x0) if degrees else x0, what="--x0")
+    x0 = check_states(np.deg2rad(x0) if degrees else x0, what="--x0",
+                      speed_max=TABLE_I.speed_max)
     return x0
 
 
 def _outputs(args) -> dict:
+    """The files to write, keyed by kind, all checked before any work."""
     if args.no_save:
         return {}
-    prefix = args.output or output_dir() / "rollout"
+    prefix = Path(args.output) if args.output else output_dir() / "rollout"
+    if prefix.is_dir() or (args.output or "").endswith(("/", os.sep)):
+        prefix = prefix / "rollout"
     out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
            "npz": args.npz or prefix.with_name(prefix.name + ".npz"),
            "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}
     if out["figure"].suffix.lower() not in (".png", ".pdf", ".svg"):
         raise ValueError(f"--figure {out['figure']}: use a .png, .pdf or .svg file name")
-    for path in out.values():       # check every destination before computing anything
-        parent = path.parent if str(path.parent) else Path(".")
-        if not parent.is_dir():
-            raise OSError(f"cannot write {path}: directory {parent} does not exist")
-        if not os.access(parent, os.W_OK):
-            raise OSError(f"cannot write {path}: directory {parent} is not writable")
-        if path.is_dir():
-            raise OSError(f"cannot write {path}: it is a directory")
-    return out
+    checked = check_outputs({f"--{k}": v for k, v in out.items()})
+    return {k: checked[f"--{k}"] for k in out}
 
 
 def _label(name: str) -> str:
@@ -109,14 +108,16 @@ def run(args) -> int:
     steps_for(args.duration)
     outputs = _outputs(args)
 
-    made = {}
     runs, reference = {}, {}
-    for pname, policy in policies.items():
-        for plant in dict.fromkeys(plants + (["simplified"] if plants != ["simplified"] else [])):
-            if plant not in made:
-                made[plant] = make_plant(plant, TABLE_I)
-            tr = rollout(policy, made[plant], x0, duration=args.duration)
-            (runs if plant in plants else reference)[(pname, plant)] = tr
+    with contextlib.ExitStack() as stack:
+        made = {}
+        for pname, policy in policies.items():
+            for plant in dict.fromkeys(plants + (["simplified"] if plants != ["simplified"]
+                                                 else [])):
+                if plant not in made:
+                    made[plant] = stack.enter_context(make_plant(plant, TABLE_I))
+                tr = rollout(policy, made[plant], x0, duration=args.duration, label=pname)
+                (runs if plant in plants else reference)[(pname, plant)] = tr
     report = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed, "runs": []}
     for (pname, plant), tr in runs.items():
         entry = {"policy": pname, "plant": plant, **summary(tr)}

@@ -1,0 +1,167 @@
+"""The paper's experiment (Section IV), measured: synthesis, rollouts from x0, the
+evaluation set and the integration error, returned as data; then the comparison table.
+
+The policies are the paper's, from :data:`twolink.registry.PAPER_POLICIES` (the
+centralized policy (16) and the decentralized agents (18) with both readings of agent
+1's context), synthesised afresh on the simplified model (11) and compared bit for bit
+with the shipped files.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from twolink import dynamics, paper
+from twolink.artifacts import provenance
+from twolink.integrate import SUBSTEPS, integration_error
+from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary
+from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
+from twolink.plants import make_plant
+from twolink.policy import Policy
+from twolink.registry import PAPER_POLICIES, SHIPPED
+from twolink.rollout import Trajectory, rollout
+from twolink.synthesis import centralized_problem, synthesize
+
+#: The plants every policy runs on: the synthesis model and the full dynamics.
+PLANTS = ("simplified", "mujoco")
+#: RK4 substeps of the fine reference the chosen SUBSTEPS are compared against.
+REFERENCE_SUBSTEPS = 100
+_AGENT_INFO = ("q_size", "iterations", "seconds", "cpu_seconds", "transition_seconds",
+               "sweep_seconds")
+
+
+@dataclasses.dataclass
+class Reproduction:
+    """What :func:`reproduce` measured. Dictionaries are keyed by policy name (the
+    registry's), then plant; ``trajectories`` by (policy, plant), from the paper's x0."""
+
+    x0: list
+    duration: float
+    synthesis: dict
+    rollouts: dict
+    evaluation_set: dict
+    integration_error: dict
+    trajectories: dict = dataclasses.field(repr=False, default_factory=dict)
+
+    def report(self) -> dict:
+        """JSON-ready report: the measurements, the paper's figures and provenance."""
+        return {"x0": self.x0, "duration": self.duration, "synthesis": self.synthesis,
+                "rollouts": self.rollouts, "evaluation_set": self.evaluation_set,
+                "integration_error": self.integration_error,
+                "paper": {"iterations": paper.ITERATIONS, "q_sizes": paper.Q_SIZES,
+                          "cpu_seconds": paper.CPU_SECONDS,
+                          "settle_time": paper.SETTLE_TIME},
+                "provenance": provenance()}
+
+
+def integration_report() -> dict:
+    """One-step error of SUBSTEPS RK4 substeps against REFERENCE_SUBSTEPS, for both numpy
+    models, over every centralized bin centre and joint action (63504 transitions)."""
+    prob = centralized_problem(TABLE_I)
+    x = prob.grid.centers()[:, None, :]
+    u = prob.actions[None, :, :]
+    return {name: integration_error(dynamics.MODELS[name], TABLE_I, x, u, substeps=SUBSTEPS,
+                                    reference_substeps=REFERENCE_SUBSTEPS)
+            for name in ("simplified", "full")}
+
+
+def matches_shipped(name: str, policy: Policy) -> bool | None:
+    """Whether ``policy`` has the Q-tables of the shipped file ``name`` bit for bit
+    (None if the file is missing)."""
+    path = SHIPPED[name].file
+    if not path.is_file():
+        return None
+    shipped = Policy.load(path)
+    return len(shipped.agents) == len(policy.agents) and all(
+        np.array_equal(a.q, b.q) for a, b in zip(shipped.agents, policy.agents))
+
+
+def _evaluate(ev: Trajectory) -> dict:
+    ok, stalled = success(ev), stalled_at_band_edge(ev)
+    return {"states": int(len(ok)), "success_rate": float(ok.mean()),
+            "failures": int((~ok).sum()), "failures_stalled_at_band_edge": int(stalled.sum())}
+
+
+def reproduce(duration: float = HORIZON, *, policies=PAPER_POLICIES,
+              progress: bool = False) -> Reproduction:
+    """Synthesise ``policies`` (registry names) as the registry says, run each from the
+    paper's x0 and over the evaluation set on every plant of :data:`PLANTS`."""
+    x0 = np.asarray(PAPER_X0, dtype=float)
+    res = Reproduction(list(PAPER_X0), duration, {}, {}, {}, integration_report())
+    with make_plant("simplified") as simplified, make_plant("mujoco") as mj:
+        plants = {"simplified": simplified, "mujoco": mj}
+        for name in policies:
+            entry = SHIPPED[name]
+            policy = synthesize(entry.kind, TABLE_I, progress=progress,
+                                **entry.synthesis_options())
+            res.synthesis[name] = {
+                "agents": {a.name: {k: a.info[k] for k in _AGENT_INFO} for a in policy.agents},
+                "matches_shipped_policy": matches_shipped(name, policy)}
+            res.rollouts[name], res.evaluation_set[name] = {}, {}
+            for plant_name, plant in plants.items():
+                tr = rollout(policy, plant, x0, duration=duration, label=name)
+                res.trajectories[(name, plant_name)] = tr
+                res.rollouts[name][plant_name] = summary(tr)
+                ev = rollout(policy, plant, evaluation_set(), duration=duration, label=name)
+                res.evaluation_set[name][plant_name] = _evaluate(ev)
+    return res
+
+
+# --------------------------------------------------------------------------- presentation
+def _fmt(v, unit=""):
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "never"
+    if isinstance(v, float):
+        return f"{v:.3g}{unit}"
+    return f"{v}{unit}"
+
+
+def table(report: dict) -> str:
+    """The comparison table of a :meth:`Reproduction.report`, ours beside the paper's."""
+    s, r = report["synthesis"], report["rollouts"]
+    names = list(s)
+    first = {}                    # the first policy of each kind gives the Table II rows
+    for name in names:
+        first.setdefault(SHIPPED[name].kind, name)
+    agents = [(agent, name) for name in first.values() for agent in sorted(s[name]["agents"])]
+    rows = [("quantity", "paper", "ours")]
+    for agent, name in agents:
+        rows.append((f"Q-table size, {agent}", paper.Q_SIZES[agent],
+                     s[name]["agents"][agent]["q_size"]))
+    for agent, name in agents:
+        rows.append((f"iterations, {agent}", paper.ITERATIONS[agent],
+                     s[name]["agents"][agent]["iterations"]))
+    for name in names:            # the other readings of agent 1's context
+        if name not in first.values() and SHIPPED[name].context and "agent1" in s[name]["agents"]:
+            rows.append((f"iterations, agent1 ({SHIPPED[name].context} context)",
+                         paper.ITERATIONS["agent1"], s[name]["agents"]["agent1"]["iterations"]))
+    for agent, name in agents:
+        star = "*" if agent != "centralized" else ""
+        rows.append((f"synthesis CPU time [s], {agent}", f"~{paper.CPU_SECONDS[agent]:g}{star}",
+                     _fmt(s[name]["agents"][agent]["cpu_seconds"])))
+    for name in names:
+        for plant, res in r[name].items():
+            ref = paper.SETTLE_TIME.get(name) if plant == "simplified" else None
+            rows.append((f"settle time [s], {name}, {plant}", ref or "-",
+                         _fmt(res["settle_time"])))
+            off = ", ".join(f"{v:+.2f}" for v in res["final_offsets_deg"])
+            rows.append((f"final offsets [deg], {name}, {plant}",
+                         f"|.| <= {paper.OFFSET_BOUND_DEG:g}" if plant == "simplified" else "-",
+                         off))
+    for name in names:
+        for plant, ev in report["evaluation_set"][name].items():
+            rows.append((f"evaluation-set success, {name}, {plant}", "-",
+                         f"{100 * ev['success_rate']:.1f} % (edge stalls: "
+                         f"{ev['failures_stalled_at_band_edge']}/{ev['failures']})"))
+    for model, err in report["integration_error"].items():
+        rows.append((f"max one-step error, {model}, {err['substeps']} vs "
+                     f"{err['reference_substeps']} RK4 substeps [rad, rad/s]", "-",
+                     f"{max(err['max'][:2]):.1e}, {max(err['max'][2:]):.1e}"))
+    w = [max(len(str(row[i])) for row in rows) for i in range(3)]
+    lines = [f"{a!s:<{w[0]}}  {b!s:>{w[1]}}  {c!s:>{w[2]}}" for a, b, c in rows]
+    lines.insert(1, "-" * (sum(w) + 4))
+    lines.append("* Table II's CPU times of agent 1 and agent 2 are almost certainly swapped: "
+                 "agent 2's Q-table is 36x smaller.")
+    return "\n".join(lines)
