@@ -49,3 +49,116 @@ def test_every_cli_command_is_in_the_readme_and_help(capsys):
     for name in COMMANDS:
         assert f"`twolink {name}" in readme, name
         assert name in out, name
+
+
+# --------------------------------------------------------------------------- the venv
+_FAKE_PYTHON = """#!/bin/sh
+# A Python that reports version {version}; `-m venv DIR` makes DIR/bin/python a copy
+# of itself; `-m pip ...` is logged.
+log={log}
+case "$1" in
+  -c) case "$2" in *ensurepip*) exit 0;; esac; echo {version};;
+  -m) if [ "$2" = venv ]; then mkdir -p "$3/bin"; cp "$0" "$3/bin/python";
+      else shift; echo "$*" >> "$log"; fi;;
+  -) cat > /dev/null;;
+esac
+"""
+
+
+def _fake_python(tmp_path, name, version):
+    path = tmp_path / name
+    path.write_text(_FAKE_PYTHON.format(version=version, log=tmp_path / "pip.log"))
+    path.chmod(0o755)
+    return path
+
+
+def _make_venv(tmp_path, python, *extras):
+    return subprocess.run(["bash", str(ROOT / "scripts" / "venv.sh"), str(python),
+                           str(tmp_path / "venv"), *extras], capture_output=True, text=True)
+
+
+def _pip_log(tmp_path):
+    log = tmp_path / "pip.log"
+    return log.read_text().splitlines() if log.exists() else []
+
+
+def test_a_venv_of_another_python_is_rebuilt(tmp_path):
+    venv = tmp_path / "venv"
+    _fake_python(tmp_path, "py312", "3.12.1")
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "python").write_bytes((tmp_path / "py312").read_bytes())
+    (venv / "bin" / "python").chmod(0o755)
+    (venv / "left-over").write_text("")
+    res = _make_venv(tmp_path, _fake_python(tmp_path, "py311", "3.11.9"))
+    assert res.returncode == 0, res.stderr
+    assert "is Python 3.12.1" in res.stderr and "3.11.9" in res.stderr
+    assert not (venv / "left-over").exists()
+    assert _pip_log(tmp_path) == ["pip install -q --upgrade pip", "pip install -q -e ."]
+
+
+def test_a_venv_of_the_same_python_is_kept_and_extras_are_asked_for(tmp_path):
+    python = _fake_python(tmp_path, "py311", "3.11.9")
+    assert _make_venv(tmp_path, python).returncode == 0
+    (tmp_path / "venv" / "left-over").write_text("")
+    res = _make_venv(tmp_path, python, "test")
+    assert res.returncode == 0 and res.stderr == ""
+    assert (tmp_path / "venv" / "left-over").exists()
+    assert _pip_log(tmp_path)[-1] == "pip install -q -e .[test]"
+
+
+def test_a_broken_interpreter_is_one_line(tmp_path):
+    res = _make_venv(tmp_path, tmp_path / "no-such-python")
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [
+        f"twolink: {tmp_path / 'no-such-python'} is not a working Python interpreter"]
+
+
+def _make_n(tmp_path, target, python):
+    res = subprocess.run(["make", "-n", "-C", str(ROOT), target, f"PYTHON={python}",
+                          f"VENV={tmp_path / 'venv'}"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    return [line for line in res.stdout.splitlines() if "venv.sh" in line]
+
+
+def test_make_installs_what_each_target_needs_and_notices_a_new_python(tmp_path):
+    py311 = _fake_python(tmp_path, "py311", "3.11.9")
+    assert _make_n(tmp_path, "demo", py311) == [f"bash scripts/venv.sh {py311} {tmp_path / 'venv'}"]
+    for target in ("test", "bench", "bench-quick"):
+        assert _make_n(tmp_path, target, py311) == [
+            f"bash scripts/venv.sh {py311} {tmp_path / 'venv'} test"]
+    (tmp_path / "venv").mkdir()
+    (tmp_path / "venv" / ".installed-3.11.9").write_text("")   # made after pyproject.toml
+    assert _make_n(tmp_path, "demo", py311) == []
+    assert _make_n(tmp_path, "demo", _fake_python(tmp_path, "py312", "3.12.1")) != []
+
+
+# --------------------------------------------------------------------------- versions
+def test_python_versions_of_pyproject_ci_and_readme_agree():
+    import tomllib
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert project["requires-python"] == ">=3.11,<3.14"
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert "scripts/ci-wheel-smoke.sh" in ci
+    proved = {v for v in ("3.11", "3.12", "3.13") if f"find-python.sh {v}" in ci} | {"3.11"}
+    assert proved == {"3.11", "3.12", "3.13"}
+    readme = (ROOT / "README.md").read_text()
+    setup = readme.split("## Set-up: the two commands")[1].split("\n## ")[0]
+    for version in proved:
+        assert version in setup, version
+
+
+def test_the_313_dependencies_are_dm_controls_less_labmaze():
+    import importlib.metadata
+    import tomllib
+
+    from packaging.requirements import Requirement
+    deps = [Requirement(d) for d in tomllib.loads(
+        (ROOT / "pyproject.toml").read_text())["project"]["dependencies"]]
+    py313 = {"python_version": "3.13"}
+    ours = {d.name.lower(): d.specifier for d in deps if d.marker and d.marker.evaluate(py313)}
+    assert "dm-control" not in {d.name for d in deps if not d.marker or d.marker.evaluate(py313)}
+    theirs = {r.name.lower(): r.specifier for r in map(
+        Requirement, importlib.metadata.requires("dm-control")) if not r.marker}
+    plain = {d.name.lower() for d in deps if not d.marker}
+    assert ours == {k: v for k, v in theirs.items()
+                    if k not in plain | {"labmaze", "setuptools"}}
