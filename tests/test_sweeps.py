@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from twolink.metrics import evaluation_set, settle_time, success
+from twolink.metrics import settle_time, success
 from twolink.parameters import TABLE_I
 from reference_sweeps import reference_cell
 from twolink.perturbations import perturbed

@@ -31,7 +31,7 @@ from twolink.metrics import (discounted_return, evaluation_set, settle_time, suc
 from twolink.mismatch_plan import CURVES, UNITS, Plan, report_order
 from twolink.model_error import one_step_error
 from twolink.parameters import HORIZON, TABLE_I
-from twolink.plants import MujocoPlant, make_plant
+from twolink.plants import PLANTS, MujocoPlant, make_plant
 from twolink.policy import load_policy
 from twolink.registry import COUNTERPART
 from twolink.rollout import rollout
@@ -39,8 +39,6 @@ from twolink.sweep_store import SweepFile
 from twolink.sweeps import policy_digest, run_sweep
 from twolink.throughput import measure
 
-#: Plants of the closed-loop comparison, in report order.
-PLANTS = ("simplified", "full", "mujoco")
 #: Success rate a perturbed plant must keep for a size to count inside the margin.
 THRESHOLD = 0.95
 
@@ -202,8 +200,8 @@ def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="
     curves = robustness(results, policies)
     stage("throughput")
     x0 = np.tile(evaluation_set(), (math.ceil(plan.throughput_rows / 65), 1))
-    tp = measure(loaded.get("centralized_full") or load_policy("centralized_full"),
-                 x0[:plan.throughput_rows], samples=plan.throughput_samples,
+    tp = measure(load_policy(plan.throughput_policy), x0[:plan.throughput_rows],
+                 samples=plan.throughput_samples,
                  nthread=nthread or 2, repeats=plan.throughput_repeats)
     stage("end")
     names = list(stages)

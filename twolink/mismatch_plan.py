@@ -31,9 +31,10 @@ class Plan:
     states: str                        # a twolink.sweeps.STATE_SETS name
     sizes: Mapping[str, tuple]         # perturbation sizes per family of FAMILIES
     joint_draws: int                   # random plants per joint size
-    throughput_rows: int
+    throughput_rows: int               # closed-loop rollouts timed against open-loop MuJoCo
     throughput_samples: int
     throughput_repeats: int
+    throughput_policy: str = "centralized_full"
 
     def cells(self, policies: Iterable[str]) -> list[Cell]:
         """Every sweep cell, the nominal one first, per policy in the order given."""

@@ -35,7 +35,6 @@ import multiprocessing
 import os
 import sys
 import threading
-from pathlib import Path
 from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
