@@ -99,12 +99,12 @@ def test_importing_loads_no_gl_library_and_keeps_mujoco_gl(tmp_path):
 
 def test_a_renderer_binds_egl_when_it_is_made(tmp_path):
     code = ("import twolink.render as r, mujoco\n"
-            "before = hasattr(mujoco, 'GLContext')\n"
+            "before = mujoco.GLContext.__module__\n"
             "with r.Renderer(width=64, height=48) as ren: frame = ren.frame([0, 0, 0, 0])\n"
             "print(before, r.gl_backend(), mujoco.GLContext.__module__, frame.shape)")
     res = _python(tmp_path, code)
     assert res.returncode == 0, res.stderr
-    assert res.stdout.split() == ["False", "egl", "mujoco.egl", "(48,", "64,", "3)"]
+    assert res.stdout.split() == ["twolink", "egl", "mujoco.egl", "(48,", "64,", "3)"]
 
 
 def test_the_environment_loads_without_libegl_and_fails_to_render_in_one_line(tmp_path):
@@ -120,3 +120,21 @@ def test_the_environment_loads_without_libegl_and_fails_to_render_in_one_line(tm
     assert res.stdout.splitlines() == [
         "headless rendering is unavailable: libEGL.so.1 is missing (run "
         "scripts/install-system-deps.sh as root, or apt-get install libegl1)"]
+
+
+def test_mujoco_renderer_made_directly_after_import_twolink_binds_egl(tmp_path):
+    code = ("import twolink, mujoco\n"
+            "model = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom size=\".1\"/>"
+            "</worldbody></mujoco>')\n"
+            "try:\n"
+            "    with mujoco.Renderer(model, 48, 64) as r:\n"
+            "        print(r.render().shape, mujoco.GLContext.__module__)\n"
+            "except RuntimeError as exc:\n"
+            "    print(type(exc).__name__, exc)\n")
+    res = _python(tmp_path, code)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split() == ["(48,", "64,", "3)", "mujoco.egl"]
+    res = _python(tmp_path, code, **NO_EGL)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("RenderError headless rendering is unavailable: "
+                                 "libEGL.so.1 is missing")

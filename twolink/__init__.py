@@ -14,6 +14,7 @@ def _import_without_gl() -> None:
     ``MUJOCO_GL=disable`` defers the choice to the first renderer
     (:func:`twolink.render.use_gl_backend`); the user's MUJOCO_GL is kept for it.
     """
+    fresh_mujoco = "mujoco" not in _sys.modules
     fresh_dm_control = "dm_control._render" not in _sys.modules
     saved = _os.environ.get("MUJOCO_GL")
     _os.environ["MUJOCO_GL"] = "disable"
@@ -28,8 +29,17 @@ def _import_without_gl() -> None:
             del _os.environ["MUJOCO_GL"]
         else:
             _os.environ["MUJOCO_GL"] = saved
+    if fresh_mujoco:  # mujoco.Renderer and mujoco.GLContext pick the backend when called
+        _sys.modules[mujoco.Renderer.__module__].gl_context.GLContext = _gl_context
+        mujoco.GLContext = _gl_context
     if _render is not None and fresh_dm_control:
         _render.Renderer = _dm_control_context
+
+
+def _gl_context(*args, **kwargs):
+    from twolink.render import use_gl_backend
+
+    return use_gl_backend()(*args, **kwargs)
 
 
 def _dm_control_context(*args, **kwargs):

@@ -59,12 +59,14 @@ def _unavailable(exc: BaseException | None = None) -> RenderError:
     return RenderError(f"headless rendering is unavailable: {diagnose(exc)}")
 
 
-def use_gl_backend() -> str:
-    """Bind mujoco's offscreen GL backend (:func:`gl_backend`) and return its name.
+def use_gl_backend():
+    """Bind mujoco's offscreen GL backend (:func:`gl_backend`); return its GLContext class.
 
     ``import twolink`` imports mujoco with ``MUJOCO_GL=disable`` so that importing never
-    touches a GL library; this completes what mujoco's ``gl_context`` module would have
-    done at import. Raises :class:`RenderError` with :func:`diagnose`'s line.
+    touches a GL library, and leaves a stand-in that calls this at the first
+    ``mujoco.Renderer`` or ``mujoco.GLContext``: this completes what mujoco's
+    ``gl_context`` module would have done at import. Raises :class:`RenderError` with
+    :func:`diagnose`'s line.
     """
     name = gl_backend()
     if name not in _BACKENDS:
@@ -73,10 +75,9 @@ def use_gl_backend() -> str:
         context = importlib.import_module(_BACKENDS[name][0]).GLContext
     except Exception as exc:  # a missing library surfaces as several exception types
         raise _unavailable(exc) from None
-    renderer_module = sys.modules[mujoco.Renderer.__module__]
-    renderer_module.gl_context.GLContext = context
+    sys.modules[mujoco.Renderer.__module__].gl_context.GLContext = context
     mujoco.GLContext = context
-    return name
+    return context
 
 
 def dm_control_context(*args, **kwargs):
@@ -87,7 +88,8 @@ def dm_control_context(*args, **kwargs):
     """
     from dm_control import _render
 
-    name = use_gl_backend()
+    use_gl_backend()
+    name = gl_backend()
     try:
         module, cls = _BACKENDS[name][1:]
         context = getattr(importlib.import_module(module), cls)
