@@ -217,6 +217,13 @@ def test_render_to_a_directory_is_refused(tmp_path, capsys):
     assert [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
 
 
+def test_frame_generator_refuses_an_oversized_video_up_front(plain):
+    tr = _line_trajectory()
+    frames = trajectory_frames(plain, [("a", tr, None)], fps=20, speed=1e-9)
+    with pytest.raises(ValueError, match="more than the limit of 18000"):
+        next(frames)
+
+
 def test_gif_frames_are_streamed_not_kept(plain, tmp_path):
     """Each frame is in the (temporary) file before the next one is asked for."""
     sizes = []

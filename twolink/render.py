@@ -334,12 +334,15 @@ def trajectory_frames(renderer: Renderer, panels, *, fps: float, speed: float = 
     """Yield frames of one or more panels side by side.
 
     ``panels`` is a sequence of ``(label, trajectory, ghost_trajectory_or_None)``. Frame i
-    shows simulated time t = i * speed / fps: real time for speed 1.
+    shows simulated time t = i * speed / fps: real time for speed 1. A video over the
+    limits of :func:`twolink.video.check_budget` is refused before the first frame.
     """
     panels = list(panels)
     if not panels:
         raise ValueError("nothing to render")
     duration = min(p[1].t[-1] for p in panels) if duration is None else duration
+    from twolink.video import check_budget
+    check_budget(duration / speed * fps + 1, renderer.width * len(panels), renderer.height)
     times = np.arange(frame_count(duration / speed, fps)) * speed / fps
     sampled = [(label, sample_at(tr, times), None if g is None else sample_at(g, times)[0])
                for label, tr, g in panels]
