@@ -22,8 +22,9 @@ def _reference_noise(entropy, row, steps):
     return [rng.normal(_states(5, k)[row], scale) for k in range(steps)]
 
 
-def test_observation_noise_row_by_row_equals_an_independent_loop():
-    noise = ObservationNoise(ANGLE, SPEED, rngs=row_generators([4, 2], 5))
+@pytest.mark.parametrize("block", [1, 4, 6, 50])
+def test_observation_noise_row_by_row_equals_an_independent_loop(block):
+    noise = ObservationNoise(ANGLE, SPEED, rngs=row_generators([4, 2], 5), block=block)
     fast = np.stack([noise(_states(5, k)) for k in range(6)], 1)          # (rows, steps, 4)
     for row in range(5):
         np.testing.assert_array_equal(fast[row], _reference_noise([4, 2], row, 6), err_msg=row)
@@ -51,6 +52,8 @@ def test_bad_noise_refused():
         ObservationNoise(-0.1, 0.0, rngs=[None])
     with pytest.raises(ValueError, match="generators"):
         ObservationNoise(np.ones(3), 0.0, rngs=[None, None])
+    with pytest.raises(ValueError, match="block"):
+        ObservationNoise(0.1, 0.0, rngs=[None], block=0)
     with pytest.raises(ValueError, match="batch"):
         ObservationNoise(0.1, 0.0, rngs=row_generators(0, 2))(np.zeros((3, 4)))
 

@@ -51,14 +51,21 @@ class ObservationNoise:
     speed) std of that row and z_i is the next standard normal 4-vector of row i's own
     generator ``rngs[i]``. Rows with zero std draw nothing. A single state (4,) is one row.
     ``rngs`` may be numpy Generators or RandomStates (anything with ``standard_normal``).
+
+    ``block``: each noisy row draws the normals of ``block`` steps at once (the same
+    numbers as one step at a time, since a generator fills an array in order), so the
+    loop over rows runs once per block, not once per step. Keep 1 when a generator is
+    shared with other draws between steps (the environment's task random state).
     """
 
-    def __init__(self, angle_std=0.0, speed_std=0.0, *, rngs: Sequence):
+    def __init__(self, angle_std=0.0, speed_std=0.0, *, rngs: Sequence, block: int = 1):
         angle = np.atleast_1d(np.asarray(angle_std, dtype=float))
         speed = np.atleast_1d(np.asarray(speed_std, dtype=float))
         if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(speed))) or \
                 np.any(angle < 0) or np.any(speed < 0):
             raise ValueError("noise standard deviations must be finite and non-negative")
+        if int(block) != block or block < 1:
+            raise ValueError(f"block must be a positive whole number of steps, got {block}")
         self.rngs = list(rngs)
         rows = len(self.rngs)
         try:
@@ -68,6 +75,8 @@ class ObservationNoise:
                              f"{len(speed)} rows") from None
         self.std = np.stack([angle, angle, speed, speed], -1)            # (rows, 4)
         self._noisy = np.flatnonzero(np.any(self.std > 0, axis=-1))
+        self.block = int(block)
+        self._drawn = np.empty((0, len(self._noisy), 4))                  # (steps, noisy, 4)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """The measured state(s): x (4,) or (rows, 4) plus this step's noise."""
@@ -77,9 +86,12 @@ class ObservationNoise:
         flat = x.reshape(-1, 4)
         if len(flat) != len(self.rngs):
             raise ValueError(f"{len(self.rngs)} noise generators for a batch of {len(flat)} states")
+        if not len(self._drawn):
+            self._drawn = np.stack([self.rngs[i].standard_normal((self.block, 4))
+                                    for i in self._noisy], 1)
+        z, self._drawn = self._drawn[0], self._drawn[1:]
         seen = flat.copy()
-        for i in self._noisy:
-            seen[i] += self.std[i] * self.rngs[i].standard_normal(4)
+        seen[self._noisy] += self.std[self._noisy] * z
         return seen.reshape(x.shape)
 
 

@@ -46,7 +46,7 @@ from twolink.perturbations import (PERTURBABLE, ActuationDelay, ObservationNoise
                                    random_perturbation, row_generators, torque_limited)
 from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
-from twolink.rollout import rollout
+from twolink.rollout import rollout, steps_for
 from twolink.sweep_store import SweepFile, load_results  # noqa: F401  (re-exported)
 
 FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
@@ -173,7 +173,8 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
     parts = [_noise_rows(c, n) for c, n in zip(cells, counts)]
     level = np.concatenate([lv for lv, _ in parts])
     noise = ObservationNoise(np.deg2rad(level), level * SPEED_PER_DEG,
-                             rngs=[g for _, rngs in parts for g in rngs])
+                             rngs=[g for _, rngs in parts for g in rngs],
+                             block=steps_for(cells[0].duration))
     plant = MujocoPlant(plist, nthread=nthread)
     try:
         traj = rollout(ActuationDelay(policy, delays), plant, x0, duration=durations.pop(),
