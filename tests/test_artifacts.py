@@ -1,0 +1,60 @@
+"""Atomic writes and the up-front output check shared by every command."""
+import os
+import signal
+import threading
+
+import pytest
+
+from twolink.artifacts import Terminated, atomic_path, check_outputs, sigterm_raises
+
+
+def test_check_outputs_accepts_distinct_writable_files(tmp_path):
+    out = check_outputs({"--csv": tmp_path / "a.csv", "--npz": None,
+                         "--figure": tmp_path / "a.png"})
+    assert out == {"--csv": tmp_path / "a.csv", "--figure": tmp_path / "a.png"}
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("outputs, message", [
+    ({"--csv": "{tmp}/x.png", "--figure": "{tmp}/x.png"}, "--csv and --figure both write"),
+    ({"--csv": "{tmp}/x.png", "--figure": "{tmp}/sub/../x.png"}, "--csv and --figure both"),
+    ({"--csv": "{tmp}/x.png", "--figure": "{tmp}/link.png"}, "--csv and --figure both write"),
+    ({"--report": "{tmp}/sub"}, "it is a directory"),
+    ({"--report": "{tmp}/missing/r.json"}, "directory {tmp}/missing does not exist"),
+    ({"--report": "{tmp}/file/r.json"}, "directory {tmp}/file is not a directory"),
+])
+def test_check_outputs_refuses(outputs, message, tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "file").write_text("")
+    (tmp_path / "link.png").symlink_to(tmp_path / "x.png")
+    before = sorted(os.listdir(tmp_path))
+    with pytest.raises((OSError, ValueError), match=message.replace("{tmp}", str(tmp_path))):
+        check_outputs({k: v.replace("{tmp}", str(tmp_path)) for k, v in outputs.items()})
+    assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_sigterm_inside_atomic_path_removes_the_temporary_file(tmp_path):
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(Terminated):
+        with atomic_path(tmp_path / "v.mp4") as tmp:
+            tmp.write_bytes(b"partial")
+            os.kill(os.getpid(), signal.SIGTERM)
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGTERM) is before           # handler restored
+    with atomic_path(tmp_path / "v.mp4") as tmp:                # and writing still works
+        tmp.write_bytes(b"whole")
+    assert (tmp_path / "v.mp4").read_bytes() == b"whole"
+
+
+def test_sigterm_handler_only_in_the_main_thread():
+    seen = []
+
+    def work():
+        with sigterm_raises():
+            seen.append(signal.getsignal(signal.SIGTERM))
+
+    before = signal.getsignal(signal.SIGTERM)
+    t = threading.Thread(target=work)
+    t.start()
+    t.join()
+    assert seen == [before]
