@@ -130,7 +130,8 @@ def test_reproduce_table_is_printed(tmp_path, capsys):
      "directory /nonexistent does not exist"),
     (["--figure", "{tmp}/x.png", "--report", "{tmp}/x.png"], "--figure and --report both write"),
     (["--figure", "{tmp}/f.jpg"], "use a .png"),
-    (["--duration", "1e12", "--figure", "{tmp}/f.png"], "duration must be at most"),
+    (["--duration", "1e12", "--figure", "{tmp}/f.png"], "at most 60, got 1e+12"),
+    (["--duration", "nan", "--figure", "{tmp}/f.png"], "duration must be a positive"),
 ])
 def test_reproduce_checks_outputs_before_any_work(argv, message, tmp_path, capsys):
     import time

@@ -13,9 +13,8 @@ from pathlib import Path
 from twolink.artifacts import check_outputs, write_json
 from twolink.parameters import HORIZON
 from twolink.plots import paper_fig3
-from twolink.reproduce import PLANTS, reproduce, table
+from twolink.reproduce import MAX_DURATION, PLANTS, check_duration, reproduce, table
 from twolink.resources import output_dir
-from twolink.rollout import steps_for
 
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -24,7 +23,8 @@ def add_parser(sub):
     p = sub.add_parser("reproduce", help="reproduce the paper's experiment (the main job)",
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--duration", type=float, default=HORIZON,
-                   help=f"rollout horizon in seconds (default {HORIZON})")
+                   help=f"rollout horizon in seconds (default {HORIZON:g}, at most "
+                        f"{MAX_DURATION:g})")
     p.add_argument("--figure", type=Path, default=None,
                    help="Fig. 3 counterpart to write, .png, .pdf or .svg "
                         "(default renders/fig3.png)")
@@ -34,7 +34,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    steps_for(args.duration, rows=65)
+    check_duration(args.duration)
     figure = args.figure or output_dir(create=False) / "fig3.png"
     if figure.suffix.lower() not in _FIGURE_SUFFIXES:
         raise ValueError(f"--figure {figure}: use a .png, .pdf or .svg file name")
