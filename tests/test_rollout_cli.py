@@ -175,3 +175,18 @@ def test_reloaded_runs_keep_their_kind_and_are_plotted_with_its_reward(tmp_path,
     reward_axes = figures[0].axes[6:8]                    # row 4 of a 4 x 2 grid
     colors = [[line.get_color() for line in ax.get_lines()] for ax in reward_axes]
     assert colors == [["tab:orange", "tab:blue"], ["k"]]   # (17) per link vs (15)
+
+
+def test_trajectory_files_without_kinds_get_the_registry_kind(tmp_path, centralized):
+    """Files written before kinds were recorded: a shipped name gives its kind."""
+    from twolink.trajectory_io import FORMAT
+    tr = rollout(centralized, make_plant("simplified"), [-1, -3, 0, 0], duration=0.2)
+    arrays = {f"{p}/simplified/{n}": getattr(tr, n) for p in ("decentralized_propagated", "mine")
+              for n in ("t", "x", "u", "r", "r_links")}
+    header = {"format": FORMAT, "runs": [["decentralized_propagated", "simplified"],
+                                         ["mine", "simplified"]], "meta": {}}
+    np.savez(tmp_path / "old.npz", header=np.array(json.dumps(header)), **arrays)
+    runs = load_npz(tmp_path / "old.npz")
+    assert runs[("decentralized_propagated", "simplified")].kind == "decentralized"
+    assert runs[("mine", "simplified")].kind == ""
+    np.testing.assert_array_equal(runs[("mine", "simplified")].x, tr.x)
