@@ -76,11 +76,8 @@ def bench_rollouts(*, batch: int = 64, duration: float = 5.0, repeats: int = 3,
         rows.append(Row(sec, f"{name}: sample periods/s", batch * 10 / t, "samples/s",
                         f"batch {batch}, RK4 x {plant.substeps} substeps per Ts"))
         summary[name] = batch * 10 / t
-    plant = MujocoPlant(nthread=1)
-    try:
+    with MujocoPlant(nthread=1) as plant:
         t, _ = best_time(lambda: [plant.step(x0, tau) for _ in range(10)], repeats)
-    finally:
-        plant.close()
     rows.append(Row(sec, "mujoco (for comparison): sample periods/s", batch * 10 / t,
                     "samples/s", f"batch {batch}, 1 thread, {plant.nstep} RK4 steps per Ts"))
     return rows, summary

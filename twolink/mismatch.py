@@ -67,8 +67,7 @@ def closed_loop(policies, *, nthread=None, log=None) -> tuple[dict, dict]:
     """Each policy on each plant from the evaluation set: metrics, and settle times."""
     x0 = evaluation_set()
     out, settle = {}, {}
-    mj = MujocoPlant(TABLE_I, nthread=nthread)
-    try:
+    with MujocoPlant(TABLE_I, nthread=nthread) as mj:
         for name in policies:
             policy = load_policy(name)
             trajs = {}
@@ -91,8 +90,6 @@ def closed_loop(policies, *, nthread=None, log=None) -> tuple[dict, dict]:
                     k: float(v.mean()) for k, v in gap.items()}
             if log is not None:
                 log(f"  closed loop: {name} done")
-    finally:
-        mj.close()
     return out, settle
 
 

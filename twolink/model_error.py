@@ -68,11 +68,8 @@ def one_step_error(p: ArmParameters = TABLE_I, *, nthread: int | None = None) ->
     actions = simp.actions
     x = np.broadcast_to(centers[:, None, :], (len(centers), len(actions), 4))
     tau = np.broadcast_to(actions[None], x.shape[:-1] + (2,))
-    plant = MujocoPlant(p, nthread=nthread)
-    try:
+    with MujocoPlant(p, nthread=nthread) as plant:
         ref = plant.step(x, tau)
-    finally:
-        plant.close()
     # Agent 2 on (6): link 1 assumed at rest, with no torque of its own.
     rest = np.array(x)
     rest[..., 2] = 0.0

@@ -175,12 +175,9 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
     noise = ObservationNoise(np.deg2rad(level), level * SPEED_PER_DEG,
                              rngs=[g for _, rngs in parts for g in rngs],
                              block=steps_for(cells[0].duration))
-    plant = MujocoPlant(plist, nthread=nthread)
-    try:
+    with MujocoPlant(plist, nthread=nthread) as plant:
         traj = rollout(ActuationDelay(policy, delays), plant, x0, duration=durations.pop(),
                        observe=lambda k, x: noise(x))
-    finally:
-        plant.close()
     st, ok, ret = settle_time(traj), success(traj), discounted_return(traj)
     out, start = [], 0
     for c, n in zip(cells, counts):

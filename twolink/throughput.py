@@ -66,8 +66,7 @@ def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Thro
         raise ValueError(f"samples and nthread must be positive whole numbers, got "
                          f"{samples} and {nthread}")
     duration = samples * TS
-    plant = MujocoPlant(nthread=nthread)
-    try:
+    with MujocoPlant(nthread=nthread) as plant:
         traj = rollout(policy, plant, x0, duration=duration)
         nstep, model = plant.nstep, plant.model
         nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -87,8 +86,6 @@ def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Thro
                     best[key] = min(best[key], time.perf_counter() - t0)
                     if key == "open":
                         state = out[0]
-    finally:
-        plant.close()
     if state.shape != (len(x0), samples * nstep, nstate) or \
             not np.all(np.isfinite(state)):
         raise RuntimeError("open-loop rollout returned an unexpected state array")
