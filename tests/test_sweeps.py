@@ -146,7 +146,7 @@ def test_changed_policy_invalidates_stored_cells(tmp_path):
 
 def test_a_bad_line_in_the_middle_is_refused(tmp_path):
     path = tmp_path / "sweep.jsonl"
-    path.write_text('{"format": "twolink-sweep", "format_version": 1}\n{"key": 1\n{}\n')
+    path.write_text('{"format": "twolink-sweep", "format_version": 2}\n{"key": 1\n{}\n')
     with pytest.raises(ValueError, match="line 2"):
         run_sweep(_cells()[:1], path, executor="serial")
     (tmp_path / "x.jsonl").write_text("hello\n")
@@ -171,6 +171,25 @@ def test_a_torn_last_line_is_dropped_reported_and_its_cell_rerun(tmp_path, capsy
     assert len(err) == 1 and "torn last line (line 4" in err[0] and str(path) in err[0]
     assert path.read_text() == "".join(lines)            # cut back, then appended to
     assert load_results(path) == whole
+
+
+def test_a_file_of_the_older_format_starts_over(tmp_path, capsys):
+    """Version 1 files hold noise cells drawn before per-row generators: not reused."""
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[3:4]
+    run_sweep(cells, path, executor="serial")
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text(lines[0].replace('"format_version": 2', '"format_version": 1') + lines[1])
+    with pytest.raises(ValueError, match="older format version 1"):
+        load_results(path)
+    redone = []
+    run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    assert len(redone) == 1 and path.read_text() == "".join(lines)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "older format version 1; every cell runs again" in err[0]
+    path.write_text(lines[0].replace('"format_version": 2', '"format_version": 3'))
+    with pytest.raises(ValueError, match="unsupported sweep results version 3"):
+        run_sweep(cells, path, executor="serial")
 
 
 def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path):

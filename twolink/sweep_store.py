@@ -19,12 +19,18 @@ from pathlib import Path
 from typing import Optional
 
 FORMAT = "twolink-sweep"
-FORMAT_VERSION = 1
+#: 2: per-row noise generators (twolink.perturbations.ObservationNoise); version 1 files
+#: hold noise cells drawn otherwise, so a sweep starts them over.
+FORMAT_VERSION = 2
 _HEADER = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION}) + "\n"
 
 
 class SweepLocked(RuntimeError):
     """Another open :class:`SweepFile` (in this or another process) holds the file."""
+
+
+class _OlderFormat(ValueError):
+    """A results file of an earlier format version: its records are not reused."""
 
 
 def _lock_holder(path: Path) -> Optional[int]:
@@ -54,9 +60,12 @@ def _parse(path: Path, data: bytes) -> tuple[dict, int, Optional[str]]:
         header = None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ValueError(f"{path} is not a twolink sweep results file")
-    if header.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{path}: unsupported sweep results version "
-                         f"{header.get('format_version')!r}")
+    version = header.get("format_version")
+    if version != FORMAT_VERSION:
+        if isinstance(version, int) and 0 < version < FORMAT_VERSION:
+            raise _OlderFormat(f"{path}: dropped results of the older format version "
+                               f"{version}; every cell runs again")
+        raise ValueError(f"{path}: unsupported sweep results version {version!r}")
     if not complete and len(lines) == 1:
         raise ValueError(f"{path}: torn header line")
     records, good = {}, len(lines[0]) + 1
@@ -125,12 +134,16 @@ class SweepFile:
             data = b""
             while chunk := os.read(fd, 1 << 20):
                 data += chunk
+            try:
+                records, good, note = _parse(self.path, data) if data else ({}, 0, None)
+            except _OlderFormat as exc:
+                records, good, note = {}, 0, str(exc)
+                os.ftruncate(fd, 0)
+                data = b""
             if not data:
                 os.write(fd, _HEADER.encode())
                 os.fsync(fd)
-                records, note = {}, None
             else:
-                records, good, note = _parse(self.path, data)
                 if note == "newline":              # a whole record missing its newline
                     os.write(fd, b"\n")
                     note = None
