@@ -94,3 +94,20 @@ def summary(traj: Trajectory) -> dict:
             "final_state": traj.x[-1].tolist(),
             "duration": float(traj.t[-1])}
 
+
+
+def compare(runs: dict, plants, *, reference: str = "simplified") -> list:
+    """One entry per run of ``runs`` (``{(label, plant): Trajectory}``) on ``plants``:
+    its :func:`summary` and, on a plant other than ``reference``, the
+    :func:`trajectory_gap` to the same policy's run on ``reference`` (which ``runs``
+    must hold)."""
+    out = []
+    for (label, plant), tr in runs.items():
+        if plant not in plants:
+            continue
+        entry = {"policy": label, "plant": plant, **summary(tr)}
+        if plant != reference:
+            gap = trajectory_gap(tr, runs[(label, reference)])
+            entry[f"gap_to_{reference}"] = {k: float(v) for k, v in gap.items()}
+        out.append(entry)
+    return out

@@ -12,8 +12,8 @@ import dataclasses
 
 import numpy as np
 
-from twolink.parameters import HORIZON, TS
-from twolink.plants import Plant, SimulationError, check_states
+from twolink.parameters import HORIZON, TABLE_I, TS
+from twolink.plants import Plant, SimulationError, check_states, make_plant
 from twolink.reward import agent_reward, centralized_reward
 
 #: Longest horizon a rollout accepts: one hour, 72 000 sample periods.
@@ -106,3 +106,16 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
     kind = getattr(policy, "kind", "")
     return Trajectory(np.arange(n + 1) * TS, xs, us, centralized_reward(nxt), r_links,
                       getattr(plant, "name", ""), kind if label is None else label, kind)
+
+
+def rollout_grid(policies: dict, plants, x0, *, duration: float = HORIZON,
+                 params=None) -> dict:
+    """Every policy (``{label: policy}``) on every plant (names) from x0:
+    ``{(label, plant): Trajectory}``, plant by plant, each plant made once and closed."""
+    runs = {}
+    for plant_name in dict.fromkeys(plants):
+        with make_plant(plant_name, TABLE_I if params is None else params) as plant:
+            for label, policy in policies.items():
+                runs[(label, plant_name)] = rollout(policy, plant, x0, duration=duration,
+                                                    label=label)
+    return {(label, p): runs[(label, p)] for label in policies for p in dict.fromkeys(plants)}

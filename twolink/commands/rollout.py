@@ -5,7 +5,6 @@ Fig. 3-style figure (one column per policy, one line style per plant).
 """
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -15,13 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from twolink.artifacts import check_outputs
-from twolink.metrics import summary, trajectory_gap
+from twolink.metrics import compare
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
-from twolink.plants import PLANTS, check_states, make_plant
+from twolink.plants import PLANTS, check_states
 from twolink.plots import fig3
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
-from twolink.rollout import rollout, steps_for
+from twolink.rollout import rollout_grid, steps_for
 from twolink.trajectory_io import save_csv, save_npz
 
 _X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
@@ -108,23 +107,10 @@ def run(args) -> int:
     steps_for(args.duration)
     outputs = _outputs(args)
 
-    runs, reference = {}, {}
-    with contextlib.ExitStack() as stack:
-        made = {}
-        for pname, policy in policies.items():
-            for plant in dict.fromkeys(plants + (["simplified"] if plants != ["simplified"]
-                                                 else [])):
-                if plant not in made:
-                    made[plant] = stack.enter_context(make_plant(plant, TABLE_I))
-                tr = rollout(policy, made[plant], x0, duration=args.duration, label=pname)
-                (runs if plant in plants else reference)[(pname, plant)] = tr
-    report = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed, "runs": []}
-    for (pname, plant), tr in runs.items():
-        entry = {"policy": pname, "plant": plant, **summary(tr)}
-        if plant != "simplified":
-            ref = runs.get((pname, "simplified")) or reference[(pname, "simplified")]
-            entry["gap_to_simplified"] = {k: float(v) for k, v in trajectory_gap(tr, ref).items()}
-        report["runs"].append(entry)
+    everything = rollout_grid(policies, plants + ["simplified"], x0, duration=args.duration)
+    runs = {k: tr for k, tr in everything.items() if k[1] in plants}
+    report = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
+              "runs": compare(everything, plants)}
 
     if outputs:
         meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
