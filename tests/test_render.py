@@ -195,6 +195,7 @@ def test_render_cli_gif_at_chosen_rate(tmp_path, capsys):
     (["--policy", "centralized", "--policy", "decentralized", "--policy", "centralized"],
      "one or two --policy"),
     (["--speed", "1e-9", "--duration", "0.1"], "more than the limit of 18000"),
+    (["--policy", "centralized", "--policy", "centralized"], "name the same policy"),
     (["--speed", "0"], "--speed must be a positive"),
     (["--duration", "500", "--size", "2048x2048"], "pixels"),
     (["--duration", "1e12"], "duration must be at most 3600 s"),

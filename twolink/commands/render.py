@@ -18,11 +18,11 @@ from tqdm import tqdm
 
 from twolink.artifacts import check_outputs
 from twolink.commands.rollout import _X0_HELP, _label, parse_x0
-from twolink.parameters import HORIZON, TABLE_I, TS
-from twolink.plants import PLANTS, make_plant
+from twolink.parameters import HORIZON, TS
+from twolink.plants import PLANTS
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
-from twolink.rollout import rollout, steps_for
+from twolink.rollout import rollout_grid, steps_for
 from twolink.video import check_budget, check_fps, check_size, video_format, write_video
 
 
@@ -80,22 +80,20 @@ def run(args) -> int:
     if not np.isfinite(args.speed) or args.speed <= 0:
         raise ValueError(f"--speed must be a positive number, got {args.speed}")
     labels = [_label(n) for n in names]
+    if len(set(labels)) < len(labels):
+        raise ValueError(f"the two --policy values name the same policy {labels[0]!r}")
     out = args.output or output_dir() / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
     fmt = video_format(out)
     check_size(width * len(names), height, fmt)
     check_budget(args.duration / args.speed * args.fps + 1, width * len(names), height)
     check_outputs({"--output": out})
 
-    policies = [load_policy(n) for n in names]
-    panels = []
-    with make_plant(args.plant, TABLE_I) as plant, \
-            make_plant("simplified", TABLE_I) as ghost_plant:
-        for label, policy in zip(labels, policies):
-            tr = rollout(policy, plant, x0, duration=args.duration, label=label)
-            gh = (rollout(policy, ghost_plant, x0, duration=args.duration, label=label)
-                  if args.ghost else None)
-            panels.append((f"{label} on {args.plant}" + (" (ghost: simplified)" if gh else ""),
-                           tr, gh))
+    policies = {label: load_policy(n) for label, n in zip(labels, names)}
+    runs = rollout_grid(policies, [args.plant] + (["simplified"] if args.ghost else []), x0,
+                        duration=args.duration)
+    panels = [(f"{label} on {args.plant}" + (" (ghost: simplified)" if args.ghost else ""),
+               runs[(label, args.plant)], runs.get((label, "simplified")) if args.ghost else None)
+              for label in policies]
 
     from twolink.render import Renderer, frame_count, trajectory_frames
 
