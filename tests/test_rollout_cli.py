@@ -190,3 +190,16 @@ def test_trajectory_files_without_kinds_get_the_registry_kind(tmp_path, centrali
     assert runs[("decentralized_propagated", "simplified")].kind == "decentralized"
     assert runs[("mine", "simplified")].kind == ""
     np.testing.assert_array_equal(runs[("mine", "simplified")].x, tr.x)
+
+
+def test_default_output_folder_is_made_only_for_a_run_that_writes(tmp_path, capsys,
+                                                                  monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("TWOLINK_OUTPUT", raising=False)
+    code, _, err = _run(capsys, "--csv", "x.png", "--figure", "x.png", "--duration", 0.2)
+    assert code == 2 and "--csv and --figure both write x.png" in err
+    assert list(tmp_path.iterdir()) == []                # no empty renders/ left behind
+    code, _, _ = _run(capsys, "--plant", "simplified", "--duration", 0.2)
+    assert code == 0
+    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == [
+        "rollout.csv", "rollout.npz", "rollout_fig3.png"]

@@ -60,16 +60,25 @@ def check_writable(path: os.PathLike) -> Path:
     return path
 
 
-def check_outputs(outputs: Mapping[str, os.PathLike | None]) -> dict:
+def check_outputs(outputs: Mapping[str, os.PathLike | None], *, creatable=()) -> dict:
     """Check every output of a command before any work: each can be written
     (:func:`check_writable`) and no two are the same file. ``outputs`` maps a name (the
-    option, e.g. ``--csv``) to a path or None (not written); returns the given paths."""
+    option, e.g. ``--csv``) to a path or None (not written); returns the given paths.
+
+    A directory in ``creatable`` (the default output folder) may be missing if it can be
+    made; the caller makes it after the check, so a refused command leaves nothing.
+    """
+    creatable = {Path(d) for d in creatable}
     seen: dict = {}
     out = {}
     for name, path in outputs.items():
         if path is None:
             continue
-        path = check_writable(path)
+        path = Path(path)
+        if path.parent in creatable and not path.parent.exists():
+            check_writable(path.parent)
+        else:
+            check_writable(path)
         key = os.path.realpath(path)
         if key in seen:
             raise ValueError(f"{seen[key]} and {name} both write {path}; give them "

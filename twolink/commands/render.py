@@ -82,13 +82,16 @@ def run(args) -> int:
     labels = [_label(n) for n in names]
     if len(set(labels)) < len(labels):
         raise ValueError(f"the two --policy values name the same policy {labels[0]!r}")
-    out = args.output or output_dir() / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
+    default = output_dir(create=False)
+    out = args.output or default / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
     fmt = video_format(out)
     check_size(width * len(names), height, fmt)
     check_budget(args.duration / args.speed * args.fps + 1, width * len(names), height)
-    check_outputs({"--output": out})
+    check_outputs({"--output": out}, creatable=[default])
 
     policies = {label: load_policy(n) for label, n in zip(labels, names)}
+    if out.parent == default:
+        output_dir()                             # the default folder, made on demand
     runs = rollout_grid(policies, [args.plant] + (["simplified"] if args.ghost else []), x0,
                         duration=args.duration)
     panels = [(f"{label} on {args.plant}" + (" (ghost: simplified)" if args.ghost else ""),

@@ -35,12 +35,13 @@ def add_parser(sub):
 
 def run(args) -> int:
     check_duration(args.duration)
-    figure = args.figure or output_dir(create=False) / "fig3.png"
+    default = output_dir(create=False)
+    figure = args.figure or default / "fig3.png"
     if figure.suffix.lower() not in _FIGURE_SUFFIXES:
         raise ValueError(f"--figure {figure}: use a .png, .pdf or .svg file name")
-    if args.figure is None:
-        output_dir()                         # the default folder, created on demand
-    check_outputs({"--figure": figure, "--report": args.report})
+    check_outputs({"--figure": figure, "--report": args.report}, creatable=[default])
+    if figure.parent == default:
+        output_dir()                         # the default folder, made on demand
 
     result = reproduce(args.duration, progress=not args.json)
     paper_fig3(result.trajectories, figure, plants=PLANTS)

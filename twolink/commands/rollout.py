@@ -84,7 +84,8 @@ def _outputs(args) -> dict:
     """The files to write, keyed by kind, all checked before any work."""
     if args.no_save:
         return {}
-    prefix = Path(args.output) if args.output else output_dir() / "rollout"
+    default = output_dir(create=False)
+    prefix = Path(args.output) if args.output else default / "rollout"
     if prefix.is_dir() or (args.output or "").endswith(("/", os.sep)):
         prefix = prefix / "rollout"
     out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
@@ -92,7 +93,9 @@ def _outputs(args) -> dict:
            "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}
     if out["figure"].suffix.lower() not in (".png", ".pdf", ".svg"):
         raise ValueError(f"--figure {out['figure']}: use a .png, .pdf or .svg file name")
-    checked = check_outputs({f"--{k}": v for k, v in out.items()})
+    checked = check_outputs({f"--{k}": v for k, v in out.items()}, creatable=[default])
+    if any(p.parent == default for p in checked.values()):
+        output_dir()                             # the default folder, made on demand
     return {k: checked[f"--{k}"] for k in out}
 
 
