@@ -185,3 +185,25 @@ def test_bad_input_is_one_error_line_and_writes_nothing(tmp_path, capsys, argv, 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and match in err[0]
     assert not out.exists()
+
+
+def test_a_policy_keeps_its_colour_whatever_the_order(monkeypatch, tmp_path):
+    from matplotlib.colors import to_hex
+
+    from twolink import mismatch_figures
+
+    figures = []
+    monkeypatch.setattr(mismatch_figures, "_save", lambda fig, path: figures.append(fig))
+    curves = {"decentralized_full": {"noise": {0.0: 1.0, 1.0: 0.5}},
+              "centralized": {"noise": {0.0: 0.4, 1.0: 0.2}}}
+    for order in (curves, dict(reversed(list(curves.items())))):
+        mismatch_figures.robustness_figure(
+            {"robustness": {"curves": order, "threshold": THRESHOLD}}, ["noise"],
+            tmp_path / "x.png", "t")
+    colours = [{line.get_label(): to_hex(line.get_color()) for line in fig.axes[0].lines
+                if not line.get_label().startswith("_")} for fig in figures]
+    assert colours[0] == colours[1]
+    assert colours[0]["centralized"] == to_hex(mismatch_figures.policy_color("centralized"))
+    assert colours[0]["centralized"] != colours[0]["decentralized_full"]
+    assert mismatch_figures.policy_color("centralized_full") == \
+        f"C{list(SHIPPED).index('centralized_full')}"
