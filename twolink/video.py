@@ -99,37 +99,37 @@ def _write_mp4(path: Path, frames, fps: float, crf: int) -> int:
 
 def _write_gif(path: Path, frames, fps: float) -> int:
     """Stream frames into an animated GIF with Pillow's GIF helpers (``getheader``,
-    ``getdata``): one 256-colour palette from the first frame (median cut), then each
-    frame quantized to it and written at once, cropped to where it differs from the
-    previous one (disposal 1), so memory holds one frame whatever the length."""
+    ``getdata``): each frame is cropped to the box where it differs from the previous
+    one, quantized to its own 256-colour table (median cut) and written at once
+    (disposal 1 keeps the rest), so memory holds one frame whatever the length."""
     from PIL import GifImagePlugin, Image
 
     delay_ms = 10 * max(1, round(100.0 / fps))       # GIF delays are in centiseconds
-    palette = previous = None
+    previous = None
     n = 0
     with open(path, "wb", buffering=0) as fp:          # one write per frame, straight out
         for frame in frames:
-            im = Image.fromarray(np.ascontiguousarray(frame, dtype=np.uint8))
-            if palette is None:
-                check_size(im.width, im.height, "gif")
-                palette = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
-            q = im.quantize(palette=palette, dither=Image.Dither.NONE)
-            index = np.asarray(q)
+            frame = np.ascontiguousarray(frame, dtype=np.uint8)
             if previous is None:
-                header, _ = GifImagePlugin.getheader(q, info={"loop": 0})
-                fp.write(b"".join(header))
-                box = (0, 0, im.width, im.height)
-            elif index.shape != previous.shape:
-                raise ValueError(f"frame {n} is {im.width}x{im.height}, the first was "
-                                 f"{previous.shape[1]}x{previous.shape[0]}")
+                check_size(frame.shape[1], frame.shape[0], "gif")
+                box = (0, 0, frame.shape[1], frame.shape[0])
+            elif frame.shape != previous.shape:
+                raise ValueError(f"frame {n} has shape {frame.shape}, the first one "
+                                 f"{previous.shape}")
             else:
-                changed = index != previous
+                changed = np.any(frame != previous, axis=-1)
                 rows, cols = np.flatnonzero(changed.any(1)), np.flatnonzero(changed.any(0))
                 box = ((int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
                        if len(rows) else (0, 0, 1, 1))
-            previous = index
-            fp.write(b"".join(GifImagePlugin.getdata(q.crop(box), offset=box[:2],
-                                                     duration=delay_ms, disposal=1)))
+            crop = Image.fromarray(frame[box[1]:box[3], box[0]:box[2]])
+            q = crop.quantize(colors=256, method=Image.Quantize.MEDIANCUT,
+                              dither=Image.Dither.NONE)
+            if previous is None:
+                header, _ = GifImagePlugin.getheader(q, info={"loop": 0})
+                fp.write(b"".join(header))
+            fp.write(b"".join(GifImagePlugin.getdata(q, offset=box[:2], duration=delay_ms,
+                                                     disposal=1, include_color_table=True)))
+            previous = frame
             n += 1
         fp.write(b";")                                   # GIF trailer
     if n == 0:
