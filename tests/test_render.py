@@ -225,6 +225,15 @@ def test_frame_generator_refuses_an_oversized_video_up_front(plain):
         next(frames)
 
 
+def test_gif_keeps_colours_that_appear_after_the_first_frame(tmp_path):
+    frames = [np.full((48, 64, 3), 200, np.uint8) for _ in range(4)]
+    frames[2][10:30, 20:40] = (158, 82, 235)           # the ghost's purple, frame 2 only
+    frames[3][5:9, 5:60] = (38, 115, 217)              # link 2's blue, frame 3 only
+    assert write_video(tmp_path / "c.gif", iter(frames), 10) == 4
+    back = read_video(tmp_path / "c.gif").astype(int)
+    assert np.abs(back - np.stack(frames).astype(int)).max() <= 4
+
+
 def test_gif_frames_are_streamed_not_kept(plain, tmp_path):
     """Each frame is in the (temporary) file before the next one is asked for."""
     sizes = []
