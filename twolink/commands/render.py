@@ -22,8 +22,9 @@ from twolink.parameters import HORIZON, TS
 from twolink.plants import PLANTS
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
-from twolink.rollout import rollout_grid, steps_for
-from twolink.video import check_budget, check_fps, check_size, video_format, write_video
+from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
+from twolink.video import (MAX_FRAMES, check_budget, check_fps, check_size, video_format,
+                           write_video)
 
 
 def add_parser(sub):
@@ -39,7 +40,8 @@ def add_parser(sub):
                    help="read --x0 angles in degrees and speeds in deg/s")
     p.add_argument("--seed", type=int, default=0, help="seed for --x0 random (default 0)")
     p.add_argument("--duration", type=float, default=HORIZON,
-                   help=f"simulated seconds (default {HORIZON:g})")
+                   help=f"simulated seconds (default {HORIZON:g}, at most {MAX_DURATION:g}; "
+                        f"a video has at most {MAX_FRAMES} frames)")
     p.add_argument("--fps", type=float, default=round(1 / TS),
                    help=f"frames per second of the video (default {round(1 / TS)}, one per "
                         f"sample period)")

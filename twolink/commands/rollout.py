@@ -16,16 +16,17 @@ import numpy as np
 from twolink.artifacts import check_outputs
 from twolink.metrics import compare
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
-from twolink.plants import PLANTS, check_states
+from twolink.plants import MAX_ANGLE, PLANTS, SPEED_BOUND, check_states
 from twolink.plots import fig3
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
-from twolink.rollout import rollout_grid, steps_for
+from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
 from twolink.trajectory_io import save_csv, save_npz
 
 _X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
             "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
             "'random' (angles uniform in [-pi, pi), at rest, drawn with --seed); "
+            f"|angles| <= {MAX_ANGLE:g} rad, |speeds| <= {SPEED_BOUND:g} x the speed limit; "
             "default: the paper's -1 -3 0 0")
 
 
@@ -45,7 +46,8 @@ def add_parser(sub):
     p.add_argument("--degrees", action="store_true",
                    help="read --x0 angles in degrees and speeds in deg/s")
     p.add_argument("--duration", type=float, default=HORIZON,
-                   help=f"seconds to simulate (default {HORIZON:g})")
+                   help=f"seconds to simulate (default {HORIZON:g}, at most "
+                        f"{MAX_DURATION:g})")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the random generator for --x0 random (default 0)")
     p.add_argument("-o", "--output", default=None, metavar="PREFIX",
