@@ -110,6 +110,7 @@ def test_rollout_x0_degrees_and_random_seed(tmp_path, capsys):
     (["--csv", "{tmp}/x.png", "--figure", "{tmp}/x.png"], "--csv and --figure both write"),
     (["--npz", "{tmp}/afile/../r.npz", "--csv", "{tmp}/r.npz"], "does not exist"),
     (["-o", "{tmp}/r", "--npz", "{tmp}/r.csv"], "--csv and --npz both write"),
+    (["--policy", "centralized", "--policy", "{tmp}/centralized.npz"], "share the label"),
 ])
 def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, capsys):
     (tmp_path / "afile").write_text("x")

@@ -96,8 +96,6 @@ def _outputs(args) -> dict:
     if out["figure"].suffix.lower() not in (".png", ".pdf", ".svg"):
         raise ValueError(f"--figure {out['figure']}: use a .png, .pdf or .svg file name")
     checked = check_outputs({f"--{k}": v for k, v in out.items()}, creatable=[default])
-    if any(p.parent == default for p in checked.values()):
-        output_dir()                             # the default folder, made on demand
     return {k: checked[f"--{k}"] for k in out}
 
 
@@ -106,7 +104,13 @@ def _label(name: str) -> str:
 
 
 def run(args) -> int:
-    policies = {_label(n): load_policy(n) for n in (args.policy or ["centralized"])}
+    names = list(dict.fromkeys(args.policy or ["centralized"]))
+    labels = [_label(n) for n in names]
+    twice = [label for i, label in enumerate(labels) if label in labels[:i]]
+    if twice:
+        raise ValueError(f"two --policy values share the label {twice[0]!r} "
+                         f"(a file's stem); rename one")
+    policies = {label: load_policy(n) for label, n in zip(labels, names)}
     plants = list(dict.fromkeys(args.plant or ["mujoco"]))
     x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
     steps_for(args.duration)
@@ -118,6 +122,8 @@ def run(args) -> int:
               "runs": compare(everything, plants)}
 
     if outputs:
+        if any(p.parent == output_dir(create=False) for p in outputs.values()):
+            output_dir()                         # the default folder, made on demand
         meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
                 "policies": {k: (v.kind, v.meta.get("context")) for k, v in policies.items()}}
         save_csv(outputs["csv"], runs)
