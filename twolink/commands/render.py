@@ -92,13 +92,13 @@ def run(args) -> int:
     check_outputs({"--output": out}, creatable=[default])
 
     policies = {label: load_policy(n) for label, n in zip(labels, names)}
-    if out.parent == default:
-        output_dir()                             # the default folder, made on demand
     runs = rollout_grid(policies, [args.plant] + (["simplified"] if args.ghost else []), x0,
                         duration=args.duration)
     panels = [(f"{label} on {args.plant}" + (" (ghost: simplified)" if args.ghost else ""),
                runs[(label, args.plant)], runs.get((label, "simplified")) if args.ghost else None)
               for label in policies]
+    if out.parent == default:
+        output_dir()                             # the default folder, made on demand
 
     from twolink.render import Renderer, frame_count, trajectory_frames
 
