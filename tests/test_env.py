@@ -92,9 +92,15 @@ def test_deterministic_under_a_seed(task):
 def test_rewards_in_range_and_match_the_goal_band(task):
     env = twolink_env.load(task, seed=0)
     policy = load_policy(task)
-    _, _, rewards = _drive(env, policy)
+    states, _, rewards = _drive(env, policy)
     assert np.all((rewards >= REWARD_OTHER) & (rewards <= REWARD_GOAL))
-    assert set(np.unique(rewards)) == {REWARD_OTHER, REWARD_GOAL}  # starts outside, settles
+    # r_{k+1} is 0 exactly where x_{k+1} lies in the goal band ((15) per link for (17)).
+    links = np.stack([agent_reward(states[1:], 1), agent_reward(states[1:], 2)], -1)
+    expected = links.min(-1) if task == "centralized" else links
+    np.testing.assert_array_equal(rewards, expected)
+    assert REWARD_OTHER in rewards                                 # x0 is outside the band
+    if task == "centralized":                                      # and this policy settles
+        assert np.all(rewards[-20:] == REWARD_GOAL)
 
 
 @pytest.mark.parametrize("task", TASKS)

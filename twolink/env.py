@@ -41,7 +41,7 @@ from twolink import mjcf
 from twolink.parameters import (HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
                                 TABLE_I, TS, ArmParameters)
 from twolink.perturbations import ObservationNoise, perturbed, random_perturbation
-from twolink.plants import check_states, finish_data
+from twolink.plants import check_states, finish_data, set_data
 from twolink.reward import agent_reward, centralized_reward
 
 TASKS = ("centralized", "decentralized")
@@ -90,8 +90,7 @@ class ArmTask(base.Task):
             x = np.concatenate([self.random.uniform(-np.pi, np.pi, 2), np.zeros(2)])
         else:
             x = np.array(PAPER_X0 if isinstance(self._x0, str) else self._x0)
-        physics.data.qpos[:] = x[:2]
-        physics.data.qvel[:] = x[2:]
+        set_data(physics.data, x)
         physics.data.ctrl[:] = 0.0
         # base.Task.initialize_episode only recolours the suite's materials: not delegated.
 

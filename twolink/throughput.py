@@ -18,7 +18,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from twolink.parameters import TS
-from twolink.plants import MujocoPlant, check_states
+from twolink.plants import MujocoPlant, check_states, physics_state
 from twolink.rollout import rollout
 
 
@@ -69,9 +69,7 @@ def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Thro
     with MujocoPlant(nthread=nthread) as plant:
         traj = rollout(policy, plant, x0, duration=duration)
         nstep, model = plant.nstep, plant.model
-        nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        state0 = np.zeros((len(x0), nstate))
-        state0[:, 1:3], state0[:, 3:5] = x0[:, :2], x0[:, 2:]
+        state0 = physics_state(x0)
         control = np.repeat(traj.u, nstep, axis=1)
         datas = [mujoco.MjData(model) for _ in range(nthread)]
         runs = {"closed": lambda: rollout(policy, plant, x0, duration=duration),
@@ -86,7 +84,7 @@ def measure(policy, x0, *, samples: int, nthread: int, repeats: int = 3) -> Thro
                     best[key] = min(best[key], time.perf_counter() - t0)
                     if key == "open":
                         state = out[0]
-    if state.shape != (len(x0), samples * nstep, nstate) or \
+    if state.shape != (len(x0), samples * nstep, state0.shape[1]) or \
             not np.all(np.isfinite(state)):
         raise RuntimeError("open-loop rollout returned an unexpected state array")
     return Throughput(len(x0), samples, nstep, nthread, max(1, repeats),
