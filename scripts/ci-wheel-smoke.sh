@@ -12,8 +12,8 @@ trap 'rm -rf "$tmp"' EXIT
 unset TWOLINK_OUTPUT MUJOCO_GL PYOPENGL_PLATFORM PYTHONPATH
 
 fail() { echo "wheel smoke: FAILED: $*" >&2; exit 1; }
-step() { printf 'wheel smoke: %-58s' "$1" >&2; }
-took() { echo " ok ($((SECONDS - t0)) s)" >&2; }
+step() { label=$1; }
+took() { printf 'wheel smoke: %-58s ok (%d s)\n' "$label" $((SECONDS - t0)) >&2; }
 files() { (cd "$1" 2>/dev/null && find . -type f | sort) || true; }
 
 # The files a commit would hold (tracked and untracked-but-not-ignored), not a build/
@@ -62,6 +62,7 @@ took
 step "twolink reproduce -> ./renders/fig3.png"; t0=$SECONDS
 "$bin/twolink" reproduce > reproduce.txt || fail "twolink reproduce: $(tail -3 reproduce.txt)"
 [ -s renders/fig3.png ] || fail "twolink reproduce wrote no ./renders/fig3.png"
+[ "$(ls -A | tr '\n' ' ')" = "renders reproduce.txt " ] || fail "twolink reproduce wrote $(ls -A)"
 took
 
 step "twolink rollout --no-save writes nothing"; t0=$SECONDS
@@ -83,6 +84,11 @@ took
 step "twolink render -o x.mp4 (headless EGL)"; t0=$SECONDS
 "$bin/twolink" render --no-progress --duration 0.2 --size 160x120 -o x.mp4 > /dev/null
 [ -s x.mp4 ] || fail "twolink render wrote no ./x.mp4"
+took
+
+step "twolink render -> ./renders/centralized_mujoco.mp4"; t0=$SECONDS
+"$bin/twolink" render --no-progress --duration 0.2 --size 160x120 > /dev/null
+[ -s renders/centralized_mujoco.mp4 ] || fail "no ./renders/centralized_mujoco.mp4"
 took
 
 step "twolink synthesize decentralized -o d.npz"; t0=$SECONDS
