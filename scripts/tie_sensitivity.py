@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from twolink.metrics import settle_time, stalled_at_band_edge, success
+from twolink.metrics import settle_time, stalled_at_band_edge, success, wilson_interval
 from twolink.parameters import PAPER_X0
 from twolink.plants import make_plant
 from twolink.policy import TIE_TOLERANCE, Agent, Policy, greedy_indices, load_policy
@@ -46,16 +46,6 @@ class Row:
     edge_stalls: int
     x0_settle: float
     x0_final_deg: tuple
-
-
-def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """The 95 % Wilson score interval of k successes out of n."""
-    if n == 0:
-        return (0.0, 1.0)
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def variants(seed: int):
@@ -97,7 +87,7 @@ def measure(names, *, states: int = 100, seed: int = 0) -> list[Row]:
             one = rollout(pol, plant, np.asarray(PAPER_X0, dtype=float))
             st = float(settle_time(one))
             rows.append(Row(name, label, moved, bins, int(ok.sum()), states,
-                            wilson(int(ok.sum()), states), int(edge.sum()),
+                            wilson_interval(int(ok.sum()), states), int(edge.sum()),
                             st, tuple(np.rad2deg(one.x[-1, :2]).tolist())))
     return rows
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twolink.cli import main
-from twolink.metrics import evaluation_set, settle_time, success
+from twolink.metrics import evaluation_set, settle_time, success, wilson_interval
 from twolink.mismatch import THRESHOLD, margin, margins, robustness
 from twolink.mismatch_plan import CURVES, FAMILIES, PLANS, plan, report_order
 from twolink.mismatch_report import robustness_tables
@@ -106,11 +106,18 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     cl = report["closed_loop"]
     assert g["success_mujoco"] == cl["centralized"]["mujoco"]["success_rate"]
     assert g["success_mujoco_full_model_policy"] == cl["centralized_full"]["mujoco"]["success_rate"]
-    assert f"{100 * g['success_mujoco']:.1f} % ({cl['centralized']['mujoco']['successes']}/65)" in md
+    k = cl["centralized"]["mujoco"]["successes"]
+    lo, hi = wilson_interval(k, 65)
+    assert f"| {k}/65 = {100 * g['success_mujoco']:.1f} % [{100 * lo:.0f}, {100 * hi:.0f}] |" in md
+    worst = report["robustness"]["joint_worst_plant"]["centralized_full"]
+    for size, w in worst.items():         # the worst plant is no better than the cell's mean
+        assert 0 <= w["successes"] <= w["states"] and w["plants"] >= 1
+        assert w["successes"] / w["states"] <= \
+            report["robustness"]["curves"]["centralized_full"]["joint"][size] + 1e-12
     assert f"{100 * g['success_mujoco_full_model_policy']:.1f} %" in md
     # every table lists the policies in registry order
     tables = [t for t in md.split("\n\n") if t.startswith(("| policy", "| paper policy"))]
-    assert len(tables) == 4
+    assert len(tables) == 5   # closed loop, gap closure, two margin tables, worst plants
     for table in tables:
         names = [line.split("|")[1].strip() for line in table.splitlines()[2:]]
         ranks = [list(SHIPPED).index(n) for n in names]

@@ -6,12 +6,13 @@ import pytest
 
 from twolink import paper
 from twolink.cli import main
-from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary
+from twolink.metrics import evaluation_set, stalled_at_band_edge, success, summary, wilson_interval
 from twolink.parameters import HORIZON, PAPER_X0
 from twolink.plants import make_plant
 from twolink.policy import Policy, load_policy
 from twolink.registry import PAPER_POLICIES, SHIPPED
-from twolink.reproduce import PLANTS, table
+from twolink.reproduce import PLANTS
+from twolink.reproduce_table import table
 from twolink.rollout import rollout
 
 
@@ -69,7 +70,8 @@ def test_reproduce_rollouts_are_those_of_the_shipped_policies(reproduced, recomp
         assert rep["rollouts"][name][plant] == json.loads(json.dumps(summary(tr)))
         ok = success(ev)
         assert rep["evaluation_set"][name][plant] == {
-            "states": 65, "success_rate": float(ok.mean()), "failures": int((~ok).sum()),
+            "states": 65, "successes": int(ok.sum()), "success_rate": float(ok.mean()),
+            "wilson_95": list(wilson_interval(int(ok.sum()), 65)), "failures": int((~ok).sum()),
             "failures_stalled_at_band_edge": int(stalled_at_band_edge(ev).sum())}
 
 

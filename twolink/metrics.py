@@ -67,6 +67,32 @@ def stalled_at_band_edge(traj: Trajectory, *, slack_deg: float = 0.1) -> np.ndar
     return ~success(traj) & resting & near
 
 
+#: z of a two-sided 95 % interval.
+_Z95 = 1.959963984540054
+
+
+def wilson_interval(successes: int, n: int, *, z: float = _Z95) -> tuple[float, float]:
+    """The Wilson score interval (95 % by default) of ``successes`` out of ``n`` trials.
+
+    SPEC.md: every success rate is reported with its count and this interval; two rates
+    whose intervals overlap are not called different.
+    """
+    if int(successes) != successes or int(n) != n or not 0 <= successes <= n:
+        raise ValueError(f"need whole numbers 0 <= successes <= n, got {successes} of {n}")
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def format_rate(successes: int, n: int) -> str:
+    """``k/n = p % [lo, hi]`` with the 95 % Wilson interval, for tables."""
+    lo, hi = wilson_interval(successes, n)
+    return f"{successes}/{n} = {100 * successes / n:.1f} % [{100 * lo:.0f}, {100 * hi:.0f}]"
+
+
 def final_offsets_deg(traj: Trajectory) -> np.ndarray:
     """Final link angles in degrees, shape (..., 2)."""
     return np.rad2deg(traj.x[..., -1, :2])

@@ -143,6 +143,27 @@ def robustness(results: dict, policies) -> dict:
     return curves
 
 
+def worst_plants(results: dict, policies) -> dict:
+    """Joint-perturbation cells: the worst of their random plants, per policy and size.
+
+    A joint cell's rows are its plants (outer) by its initial states (inner); each plant's
+    success is counted over its own states, and the plant with the fewest successes is
+    reported as ``{"plant": index, "successes": k, "states": n, "plants": draws}``.
+    """
+    out: dict = {}
+    for rec in results.values():
+        c = rec["cell"]
+        if c["policy"] not in policies or c["family"] != "joint":
+            continue
+        ok = np.asarray(rec["successes"], dtype=bool).reshape(c["draws"], -1)
+        k = ok.sum(axis=1)
+        worst = int(np.argmin(k))
+        out.setdefault(c["policy"], {})[float(c["size"])] = {
+            "plant": worst, "successes": int(k[worst]), "states": int(ok.shape[1]),
+            "plants": int(c["draws"])}
+    return {pol: {s: out[pol][s] for s in sorted(out[pol])} for pol in report_order(out)}
+
+
 def margin(curve: dict, threshold: float = THRESHOLD):
     """Largest tested |size| such that every tested size no larger in magnitude (either
     sign) keeps success >= threshold; None when the unperturbed plant already falls short."""
@@ -210,7 +231,8 @@ def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="
         "open_loop": ol, "closed_loop": cl, "gap_closure": gap_closure(cl),
         "robustness": {"threshold": THRESHOLD, "sizes": dict(plan.sizes), "units": UNITS,
                        "joint_draws": plan.joint_draws, "cells": len(cells), "curves": curves,
-                       "margins": margins(curves)},
+                       "margins": margins(curves),
+                       "joint_worst_plant": worst_plants(results, policies)},
         "throughput": tp.as_dict(), "policy_digests": digests,
         "seconds": time.perf_counter() - t_start, "stage_seconds": stage_seconds,
         "provenance": provenance()}

@@ -10,6 +10,7 @@ from pathlib import Path
 from twolink.artifacts import write_json, write_text
 from twolink.mismatch_figures import closed_loop_figure, heatmap_figure, robustness_figure
 from twolink.mismatch_plan import CURVES, FAMILIES
+from twolink.metrics import format_rate
 from twolink.perturbations import PERTURBABLE
 
 
@@ -17,6 +18,8 @@ def summary(report: dict) -> dict:
     """What ``twolink mismatch --json`` prints."""
     return {"success_rate": {p: {pl: v["success_rate"] for pl, v in d.items()}
                              for p, d in report["closed_loop"].items()},
+            "successes": {p: {pl: [v["successes"], v["states"]] for pl, v in d.items()}
+                          for p, d in report["closed_loop"].items()},
             "open_loop": report["open_loop"]["summary"],
             "integration_error_full": report["open_loop"]["integration_error_full"],
             "gap_closure": report["gap_closure"],
@@ -52,8 +55,17 @@ def robustness_tables(rb: dict) -> str:
     for p, m in rb["margins"].items():
         rows.append([p] + [_num(m.get(f"parameter:{n}"), "{:g}", none="none")
                            for n in PERTURBABLE])
+    per_parameter = _table(["policy"] + list(PERTURBABLE), rows)
+    sizes = sorted({s for d in rb.get("joint_worst_plant", {}).values() for s in d})
+    rows = [[p] + [format_rate(w[s]["successes"], w[s]["states"]) if s in w else "-"
+                   for s in sizes]
+            for p, w in rb.get("joint_worst_plant", {}).items()]
+    worst = _table(["policy"] + [f"joint +-{s:g}" for s in sizes], rows)
     return "\n".join([per_family, "", "Margin per parameter (relative change):", "",
-                      _table(["policy"] + list(PERTURBABLE), rows)])
+                      per_parameter, "",
+                      "Joint perturbations: success of the worst random plant of each size "
+                      "(k of its states, 95 % Wilson interval):", "",
+                      worst])
 
 
 def markdown(report: dict, figures: dict, command: str) -> str:
@@ -92,12 +104,12 @@ def markdown(report: dict, figures: dict, command: str) -> str:
         for plant, v in d.items():
             st = v["settle_time"]
             gap = v.get("gap_to_mujoco", {}).get("angle_rms")
-            rows.append((p, plant, f"{_pct(v['success_rate'])} ({v['successes']}/{v['states']})",
+            rows.append((p, plant, format_rate(v["successes"], v["states"]),
                          _num(v["x0_settle_time"]),
                          _pct(st["settled"]), _num(st["median"], none="-"),
                          _num(st["p90"], none="-"), f"{v['mean_return']:.2f}",
                          "-" if gap is None else f"{gap:.3g}"))
-    out += [_table(("policy", "plant", "success", "settle from x0 [s]", "settled",
+    out += [_table(("policy", "plant", "success k/n [95 % Wilson]", "settle from x0 [s]", "settled",
                     "median settle [s]", "p90 settle [s]", "mean return",
                     "angle gap to MuJoCo [rad]"), rows), "",
             f"![closed loop]({figures['closed_loop']})", ""]

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from twolink.mismatch import build
+from twolink.metrics import format_rate
 from twolink.mismatch_plan import PLANS, plan
 from twolink.mismatch_report import summary, write
 from twolink.policy import load_policy
@@ -72,7 +73,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(summary(report), indent=2))
     else:
-        for p, d in summary(report)["success_rate"].items():
-            print(f"{p:26s} " + "  ".join(f"{pl} {100 * v:5.1f} %" for pl, v in d.items()))
+        for p, d in summary(report)["successes"].items():
+            print(f"{p:26s} " + "  ".join(f"{pl} {format_rate(*kn):<24s}" for pl, kn in d.items()))
         print(f"wrote {out / 'report.md'}")
     return 0

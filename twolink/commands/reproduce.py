@@ -13,7 +13,8 @@ from pathlib import Path
 from twolink.artifacts import check_outputs, write_json
 from twolink.parameters import HORIZON
 from twolink.plots import paper_fig3
-from twolink.reproduce import MAX_DURATION, PLANTS, check_duration, reproduce, table
+from twolink.reproduce import MAX_DURATION, PLANTS, check_duration, reproduce
+from twolink.reproduce_table import table
 from twolink.resources import output_dir
 
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
