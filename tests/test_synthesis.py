@@ -82,3 +82,12 @@ def test_ship_refuses_outside_a_source_checkout(monkeypatch, capsys):
     assert main(["synthesize", "--ship", "centralized"]) == 2
     assert "installed package" in capsys.readouterr().err
     assert SHIPPED["centralized"].file.read_bytes() == shipped
+
+
+def test_synthesize_and_mjcf_check_their_output_before_any_work(tmp_path, capsys):
+    from twolink.cli import main
+    assert main(["synthesize", "centralized", "-o", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert main(["mjcf", "-o", str(tmp_path / "missing" / "a.xml")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from twolink import mjcf
+from twolink.artifacts import check_outputs
 from twolink.resources import MODEL_FILE, model_file, source_checkout
 
 
@@ -28,5 +29,6 @@ def run(args) -> int:
         out = model_file()
     else:
         out = args.output or Path(MODEL_FILE)
+    check_outputs({"-o": out})
     print(f"wrote {mjcf.write_model(out)}")
     return 0

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from twolink.artifacts import check_outputs
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
@@ -73,6 +74,7 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     if args.kind == "centralized" and args.context is not None:
         raise ValueError("--context applies to the decentralized policy only")
     out = args.output or Path(default_file_name(args.kind, model, context))
+    check_outputs({"-o": out})
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
     opts = {"model": model, "context": context, "gamma": args.gamma, "delta": args.delta}
