@@ -15,7 +15,7 @@ from pathlib import Path
 if __package__ in (None, ""):                       # `python benchmarks/run.py`
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import twolink  # noqa: E402,F401  (sets MUJOCO_GL=egl before mujoco is imported)
+import twolink  # noqa: E402,F401  (defers the GL backend to the first renderer)
 from benchmarks.common import Row, available_ram_bytes, format_table, total_ram_bytes  # noqa: E402
 from twolink.artifacts import provenance, write_json  # noqa: E402
 

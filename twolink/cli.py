@@ -34,8 +34,14 @@ def main(argv=None) -> int:
         print(f"twolink: error: cannot load the commands ({exc})", file=sys.stderr)
         return 2
     args = parser.parse_args(argv)
+    from twolink.artifacts import Terminated, sigterm_raises
+
     try:
-        return int(args._run(args) or 0)
+        with sigterm_raises():       # SIGTERM unwinds like Ctrl-C: temporary files go
+            return int(args._run(args) or 0)
+    except Terminated:
+        print("twolink: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("twolink: interrupted", file=sys.stderr)
         return 130

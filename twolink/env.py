@@ -31,11 +31,16 @@ from __future__ import annotations
 import collections
 import dataclasses
 import numpy as np
-from dm_control import mujoco
-from dm_control.mujoco import wrapper
-from dm_control.rl import control
-from dm_control.suite import base
-from dm_env import specs
+try:
+    from dm_control import mujoco
+    from dm_control.mujoco import wrapper
+    from dm_control.rl import control
+    from dm_control.suite import base
+    from dm_env import specs
+except ImportError as _exc:           # Python 3.13: dm-control is installed without deps
+    raise ImportError(f"twolink.env needs dm-control ({_exc}); on Python 3.13, where its "
+                      "labmaze dependency has no wheel: pip install --no-deps "
+                      "dm-control==1.0.50") from None
 
 from twolink import mjcf
 from twolink.parameters import (HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
