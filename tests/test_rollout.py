@@ -144,7 +144,8 @@ def test_paper_policy_failures_on_the_simplified_plant_are_edge_stalls(centraliz
 @pytest.mark.parametrize("k, n, lo, hi", [(0, 10, 0.0, 0.2775), (5, 10, 0.2366, 0.7634),
                                            (10, 10, 0.7225, 1.0)])
 def test_wilson_interval_matches_published_values(k, n, lo, hi):
-    from twolink.metrics import format_rate, wilson_interval
+    from twolink.formatting import format_rate
+    from twolink.metrics import wilson_interval
     got = wilson_interval(k, n)
     assert got == pytest.approx((lo, hi), abs=5e-4)
     assert format_rate(k, n).startswith(f"{k}/{n} = ")

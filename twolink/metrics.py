@@ -87,12 +87,6 @@ def wilson_interval(successes: int, n: int, *, z: float = _Z95) -> tuple[float, 
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def format_rate(successes: int, n: int) -> str:
-    """``k/n = p % [lo, hi]`` with the 95 % Wilson interval, for tables."""
-    lo, hi = wilson_interval(successes, n)
-    return f"{successes}/{n} = {100 * successes / n:.1f} % [{100 * lo:.0f}, {100 * hi:.0f}]"
-
-
 def final_offsets_deg(traj: Trajectory) -> np.ndarray:
     """Final link angles in degrees, shape (..., 2)."""
     return np.rad2deg(traj.x[..., -1, :2])

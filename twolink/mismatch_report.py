@@ -10,7 +10,7 @@ from pathlib import Path
 from twolink.artifacts import write_json, write_text
 from twolink.mismatch_figures import closed_loop_figure, heatmap_figure, robustness_figure
 from twolink.mismatch_plan import CURVES, FAMILIES
-from twolink.metrics import format_rate
+from twolink.formatting import format_rate
 from twolink.perturbations import PERTURBABLE
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from twolink import paper
-from twolink.metrics import format_rate
+from twolink.formatting import format_rate
 from twolink.registry import SHIPPED
 
 

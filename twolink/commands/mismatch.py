@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from twolink.mismatch import build
-from twolink.metrics import format_rate
+from twolink.formatting import format_rate
 from twolink.mismatch_plan import PLANS, plan
 from twolink.mismatch_report import summary, write
 from twolink.policy import load_policy
