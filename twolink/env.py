@@ -43,20 +43,14 @@ except ImportError as _exc:           # Python 3.13: dm-control is installed wit
                       "dm-control==1.0.50") from None
 
 from twolink import mjcf
-from twolink.parameters import (HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
+from twolink.parameters import (HORIZON, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
                                 TABLE_I, TS, ArmParameters)
-from twolink.perturbations import ObservationNoise, perturbed, random_perturbation
-from twolink.plants import check_states, finish_data, set_data
+from twolink.perturbations import ObservationNoise
+from twolink.plants import finish_data, set_data
 from twolink.reward import agent_reward, centralized_reward
+from twolink.tasks import (OBSERVATION_NAMES, TASKS, check_action, check_task, check_x0,  # noqa: F401
+                           initial_state, perturbed_params)
 
-TASKS = ("centralized", "decentralized")
-#: What each observation key holds, component by component.
-OBSERVATION_NAMES = {
-    "state": STATE_NAMES,
-    "agent1": ("theta1", "dtheta1", "theta2"),
-    "agent2": ("theta2", "dtheta2"),
-}
-_INITIAL_STATES = ("paper", "random")
 
 
 class Physics(mujoco.Physics):
@@ -86,16 +80,12 @@ class ArmTask(base.Task):
                  speed_noise: float = 0.0, random=None):
         super().__init__(random=random)
         self.params = params
-        self._x0 = _check_x0(x0)
+        self._x0 = check_x0(x0)
         self._noise = ObservationNoise(angle_noise, speed_noise, rngs=[self.random])  # one row
 
     def initialize_episode(self, physics):
         """Set x0: the paper's, random angles at rest, or the given one."""
-        if isinstance(self._x0, str) and self._x0 == "random":
-            x = np.concatenate([self.random.uniform(-np.pi, np.pi, 2), np.zeros(2)])
-        else:
-            x = np.array(PAPER_X0 if isinstance(self._x0, str) else self._x0)
-        set_data(physics.data, x)
+        set_data(physics.data, initial_state(self._x0, self.random))
         physics.data.ctrl[:] = 0.0
         # base.Task.initialize_episode only recolours the suite's materials: not delegated.
 
@@ -105,7 +95,7 @@ class ArmTask(base.Task):
 
     def before_step(self, action, physics):
         """Hold the clipped torques [tau1, tau2] over the sample period."""
-        physics.set_control(_check_action(action, self.params.tau_max))
+        physics.set_control(check_action(action, self.params.tau_max))
 
     def after_step(self, physics):
         """End the sample period as every plant does: wrap angles, saturate speeds."""
@@ -178,12 +168,11 @@ def load(task_name: str, *, seed=None, time_limit: float = HORIZON,
     (:func:`twolink.perturbations.perturbed`), or a size s in [0, 1) for one random joint
     perturbation drawn from ``seed`` (:func:`twolink.perturbations.random_perturbation`).
     """
-    if task_name not in TASKS:
-        raise ValueError(f"unknown task {task_name!r}; choose one of {', '.join(TASKS)}")
+    check_task(task_name)
     if not (isinstance(time_limit, (int, float)) and np.isfinite(time_limit) and time_limit > 0):
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     random = np.random.RandomState(seed)
-    p = _perturb(params, perturbation, random)
+    p = perturbed_params(params, perturbation, random)
     if speed_max is not None:
         v = np.broadcast_to(np.asarray(speed_max, dtype=float), (2,))
         p = dataclasses.replace(p, dtheta1_max=float(v[0]), dtheta2_max=float(v[1]))
@@ -221,38 +210,3 @@ def policy_action(policy, observation) -> np.ndarray:
         out = agent.act(np.stack([seen[n] for n in agent.inputs], -1))
         signals.update(zip(agent.outputs, out))
     return np.array([signals["tau1"], signals["tau2"]])
-
-
-def _check_x0(x0):
-    if isinstance(x0, str):
-        if x0 not in _INITIAL_STATES:
-            raise ValueError(f"x0 must be 'paper', 'random' or a state (4,), got {x0!r}")
-        return x0
-    x0 = check_states(x0, what="x0")
-    if x0.shape != (4,):
-        raise ValueError(f"x0 must be one state of shape (4,), got shape {x0.shape}")
-    return x0.copy()
-
-
-def _check_action(action, tau_max: np.ndarray) -> np.ndarray:
-    action = getattr(action, "continuous_actions", action)
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"action must be numbers [tau1, tau2], got {action!r}") from None
-    if a.shape != (2,):
-        raise ValueError(f"action must have shape (2,) [tau1, tau2], got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
-    return np.clip(a, -tau_max, tau_max)
-
-
-def _perturb(params: ArmParameters, perturbation, random) -> ArmParameters:
-    if perturbation is None:
-        return params
-    if isinstance(perturbation, dict):
-        return perturbed(params, **perturbation)
-    if isinstance(perturbation, (int, float)):
-        return random_perturbation(random, float(perturbation), base=params)
-    raise ValueError(f"perturbation must be a dict of relative changes or a size in [0, 1), "
-                     f"got {perturbation!r}")
