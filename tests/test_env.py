@@ -306,3 +306,31 @@ def test_readme_example_runs():
     exec(compile(blocks[0], "README.md (dm_env example)", "exec"), namespace)
     assert namespace["frame"].shape[-1] == 3
     assert namespace["timestep"].last()
+
+
+class _DmEnvContract:
+    """dm_env's own contract tests (``dm_env.test_utils.EnvironmentTestMixin``), run on
+    each task with episodes short enough that the action sequence reaches LAST."""
+
+    task = ""
+
+    def make_object_under_test(self):
+        return twolink_env.load(self.task, seed=0, time_limit=0.5, x0="random")
+
+    def make_action_sequence(self):
+        rng = np.random.default_rng(0)
+        for _ in range(25):                  # 2.5 episodes of 10 steps
+            yield rng.uniform(-TABLE_I.tau_max, TABLE_I.tau_max)
+
+
+def _dm_env_contract(task):
+    import unittest
+
+    from dm_env import test_utils
+
+    return type(f"DmEnvContract_{task}", (_DmEnvContract, test_utils.EnvironmentTestMixin,
+                                          unittest.TestCase), {"task": task})
+
+
+TestDmEnvContractCentralized = _dm_env_contract("centralized")
+TestDmEnvContractDecentralized = _dm_env_contract("decentralized")
