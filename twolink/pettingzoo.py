@@ -1,0 +1,305 @@
+"""The decentralized task as a PettingZoo environment: one agent per joint, (17)-(18).
+
+``parallel_env(...)`` returns a :class:`pettingzoo.ParallelEnv` whose every step is one
+sample period Ts = 0.05 s of the MuJoCo arm, stepped by :class:`twolink.plants.MujocoPlant`
+(the same code path as ``rollout(policy, MujocoPlant(), x0)``, so the same x0 and the
+same torques give the same trajectory bit for bit). ``env(...)`` is its AEC form through
+PettingZoo's own converter (:func:`pettingzoo.utils.conversions.parallel_to_aec`), and
+``raw_env(...)`` the same without the order-enforcing wrapper, as PettingZoo's modules do.
+
+Agents ``link1``, ``link2`` (one per joint of :data:`twolink.mjcf.JOINTS`). Each sends
+its torque tau_i as an array of shape (1,), clipped to +-tau_i_max, and observes (18):
+``link1`` (theta1, dtheta1, theta2), ``link2`` (theta2, dtheta2). Rewards are (17) per
+link on the state reached (``reward="individual"``), or the same number to every agent:
+(15) (``"centralized"``) or r1 + r2 (``"sum"``). Episodes are truncated at the time limit
+(default 5 s = 100 steps), never terminated.
+
+How link1 can see tau2. In (18) agent 2 chooses tau2 first and agent 1 reads it in the
+same sample. In a parallel step both agents act at once, so no observation can hold the
+tau2 of that step: the only causal reading is link2's *previous* torque,
+``link1_tau2="previous"``, which appends the last tau2 link2 commanded (clipped; 0 after
+reset) to link1's observation. The AEC form through the converter refreshes observations
+only once per cycle, so it shows link1 the same previous tau2, whatever the turn order.
+The paper's same-sample ordering is kept for policies by :func:`policy_actions`, which
+lets agent 2 act first and hands its tau2 to agent 1 directly, as
+:func:`twolink.env.decentralized_action` does for the dm_env task.
+
+Options (keyword-only), as in :func:`twolink.env.load`: ``x0`` (``'paper'``, ``'random'``
+or a state (4,); also ``reset(options={'x0': ...})`` for one episode), ``params``,
+``perturbation`` (a dict of relative changes, or a size s: one random joint change of every
+Table I constant within +-s, drawn anew each episode), ``angle_noise``/``speed_noise``
+(observation noise; rewards read the true state) and ``delay`` (actuation delay in sample
+periods). All randomness comes from ``reset(seed=...)``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pettingzoo
+from gymnasium import logger, spaces
+from pettingzoo.utils import conversions
+
+from twolink import mjcf
+from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
+from twolink.perturbations import ActuationDelay, ObservationNoise
+from twolink.plants import MujocoPlant, check_states
+from twolink.reward import agent_reward, centralized_reward
+from twolink.rollout import steps_for
+from twolink.tasks import (OBSERVATION_NAMES, check_action, check_x0, initial_state, observe,
+                           perturbed_params)
+
+#: The agents, one per joint; agent ``linkI`` is agent I of (17)-(18).
+AGENTS = tuple(f"link{i}" for i in range(1, len(mjcf.JOINTS) + 1))
+#: Reward modes: (17) per agent, (15) to every agent, or the sum of (17) to every agent.
+REWARDS = ("individual", "centralized", "sum")
+#: What link1 may see of link2's torque in a parallel step (see the module docstring).
+LINK1_TAU2 = ("none", "previous")
+RESET_OPTIONS = ("x0",)
+
+_TASK_KEY = {agent: f"agent{i}" for i, agent in enumerate(AGENTS, 1)}   # tasks.OBSERVATION_NAMES
+
+
+def _check_choice(name: str, value, choices) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
+
+
+def _check_agent_action(agent: str, action) -> np.ndarray:
+    """The torque of ``agent`` as float64 (1,), or a ValueError naming the agent."""
+    try:
+        a = np.asarray(action)
+    except Exception:
+        a = np.asarray(None)
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"action of {agent} must be real numbers, got {action!r} "
+                         f"(dtype {a.dtype})")
+    if a.shape != (1,):
+        raise ValueError(f"action of {agent} must have shape (1,) [its torque], "
+                         f"got shape {a.shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action of {agent} contains NaN or infinite values: {a.tolist()}")
+    return a
+
+
+class ParallelArm(pettingzoo.ParallelEnv):
+    """The decentralized task (17)-(18) as a :class:`pettingzoo.ParallelEnv`."""
+
+    metadata = {"name": "twolink_decentralized_v0", "render_modes": ["rgb_array"],
+                "render_fps": round(1 / TS), "is_parallelizable": True}
+
+    def __init__(self, *, x0="paper", params: ArmParameters = TABLE_I, perturbation=None,
+                 angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
+                 reward: str = "individual", link1_tau2: str = "none",
+                 time_limit: float = HORIZON, render_mode: str | None = None):
+        if not isinstance(params, ArmParameters):
+            raise ValueError(f"params must be ArmParameters, got {params!r}")
+        if link1_tau2 == "current":
+            raise ValueError("link1_tau2='current' is impossible in a parallel step: both "
+                             "agents act at once, so link2's torque of this step does not "
+                             "exist when link1 observes; use 'previous', or policy_actions() "
+                             "for the paper's ordering (18)")
+        self._link1_tau2 = _check_choice("link1_tau2", link1_tau2, LINK1_TAU2)
+        self._reward = _check_choice("reward", reward, REWARDS)
+        if render_mode is not None:
+            _check_choice("render_mode", render_mode, self.metadata["render_modes"])
+        if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)):
+            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+        self._steps = steps_for(float(time_limit))
+        self._x0 = self._check_x0(x0, params)
+        # Check the remaining options now (with a throw-away generator), not at reset.
+        perturbed_params(params, perturbation, np.random.default_rng(0))
+        ObservationNoise(angle_noise, speed_noise, rngs=[None])
+        ActuationDelay(None, delay)
+        self._base, self._perturbation = params, perturbation
+        self._noise_std = (float(angle_noise), float(speed_noise))
+        self._delay = delay
+        self.render_mode = render_mode
+
+        self.possible_agents = list(AGENTS)
+        self.agents: list = []
+        extra = {AGENTS[0]: 1 if link1_tau2 == "previous" else 0}
+        self.observation_spaces = {
+            a: spaces.Box(-np.inf, np.inf, (len(OBSERVATION_NAMES[_TASK_KEY[a]]) +
+                                            extra.get(a, 0),), np.float64)
+            for a in AGENTS}
+        tau_max = params.tau_max
+        self.action_spaces = {a: spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64)
+                              for i, a in enumerate(AGENTS)}
+        self.state_space = spaces.Box(-np.inf, np.inf, (4,), np.float64)
+
+        self._rng = None
+        self._plant = None
+        self._renderer = None
+        self.params = None
+        self._x = None
+        self._k = 0
+
+    # ------------------------------------------------------------------ spaces
+    @staticmethod
+    def _check_x0(x0, params: ArmParameters):
+        """A checked ``x0`` option; a given state also within the plant's speed bound."""
+        x0 = check_x0(x0)
+        if not isinstance(x0, str):
+            check_states(x0, what="x0", speed_max=params.speed_max)
+        return x0
+
+    def observation_space(self, agent):
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent):
+        return self.action_spaces[agent]
+
+    # ------------------------------------------------------------------ episodes
+    def reset(self, seed=None, options=None):
+        """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
+        options = {} if options is None else options
+        if not isinstance(options, dict):
+            raise ValueError(f"options must be a dict, got {options!r}")
+        unknown = sorted(set(options) - set(RESET_OPTIONS), key=str)
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                             f"known: {', '.join(RESET_OPTIONS)}")
+        x0 = self._check_x0(options["x0"], self._base) if "x0" in options else self._x0
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                                 or seed < 0):
+            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        if seed is not None or self._rng is None:
+            self._rng = np.random.default_rng(seed)
+        params = perturbed_params(self._base, self._perturbation, self._rng)
+        x = initial_state(x0, self._rng)
+        if self._plant is None or params != self.params:
+            self._close_plant()
+            self._plant = MujocoPlant(params, nthread=1)
+        self.params, self._x, self._k = params, x, 0
+        self._noise = ObservationNoise(*self._noise_std, rngs=[self._rng])
+        self._delay_line = ActuationDelay(lambda u: u, self._delay)
+        self._last = np.zeros(len(AGENTS))
+        self._applied = np.zeros(len(AGENTS))
+        self._rewards = dict.fromkeys(AGENTS, 0.0)
+        self.agents = list(AGENTS)
+        return self._observations(), {a: {} for a in self.agents}
+
+    def step(self, actions):
+        """One sample period under the agents' torques: (observations, rewards,
+        terminations, truncations, infos)."""
+        if self._x is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.agents:
+            raise RuntimeError("the episode is over (truncated at the time limit); call reset()")
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in self.agents]
+        missing = [a for a in self.agents if a not in actions]
+        if unknown or missing:
+            raise ValueError(f"actions must name every agent exactly ({', '.join(self.agents)}); "
+                             + "; ".join(f"{what}: {', '.join(map(repr, names))}" for what, names
+                                         in (("unknown", unknown), ("missing", missing)) if names))
+        tau = np.concatenate([_check_agent_action(a, actions[a]) for a in AGENTS])
+        tau = check_action(tau, self.params.tau_max)
+        applied = np.asarray(self._delay_line(tau), dtype=np.float64)
+        x = self._plant.step(self._x, applied)
+        self._x, self._k, self._last, self._applied = x, self._k + 1, tau, applied
+        self._rewards = self._reward_of(x)
+        done = self._k >= self._steps
+        obs = self._observations()
+        rewards = dict(self._rewards)
+        terminations = dict.fromkeys(AGENTS, False)
+        truncations = dict.fromkeys(AGENTS, done)
+        infos = {a: {} for a in AGENTS}
+        if done:
+            self.agents = []
+        return obs, rewards, terminations, truncations, infos
+
+    def _observations(self) -> dict:
+        """Per-agent observations (18), fresh arrays; noise on the measured state only."""
+        seen = self._noise(self._x)
+        obs = {a: observe(seen, _TASK_KEY[a]) for a in AGENTS}
+        if self._link1_tau2 == "previous":
+            obs[AGENTS[0]] = np.append(obs[AGENTS[0]], self._last[1])
+        return {a: obs[a] for a in self.agents}
+
+    def _reward_of(self, x) -> dict:
+        """(17) per agent, (15) to every agent, or the sum of (17) to every agent."""
+        if self._reward == "centralized":
+            return dict.fromkeys(AGENTS, float(centralized_reward(x)))
+        own = {a: float(agent_reward(x, i)) for i, a in enumerate(AGENTS, 1)}
+        if self._reward == "sum":
+            return dict.fromkeys(AGENTS, float(sum(own.values())))
+        return own
+
+    def state(self) -> np.ndarray:
+        """The true state x = [theta1, theta2, dtheta1, dtheta2] (a copy)."""
+        if self._x is None:
+            raise RuntimeError("call reset() before state()")
+        return self._x.copy()
+
+    # ------------------------------------------------------------------ rendering
+    def render(self):
+        """An RGB frame (H, W, 3) of the arm when ``render_mode='rgb_array'``, else None."""
+        if self.render_mode is None:
+            logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
+            return None
+        if self._x is None:
+            raise RuntimeError("call reset() before render()")
+        from twolink.render import Renderer      # GL is set up only when a frame is wanted
+        if self._renderer is None or self._renderer.params != self.params:
+            self._close_renderer()
+            self._renderer = Renderer(width=320, height=240, params=self.params)
+        lines = (f"t = {self._k * TS:4.2f} s",
+                 "tau = " + ", ".join(f"{t:+.3f}" for t in self._applied),
+                 "r = " + ", ".join(f"{r:+.1f}" for r in self._rewards.values()))
+        return self._renderer.frame(self._x, lines=lines)
+
+    # ------------------------------------------------------------------ resources
+    def _close_plant(self):
+        if self._plant is not None:
+            self._plant.close()
+            self._plant = None
+
+    def _close_renderer(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def close(self):
+        """Free the renderer's GL context and the MuJoCo plant (its models and data)."""
+        self._close_renderer()
+        self._close_plant()
+        self._x, self.agents = None, []
+
+
+def parallel_env(**kwargs) -> ParallelArm:
+    """The decentralized task as a ParallelEnv (options: see :class:`ParallelArm`)."""
+    return ParallelArm(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC form without PettingZoo's order-enforcing wrapper."""
+    return conversions.parallel_to_aec_wrapper(parallel_env(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC form through PettingZoo's converter (:func:`parallel_to_aec`)."""
+    return conversions.parallel_to_aec(parallel_env(**kwargs))
+
+
+def policy_actions(policy, observations) -> dict:
+    """``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.Policy` in the
+    ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
+    agent 1, which reads link1's observation (its (18) components) and that tau2."""
+    from twolink.env import policy_action     # the one implementation of (18) for policies
+
+    missing = [a for a in AGENTS if a not in observations]
+    if missing:
+        raise ValueError(f"observations lack agent(s) {', '.join(missing)}")
+    seen = {}
+    for a in AGENTS:
+        o = np.asarray(observations[a], dtype=float)
+        n = len(OBSERVATION_NAMES[_TASK_KEY[a]])
+        if o.ndim != 1 or len(o) < n:
+            raise ValueError(f"observation of {a} must be a vector of at least {n} numbers, "
+                             f"got shape {o.shape}")
+        seen[_TASK_KEY[a]] = o[:n]
+    tau = policy_action(policy, seen)
+    return {a: np.array([tau[i]], dtype=np.float64) for i, a in enumerate(AGENTS)}
