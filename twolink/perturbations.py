@@ -126,3 +126,10 @@ class ActuationDelay:
         del self._history[:-1 - int(self.samples.max())]
         return out
 
+    def restart(self, rows) -> None:
+        """Rows ``rows`` start afresh (a new episode): their actuators hold zero torque
+        until their next commands arrive, as a new wrapper's would."""
+        self._history = [u.copy() for u in self._history]     # never the caller's arrays
+        for u in self._history:
+            u[rows] = 0.0
+

@@ -243,6 +243,19 @@ class MujocoPlant(Plant):
         self._datas = [mujoco.MjData(self.model) for _ in range(self.nthread)]
         self._pool = mj_rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)
 
+    def set_row_params(self, row: int, params: ArmParameters) -> None:
+        """Give batch row ``row`` of a per-row plant a new parameter set (its model is
+        compiled now), e.g. a new random plant for one arm's next episode."""
+        if not self.per_row:
+            raise ValueError("this plant has one parameter set for all rows; make it with a "
+                             "sequence of parameter sets to change a row's")
+        model = mjcf.build_model(params)
+        _check_layout(model)
+        self._plist[row] = params
+        self.models[row] = model
+        self._tau_max[row] = params.tau_max
+        self._speed_max[row] = params.speed_max
+
     def close(self):
         if self._pool is not None:
             self._pool.close()

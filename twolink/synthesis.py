@@ -62,6 +62,12 @@ def _grid(*axes: fuzzy.Axis, refine: int = 1) -> fuzzy.Grid:
     return fuzzy.Grid(tuple(a.refined(refine) for a in axes))
 
 
+def centralized_actions(p: ArmParameters = TABLE_I) -> np.ndarray:
+    """The joint actions of the centralized problem (16): every pair of the levels
+    {-tau_max, 0, tau_max} of both links, shape (9, 2), tau2 varying fastest."""
+    return np.array(list(itertools.product(_levels(p.tau1_max), _levels(p.tau2_max))))
+
+
 def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
                         refine: int = 1) -> Problem:
     """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2].
@@ -72,7 +78,7 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
     accel = _accel(model)
     grid = _grid(fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
                  fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"), refine=refine)
-    actions = np.array(list(itertools.product(_levels(p.tau1_max), _levels(p.tau2_max))))
+    actions = centralized_actions(p)
     centers = grid.centers()
     nxt = sample_step(accel, p, centers[:, None, :], actions[None, :, :])
     return Problem("centralized", grid, actions, ("tau1", "tau2"), nxt,

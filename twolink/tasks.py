@@ -51,16 +51,18 @@ def initial_state(x0, random) -> np.ndarray:
     return np.array(PAPER_X0 if isinstance(x0, str) else x0, dtype=float)
 
 
-def check_action(action, tau_max: np.ndarray) -> np.ndarray:
+def check_action(action, tau_max: np.ndarray, *, rows: int | None = None) -> np.ndarray:
     """A joint action [tau1, tau2] as float64, clipped to +-tau_max; a ValueError for a
-    wrong shape, non-numbers, NaN or infinite values."""
+    wrong shape, non-numbers, NaN or infinite values. ``rows``: a batch of that many
+    joint actions, shape (rows, 2)."""
     action = getattr(action, "continuous_actions", action)
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"action must be numbers [tau1, tau2], got {action!r}") from None
-    if a.shape != (2,):
-        raise ValueError(f"action must have shape (2,) [tau1, tau2], got shape {a.shape}")
+    shape = (2,) if rows is None else (rows, 2)
+    if a.shape != shape:
+        raise ValueError(f"action must have shape {shape} [tau1, tau2], got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
     return np.clip(a, -tau_max, tau_max)
