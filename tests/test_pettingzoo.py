@@ -12,6 +12,7 @@ import pettingzoo
 import pytest
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 from pettingzoo.utils import conversions
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink import env as twolink_env
 from twolink import mjcf
@@ -22,6 +23,7 @@ from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import rollout
+from twolink.tasks import OBSERVATION_NAMES
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 X0 = [0.5, -2.0, 1.0, 0.0]
@@ -118,6 +120,18 @@ def test_deterministic_under_a_seed():
             np.testing.assert_array_equal(a[agent], b[agent])
 
 
+def test_api_and_seed_tests_on_the_sequential_aec_form():
+    """The AEC form of (18) (``link1_tau2='current'``), natively an AECEnv."""
+    kwargs = dict(x0="random", angle_noise=0.02, delay=1, reward="centralized",
+                  time_limit=1.0)
+    api_test(OrderEnforcingWrapper(tpz.SequentialArm(_ApiProbe(**kwargs))), num_cycles=200)
+    seed_test(lambda: tpz.env(link1_tau2="current", **kwargs), num_cycles=30)
+    aec = tpz.env(link1_tau2="current")
+    assert isinstance(aec.unwrapped, tpz.SequentialArm)
+    assert aec.possible_agents == ["link2", "link1"]             # link2 acts first
+    assert isinstance(tpz.raw_env(link1_tau2="current"), tpz.SequentialArm)
+
+
 def test_unknown_reset_options_refused():
     env = tpz.parallel_env()
     with pytest.raises(ValueError, match=r"unknown reset option\(s\) 'options'; known: x0"):
@@ -161,6 +175,56 @@ def test_aec_form_retraces_the_parallel_env(decentralized):
             xs.append(aec.unwrapped.state())
     expected, _, _ = _drive(tpz.parallel_env(x0=X0), decentralized)
     np.testing.assert_array_equal(np.array(xs), expected)
+
+
+def _own_action(agent, names, observation):
+    """A policy agent's torque from one agent's own observation (components ``names``)."""
+    seen = dict(zip(names, observation))
+    return agent.act(np.array([seen[n] for n in agent.inputs]))
+
+
+@pytest.mark.parametrize("x0", ["paper", X0])
+def test_sequential_aec_form_is_the_papers_ordering(decentralized, x0):
+    """With link1_tau2='current' each agent of the shipped policy acts on its own AEC
+    observation alone (link1 reads tau2 from it, (18)) and retraces ``rollout``."""
+    agents = {a.name: a for a in decentralized.agents}
+    names = {"link2": OBSERVATION_NAMES["agent2"], "link1": OBSERVATION_NAMES["agent1"] + ("tau2",)}
+    aec = tpz.env(link1_tau2="current", x0=x0)
+    aec.reset()
+    xs, us, tau = [aec.unwrapped.state()], [], {}
+    for agent in aec.agent_iter():
+        observation, _, terminated, truncated, _ = aec.last()
+        if terminated or truncated:
+            aec.step(None)
+            continue
+        tau[agent] = _own_action(agents[agent.replace("link", "agent")], names[agent], observation)
+        if agent == "link1":
+            assert observation[3] == tau["link2"][0]       # the tau2 of this very sample
+        aec.step(tau[agent])
+        if agent == "link1":
+            xs.append(aec.unwrapped.state())
+            us.append(np.concatenate([tau["link1"], tau["link2"]]))
+    start = np.array(PAPER_X0 if x0 == "paper" else x0)
+    with MujocoPlant(nthread=1) as plant:
+        traj = rollout(decentralized, plant, start)
+    np.testing.assert_array_equal(np.array(xs), traj.x)
+    np.testing.assert_array_equal(np.array(us), traj.u)
+
+
+def test_sequential_aec_form_refuses_bad_actions_turn_untouched():
+    aec = tpz.env(link1_tau2="current", x0=X0)
+    aec.reset()
+    with pytest.raises(ValueError, match="action of link2 contains NaN"):
+        aec.step(np.array([np.nan]))
+    assert aec.agent_selection == "link2"
+    aec.step(np.array([0.5]))                     # shown as commanded, applied clipped
+    assert aec.agent_selection == "link1" and aec.observe("link1")[3] == 0.5
+    with pytest.raises(ValueError, match=r"action of link1 must have shape \(1,\)"):
+        aec.step(np.zeros(2))
+    assert aec.agent_selection == "link1"
+    np.testing.assert_array_equal(aec.unwrapped.state(), X0)  # nothing stepped
+    with pytest.raises(ValueError, match="impossible in a parallel step"):
+        tpz.parallel_env(link1_tau2="current")
 
 
 def test_perturbed_noisy_delayed_env_equals_rollout_with_the_same_perturbations(decentralized):
@@ -209,7 +273,7 @@ def test_link1_sees_link2s_previous_torque():
     np.testing.assert_array_equal(obs["link1"][:3], [0.5, 1.0, -2.0])
     for tau2 in (0.05, -0.3, 0.02):
         obs, *_ = env.step({"link1": np.zeros(1), "link2": np.array([tau2])})
-        assert obs["link1"][3] == np.clip(tau2, -0.1, 0.1)      # as commanded, clipped
+        assert obs["link1"][3] == tau2                 # as commanded (the plant clips it)
         np.testing.assert_array_equal(obs["link1"][:3], env.state()[[0, 2, 1]])
 
 

@@ -14,14 +14,19 @@ link on the state reached (``reward="individual"``), or the same number to every
 (15) (``"centralized"``) or r1 + r2 (``"sum"``). Episodes are truncated at the time limit
 (default 5 s = 100 steps), never terminated.
 
-How link1 can see tau2. In (18) agent 2 chooses tau2 first and agent 1 reads it in the
-same sample. In a parallel step both agents act at once, so no observation can hold the
-tau2 of that step: the only causal reading is link2's *previous* torque,
-``link1_tau2="previous"``, which appends the last tau2 link2 commanded (clipped; 0 after
-reset) to link1's observation. The AEC form through the converter refreshes observations
-only once per cycle, so it shows link1 the same previous tau2, whatever the turn order.
-The paper's same-sample ordering is kept for policies by :func:`policy_actions`, which
-lets agent 2 act first and hands its tau2 to agent 1 directly, as
+How link1 can see tau2 (``link1_tau2``). In (18) agent 2 chooses tau2 first and agent 1
+reads it in the same sample.
+- ``"previous"`` (parallel and AEC-through-the-converter): in a parallel step both agents
+  act at once, so no observation can hold the tau2 of that step; the only causal reading
+  is link2's *previous* torque, appended to link1's observation (as link2 commanded it,
+  before the plant clips it to +-tau2_max, as a policy's agent 1 reads it; 0 after
+  reset). The converter refreshes observations once per cycle, so its AEC form
+  shows link1 that same previous tau2, whatever the turn order.
+- ``"current"`` (AEC only, ``env(link1_tau2="current")``): :class:`SequentialArm` lets
+  link2 act first and then shows link1 the tau2 just chosen: the paper's ordering (18).
+- ``"none"`` (default): observations exactly as (18) lists the states.
+For a policy file, :func:`policy_actions` keeps the paper's ordering on any of these: its
+agent 2 acts first and hands tau2 to agent 1 directly, as
 :func:`twolink.env.decentralized_action` does for the dm_env task.
 
 Options (keyword-only), as in :func:`twolink.env.load`: ``x0`` (``'paper'``, ``'random'``
@@ -37,6 +42,7 @@ import numpy as np
 import pettingzoo
 from gymnasium import logger, spaces
 from pettingzoo.utils import conversions
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink import mjcf
 from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
@@ -51,7 +57,8 @@ from twolink.tasks import (OBSERVATION_NAMES, check_action, check_x0, initial_st
 AGENTS = tuple(f"link{i}" for i in range(1, len(mjcf.JOINTS) + 1))
 #: Reward modes: (17) per agent, (15) to every agent, or the sum of (17) to every agent.
 REWARDS = ("individual", "centralized", "sum")
-#: What link1 may see of link2's torque in a parallel step (see the module docstring).
+#: What link1 may see of link2's torque in a parallel step (see the module docstring);
+#: ``"current"`` exists in the AEC form only (:class:`SequentialArm`).
 LINK1_TAU2 = ("none", "previous")
 RESET_OPTIONS = ("x0",)
 
@@ -97,8 +104,8 @@ class ParallelArm(pettingzoo.ParallelEnv):
         if link1_tau2 == "current":
             raise ValueError("link1_tau2='current' is impossible in a parallel step: both "
                              "agents act at once, so link2's torque of this step does not "
-                             "exist when link1 observes; use 'previous', or policy_actions() "
-                             "for the paper's ordering (18)")
+                             "exist when link1 observes; use 'previous', or the AEC form "
+                             "env(link1_tau2='current') for the paper's ordering (18)")
         self._link1_tau2 = _check_choice("link1_tau2", link1_tau2, LINK1_TAU2)
         self._reward = _check_choice("reward", reward, REWARDS)
         if render_mode is not None:
@@ -195,11 +202,11 @@ class ParallelArm(pettingzoo.ParallelEnv):
             raise ValueError(f"actions must name every agent exactly ({', '.join(self.agents)}); "
                              + "; ".join(f"{what}: {', '.join(map(repr, names))}" for what, names
                                          in (("unknown", unknown), ("missing", missing)) if names))
-        tau = np.concatenate([_check_agent_action(a, actions[a]) for a in AGENTS])
-        tau = check_action(tau, self.params.tau_max)
+        commanded = np.concatenate([_check_agent_action(a, actions[a]) for a in AGENTS])
+        tau = check_action(commanded, self.params.tau_max)
         applied = np.asarray(self._delay_line(tau), dtype=np.float64)
         x = self._plant.step(self._x, applied)
-        self._x, self._k, self._last, self._applied = x, self._k + 1, tau, applied
+        self._x, self._k, self._last, self._applied = x, self._k + 1, commanded, applied
         self._rewards = self._reward_of(x)
         done = self._k >= self._steps
         obs = self._observations()
@@ -269,18 +276,110 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._x, self.agents = None, []
 
 
+class SequentialArm(pettingzoo.AECEnv):
+    """The decentralized task as an AEC env in the ordering of (18): in every sample
+    link2 acts first, then link1 observes (theta1, dtheta1, theta2, tau2) with the tau2
+    link2 has just commanded (before clipping) and acts, then the arm moves one sample period.
+
+    ``arm`` (a :class:`ParallelArm` without ``link1_tau2``) holds the physics, the options,
+    the perturbations and the rewards; this class only orders the turns. Outside link1's
+    turn its observation holds link2's latest torque (0 after reset).
+    """
+
+    def __init__(self, arm: ParallelArm):
+        if not isinstance(arm, ParallelArm) or arm._link1_tau2 != "none":
+            raise ValueError("SequentialArm needs a ParallelArm made without link1_tau2")
+        super().__init__()
+        self.arm = arm
+        # The converter to a parallel env would have link1 choose before link2: not (18).
+        self.metadata = {**arm.metadata, "name": "twolink_decentralized_sequential_v0",
+                         "is_parallelizable": False}
+        self.render_mode = arm.render_mode
+        self.possible_agents = list(reversed(AGENTS))        # the turn order: link2 first
+        self.agents: list = []
+        own = arm.observation_space(AGENTS[0]).shape[0]
+        self.observation_spaces = {**{a: arm.observation_space(a) for a in AGENTS},
+                                   AGENTS[0]: spaces.Box(-np.inf, np.inf, (own + 1,), np.float64)}
+        self.action_spaces = {a: arm.action_space(a) for a in AGENTS}
+        self.state_space = arm.state_space
+
+    def observation_space(self, agent):
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent):
+        return self.action_spaces[agent]
+
+    def reset(self, seed=None, options=None):
+        self._obs, infos = self.arm.reset(seed=seed, options=options)
+        self._tau = np.zeros(len(AGENTS))      # the latest torque each agent commanded
+        self._chosen: dict = {}
+        self.agents = list(self.possible_agents)
+        self.rewards = dict.fromkeys(self.agents, 0.0)
+        self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
+        self.terminations = dict.fromkeys(self.agents, False)
+        self.truncations = dict.fromkeys(self.agents, False)
+        self.infos = {a: infos[a] for a in self.agents}
+        self.agent_selection = self.agents[0]
+
+    def observe(self, agent):
+        """The agent's observation (18); link1's ends with link2's latest torque."""
+        if agent == AGENTS[0]:
+            return np.append(self._obs[agent], self._tau[1])
+        return self._obs[agent].copy()
+
+    def step(self, action):
+        agent = self.agent_selection
+        if self.terminations[agent] or self.truncations[agent]:
+            self._was_dead_step(action)
+            return
+        i = AGENTS.index(agent)
+        a = _check_agent_action(agent, action)
+        if agent == self.agents[0]:
+            self._clear_rewards()
+        self._cumulative_rewards[agent] = 0.0
+        self._chosen[agent] = a
+        self._tau[i] = a[0]
+        if agent != self.agents[-1]:
+            self.agent_selection = self.agents[self.agents.index(agent) + 1]
+            return
+        chosen, self._chosen = self._chosen, {}
+        self._obs, self.rewards, self.terminations, self.truncations, self.infos = \
+            self.arm.step(chosen)
+        self._accumulate_rewards()
+        self.agent_selection = self.agents[0]
+
+    def state(self) -> np.ndarray:
+        return self.arm.state()
+
+    def render(self):
+        return self.arm.render()
+
+    def close(self):
+        """Free the renderer and the MuJoCo plant (see :meth:`ParallelArm.close`)."""
+        self.arm.close()
+        self.agents = []
+
+
 def parallel_env(**kwargs) -> ParallelArm:
     """The decentralized task as a ParallelEnv (options: see :class:`ParallelArm`)."""
     return ParallelArm(**kwargs)
 
 
 def raw_env(**kwargs):
-    """The AEC form without PettingZoo's order-enforcing wrapper."""
+    """The AEC form without PettingZoo's order-enforcing wrapper: with
+    ``link1_tau2='current'`` the :class:`SequentialArm` of (18), else the parallel env
+    through PettingZoo's converter."""
+    if kwargs.get("link1_tau2") == "current":
+        return SequentialArm(ParallelArm(**{**kwargs, "link1_tau2": "none"}))
     return conversions.parallel_to_aec_wrapper(parallel_env(**kwargs))
 
 
 def env(**kwargs):
-    """The AEC form through PettingZoo's converter (:func:`parallel_to_aec`)."""
+    """The AEC form: with ``link1_tau2='current'`` the :class:`SequentialArm` of (18)
+    (link2 first, link1 sees its torque), else the parallel env through PettingZoo's
+    converter (:func:`parallel_to_aec`); both order-enforced."""
+    if kwargs.get("link1_tau2") == "current":
+        return OrderEnforcingWrapper(raw_env(**kwargs))
     return conversions.parallel_to_aec(parallel_env(**kwargs))
 
 
