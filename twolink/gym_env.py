@@ -170,20 +170,22 @@ class _Arms:
         return spaces.Box(-high, high, (len(high),), np.float64)
 
     # -------------------------------------------------------------- checks
-    def torques(self, action, rows=None) -> np.ndarray:
-        """Checked torques (rows, 2) for the actions of all arms; a ValueError otherwise."""
+    def torques(self, action, *, single: bool = False) -> np.ndarray:
+        """Checked torques (rows, 2) for the actions of all arms (``single``: the one
+        action of a one-arm environment); a ValueError otherwise."""
+        a = _real(action)
         if self.actions == "box":
-            a = check_action(_real(action), self.params.tau_max, rows=self.rows)
-            return a
-        idx = _real(action)
-        want = (self.rows,)
-        if idx.shape != want or idx.dtype.kind not in "iu":
-            raise ValueError(f"a discrete action must be whole numbers of shape {want}, got "
-                             f"dtype {idx.dtype} and shape {idx.shape}")
-        if np.any((idx < 0) | (idx >= len(self.table))):
+            if single:
+                return check_action(a, self.params.tau_max)[None]
+            return check_action(a, self.params.tau_max, rows=self.rows)
+        want = () if single else (self.rows,)
+        if a.shape != want or a.dtype.kind not in "iu":
+            raise ValueError(f"a discrete action must be {'one whole number' if single else 'whole numbers'}"
+                             f" of shape {want}, got dtype {a.dtype} and shape {a.shape}")
+        if np.any((a < 0) | (a >= len(self.table))):
             raise ValueError(f"a discrete action must lie in [0, {len(self.table) - 1}], "
-                             f"got {idx.tolist()}")
-        return self.table[idx]
+                             f"got {a.tolist()}")
+        return self.table[np.reshape(a, (-1,))]
 
     def check_x0_option(self, x0):
         """One x0 for all arms, or one per arm (rows, 4); a list of per-arm x0 options."""
@@ -289,8 +291,7 @@ class TwoLinkEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step()")
         if arms.k[0] >= arms.steps:
             raise RuntimeError("the episode is over (truncated at the time limit): call reset()")
-        tau = arms.torques(np.asarray(action)[None] if arms.actions == "box"
-                           else _scalar_index(action))
+        tau = arms.torques(action, single=True)
         x, r, truncated = arms.step(tau)
         arms.x[:], arms.k[:] = x, arms.k + 1
         return arms.observe([0])[0], float(r[0]), False, bool(truncated[0]), {}
@@ -450,13 +451,6 @@ def _check_size(size) -> tuple[int, int]:
     if w < 1 or h < 1:
         raise ValueError(f"render_size must be positive, got {size!r}")
     return w, h
-
-
-def _scalar_index(action) -> np.ndarray:
-    a = _real(action)
-    if a.shape != ():
-        raise ValueError(f"a discrete action must be one whole number, got shape {a.shape}")
-    return a[None]
 
 
 def register() -> None:
