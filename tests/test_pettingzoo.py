@@ -20,7 +20,6 @@ from twolink import pettingzoo as tpz
 from twolink.parameters import PAPER_X0, REWARD_GOAL, TABLE_I
 from twolink.perturbations import ActuationDelay, perturbed
 from twolink.plants import MujocoPlant
-from twolink.policy import load_policy
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import rollout
 from twolink.tasks import OBSERVATION_NAMES
@@ -38,12 +37,12 @@ class _ApiProbe(tpz.ParallelArm):
         return super().reset(seed=seed, options=None if options == {"options": 1} else options)
 
 
-def _drive(env, policy=None, actions=None):
-    """States, joint torques and rewards of one episode of a parallel env."""
+def _drive(env, policy):
+    """States, joint torques and rewards of one episode of a parallel env under a policy."""
     obs, _ = env.reset()
     xs, us, rs = [env.state()], [], []
     while env.agents:
-        a = tpz.policy_actions(policy, obs) if policy is not None else next(actions)
+        a = tpz.policy_actions(policy, obs)
         obs, rewards, _, _, _ = env.step(a)
         xs.append(env.state())
         us.append(np.concatenate([a[agent] for agent in tpz.AGENTS]))
@@ -51,15 +50,9 @@ def _drive(env, policy=None, actions=None):
     return np.array(xs), np.array(us), np.array(rs)
 
 
-def _random_actions(env, seed):
-    rng = np.random.default_rng(seed)
-    while True:
-        yield {a: rng.uniform(-1.5, 1.5, 1) * env.action_space(a).high for a in env.agents}
-
-
 # --------------------------------------------------------------------------- API
 def test_module_follows_pettingzoo_conventions():
-    assert tpz.pettingzoo is pettingzoo              # the top-level package, not this module
+    assert tpz.pettingzoo is pettingzoo and pettingzoo.__name__ == "pettingzoo"  # top level
     assert Path(pettingzoo.__file__).parent.name == "pettingzoo"
     par = tpz.parallel_env()
     assert isinstance(par, pettingzoo.ParallelEnv)
@@ -351,7 +344,8 @@ def test_bad_actions_refused_state_untouched(actions, message):
     (dict(link1_tau2="current"), "impossible in a parallel step"),
     (dict(link1_tau2="yes"), "link1_tau2 must be one of"),
     (dict(render_mode="human"), "render_mode must be one of 'rgb_array'"),
-    (dict(time_limit=0.0), "duration must be a positive"),
+    (dict(time_limit=0.0), "time_limit must be a positive number"),
+    (dict(time_limit=np.inf), "time_limit must be a positive number"),
     (dict(time_limit="5"), "time_limit must be a positive number"),
     (dict(x0="somewhere"), "x0 must be"),
     (dict(x0=[0.0, np.nan, 0.0, 0.0]), "NaN"),
@@ -360,6 +354,9 @@ def test_bad_actions_refused_state_untouched(actions, message):
     (dict(perturbation=1.5), r"\[0, 1\)"),
     (dict(angle_noise=-1.0), "non-negative"),
     (dict(delay=1.5), "whole number of samples"),
+    (dict(delay=-1), "non-negative whole number"),
+    (dict(delay=[1, 2]), "delay must be a whole number of sample periods"),
+    (dict(speed_noise=np.ones(2)), "speed_noise must be one standard deviation"),
     (dict(params={"m1": 1.0}), "params must be ArmParameters"),
 ])
 def test_bad_options_refused(kwargs, message):

@@ -71,6 +71,12 @@ def _check_choice(name: str, value, choices) -> str:
     return value
 
 
+def _check_number(name: str, value, what: str) -> None:
+    """One real number (not a bool, not an array), or a ValueError."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
 def _check_agent_action(agent: str, action) -> np.ndarray:
     """The torque of ``agent`` as float64 (1,), or a ValueError naming the agent."""
     try:
@@ -110,9 +116,13 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._reward = _check_choice("reward", reward, REWARDS)
         if render_mode is not None:
             _check_choice("render_mode", render_mode, self.metadata["render_modes"])
-        if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)):
+        _check_number("time_limit", time_limit, "a positive number of seconds")
+        if not (np.isfinite(time_limit) and time_limit > 0):
             raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
         self._steps = steps_for(float(time_limit))
+        _check_number("angle_noise", angle_noise, "one standard deviation (rad)")
+        _check_number("speed_noise", speed_noise, "one standard deviation (rad/s)")
+        _check_number("delay", delay, "a whole number of sample periods")
         self._x0 = self._check_x0(x0, params)
         # Check the remaining options now (with a throw-away generator), not at reset.
         perturbed_params(params, perturbation, np.random.default_rng(0))
@@ -195,7 +205,8 @@ class ParallelArm(pettingzoo.ParallelEnv):
         if not self.agents:
             raise RuntimeError("the episode is over (truncated at the time limit); call reset()")
         if not isinstance(actions, dict):
-            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+            raise ValueError(f"actions must be a dict {{agent: action}}, "
+                             f"got {type(actions).__name__}")
         unknown = [a for a in actions if a not in self.agents]
         missing = [a for a in self.agents if a not in actions]
         if unknown or missing:
