@@ -22,12 +22,14 @@ from twolink.artifacts import provenance, write_json  # noqa: E402
 MODES = {
     "quick": {"repeats": 2, "sweep_repeats": 3, "full_setup": False,
               "central": (1, 2), "decentral": (1, 2, 3),
-              "batch": 64, "frames": 10, "render_repeats": 1},
+              "batch": 64, "frames": 10, "render_repeats": 1,
+              "vector_samples": 20},
     "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
              "central": (1, 2, 3), "decentral": (1, 2, 3, 6),
-             "batch": 256, "frames": 40, "render_repeats": 3},
+             "batch": 256, "frames": 40, "render_repeats": 3,
+             "vector_samples": 100},
 }
-SECTIONS = ("synthesis", "scaling", "rollouts", "rendering")
+SECTIONS = ("synthesis", "scaling", "rollouts", "rendering", "vector_env")
 
 
 def machine() -> dict:
@@ -72,6 +74,10 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
             from benchmarks import render
             r, summary[section] = render.bench_render(frames=cfg["frames"],
                                                       repeats=cfg["render_repeats"])
+        elif section == "vector_env":
+            from benchmarks import vector_env
+            r, summary[section] = vector_env.bench_vector_env(
+                num_envs=64, samples=cfg["vector_samples"], repeats=cfg["repeats"])
         else:
             raise ValueError(f"unknown benchmark section {section!r}; choose from "
                              f"{', '.join(SECTIONS)}")

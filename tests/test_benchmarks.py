@@ -156,3 +156,22 @@ def test_throughput_figures_are_the_steps_over_the_times():
         kwargs = dict(dict(x0=x0, samples=3, nthread=1), **bad)
         with pytest.raises(ValueError):
             measure(run_policy(), kwargs.pop("x0"), repeats=1, **kwargs)
+
+
+def test_vector_env_rows_and_ratio_is_the_times():
+    """The vector-env section: its rows, and the ratio is the raw time over the env's."""
+    from benchmarks import vector_env
+
+    rows, summary = vector_env.bench_vector_env(num_envs=4, samples=3, repeats=1, threads=[1])
+    by = _by_name(rows)
+    sec = "vector env: 4 arms, 1 thread"
+    for name in ("TwoLinkVectorEnv: arm-steps/s", "raw mujoco.rollout, one call per Ts: arm-steps/s",
+                 "vector env / raw mujoco.rollout", "SyncVectorEnv of single envs: arm-steps/s",
+                 "vector env / SyncVectorEnv"):
+        assert (sec, name) in by
+    m = summary[1]
+    assert by[(sec, "vector env / raw mujoco.rollout")].value == pytest.approx(
+        m["seconds"]["raw"] / m["seconds"]["vector"], rel=1e-12)
+    assert m["vector_steps_per_s"] == pytest.approx(4 * 3 / m["seconds"]["vector"], rel=1e-12)
+    _positive_finite(rows)
+    assert "vector_env" in run.SECTIONS and run.MODES["quick"]["vector_samples"] >= 1
