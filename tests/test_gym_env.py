@@ -231,6 +231,10 @@ def test_bad_reset_options_refused_and_state_untouched(options, message):
     ({"perturbation": 1.5}, "perturbation size"),
     ({"angle_noise": -0.1}, "non-negative"),
     ({"delay": 0.5}, "whole number"),
+    ({"delay": True}, "delay must be one number"),
+    ({"speed_noise": [0.1, 0.2]}, "speed_noise must be one number"),
+    ({"x0": np.zeros((2, 4))}, "x0 must be one state"),
+    ({"params": {"m1": 1.0}}, "params must be an ArmParameters"),
     ({"render_mode": "human"}, "render_mode"),
 ])
 def test_bad_constructor_options_refused(kwargs, message):

@@ -138,10 +138,14 @@ class _Arms:
         # Checks a dict or a size now (a size is drawn anew every episode).
         fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
         self._size = perturbation if size else None
-        self._noise = (angle_noise, speed_noise)
-        ObservationNoise(angle_noise, speed_noise, rngs=[None])       # checks the levels
-        self._noisy = bool(np.any(np.asarray(angle_noise) > 0) or np.any(np.asarray(speed_noise) > 0))
-        self._delay = ActuationDelay(_hold, delay)
+        for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
+                            ("delay", delay)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise ValueError(f"{name} must be one number, got {value!r}")
+        self._noise = (float(angle_noise), float(speed_noise))
+        ObservationNoise(*self._noise, rngs=[None])                    # checks the levels
+        self._noisy = max(self._noise) > 0
+        self._delay = ActuationDelay(_hold, delay)                     # checks the delay
         self.table = centralized_actions(params)      # the controller's levels, not the plant's
         self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
         self.rngs: list = [None] * rows
