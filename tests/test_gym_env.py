@@ -366,3 +366,22 @@ def test_readme_example_runs():
         exec(compile(block, f"README.md (Gymnasium example {k + 1})", "exec"), namespace)
     assert namespace["truncated"] is True
     assert namespace["frame"].shape[-1] == 3
+
+
+def test_registration_needs_the_module_as_gymnasium_loads_no_plugins():
+    """In a fresh interpreter the id is unknown until twolink.gym_env is imported (as the
+    README says); naming the module in the id imports it."""
+    import subprocess
+    import sys
+
+    code = ("import gymnasium\n"
+            "try:\n"
+            "    gymnasium.make('twolink/TwoLink-v0')\n"
+            "except gymnasium.error.Error as exc:\n"
+            "    print('unknown:', type(exc).__name__)\n"
+            "env = gymnasium.make('twolink.gym_env:twolink/TwoLink-v0')\n"
+            "print('made:', env.unwrapped.spec.id)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "unknown: NamespaceNotFound" in out.stdout and "made: twolink/TwoLink-v0" in out.stdout
