@@ -128,7 +128,7 @@ def test_api_and_seed_tests_on_the_sequential_aec_form():
 
 def test_unknown_reset_options_refused():
     env = tpz.parallel_env()
-    with pytest.raises(ValueError, match=r"unknown reset option\(s\) 'options'; known: x0"):
+    with pytest.raises(ValueError, match=r"unknown reset option\(s\) 'options'; known: 'x0'"):
         env.reset(seed=0, options={"options": 1})
 
 

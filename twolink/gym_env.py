@@ -37,7 +37,8 @@ from twolink.perturbations import ActuationDelay, ObservationNoise
 from twolink.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
 from twolink.reward import centralized_reward
 from twolink.synthesis import centralized_actions
-from twolink.tasks import check_action, check_x0, initial_state, observe, perturbed_params
+from twolink.tasks import (check_action, check_reset_options, check_x0, initial_state, observe,
+                           perturbed_params)
 
 ENV_ID = "twolink/TwoLink-v0"
 DISCRETE_ID = "twolink/TwoLinkDiscrete-v0"
@@ -59,17 +60,6 @@ def _check_steps(time_limit) -> int:
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     return max(1, int(round(time_limit / TS)))
 
-
-def _check_options(options, allowed) -> dict:
-    if options is None:
-        return {}
-    if not isinstance(options, dict):
-        raise ValueError(f"options must be a dict, got {type(options).__name__}")
-    unknown = sorted(set(options) - set(allowed))
-    if unknown:
-        raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
-                         f"known: {', '.join(map(repr, allowed))}")
-    return options
 
 
 def _check_x0(x0, speed_max):
@@ -282,7 +272,7 @@ class TwoLinkEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         arms = self._live()
-        options = _check_options(options, RESET_OPTIONS)
+        options = check_reset_options(options, RESET_OPTIONS)
         x0 = arms.check_x0_option(options["x0"])[0] if "x0" in options else arms.x0
         super().reset(seed=seed)
         arms.reset_rows([0], [self.np_random], [x0])
@@ -391,7 +381,7 @@ class TwoLinkVectorEnv(VectorEnv):
 
     def reset(self, *, seed=None, options: dict[str, Any] | None = None):
         arms = self._live()
-        options = _check_options(options, RESET_OPTIONS + ("reset_mask",))
+        options = check_reset_options(options, RESET_OPTIONS + ("reset_mask",))
         seeds = self._seeds(seed)
         mask = options.get("reset_mask")
         if mask is None:

@@ -50,8 +50,8 @@ from twolink.perturbations import ActuationDelay, ObservationNoise
 from twolink.plants import MujocoPlant, check_states
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import steps_for
-from twolink.tasks import (OBSERVATION_NAMES, check_action, check_x0, initial_state, observe,
-                           perturbed_params)
+from twolink.tasks import (OBSERVATION_NAMES, check_action, check_reset_options, check_x0,
+                           initial_state, observe, perturbed_params)
 
 #: The agents, one per joint; agent ``linkI`` is agent I of (17)-(18).
 AGENTS = tuple(f"link{i}" for i in range(1, len(mjcf.JOINTS) + 1))
@@ -170,13 +170,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
     # ------------------------------------------------------------------ episodes
     def reset(self, seed=None, options=None):
         """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
-        options = {} if options is None else options
-        if not isinstance(options, dict):
-            raise ValueError(f"options must be a dict, got {options!r}")
-        unknown = sorted(set(options) - set(RESET_OPTIONS), key=str)
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
-                             f"known: {', '.join(RESET_OPTIONS)}")
+        options = check_reset_options(options, RESET_OPTIONS)
         x0 = self._check_x0(options["x0"], self._base) if "x0" in options else self._x0
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                                  or seed < 0):

@@ -86,3 +86,17 @@ def observe(x: np.ndarray, key: str) -> np.ndarray:
     """The observation ``key`` of :data:`OBSERVATION_NAMES` from a state (..., 4)."""
     idx = [STATE_NAMES.index(n) for n in OBSERVATION_NAMES[key]]
     return np.asarray(x)[..., idx]
+
+
+def check_reset_options(options, allowed) -> dict:
+    """The ``reset(options=...)`` of an environment: None or a dict whose keys are all in
+    ``allowed``; a ValueError naming the unknown keys otherwise."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict, got {type(options).__name__}")
+    unknown = sorted(set(options) - set(allowed), key=str)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                         f"known: {', '.join(map(repr, allowed))}")
+    return options
