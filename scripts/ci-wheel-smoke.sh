@@ -117,4 +117,28 @@ env.step([0.0, 0.0])
 assert env.physics.render(height=48, width=64, camera_id="top").std() > 10
 EOF
 took
+
+step "Gymnasium and PettingZoo: make, step, render, checker"; t0=$SECONDS
+"$bin/python" - <<'EOF'
+import gymnasium
+from gymnasium.utils.env_checker import check_env
+import twolink.gym_env
+from twolink import pettingzoo as twolink_pz
+env = gymnasium.make("twolink/TwoLink-v0", render_mode="rgb_array")
+check_env(env.unwrapped, skip_render_check=True)
+env.reset(seed=0)
+env.step(env.action_space.sample())
+assert env.render().std() > 10
+env.close()
+envs = gymnasium.make_vec("twolink/TwoLink-v0", num_envs=4)
+envs.reset(seed=0)
+envs.step(envs.action_space.sample())
+envs.close()
+pz = twolink_pz.parallel_env()
+obs, _ = pz.reset(seed=0)
+obs, rewards, *_ = pz.step({a: pz.action_space(a).sample() for a in pz.agents})
+assert set(rewards) == {"link1", "link2"}
+pz.close()
+EOF
+took
 echo "wheel smoke: all checks passed" >&2
