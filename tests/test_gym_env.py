@@ -385,3 +385,10 @@ def test_registration_needs_the_module_as_gymnasium_loads_no_plugins():
                          timeout=120)
     assert out.returncode == 0, out.stderr
     assert "unknown: NamespaceNotFound" in out.stdout and "made: twolink/TwoLink-v0" in out.stdout
+
+
+@pytest.mark.parametrize("n", [0, -3, True, 2.5, gym_env.MAX_ENVS + 1, 10**12])
+def test_vector_env_size_is_bounded_before_allocating(n):
+    with pytest.raises(ValueError, match=f"num_envs must be a whole number from 1 to "
+                                         f"{gym_env.MAX_ENVS}"):
+        gym_env.TwoLinkVectorEnv(n)

@@ -41,6 +41,9 @@ from twolink.tasks import (check_action, check_reset_options, check_x0, initial_
                            perturbed_params)
 
 ENV_ID = "twolink/TwoLink-v0"
+#: Most arms one vector environment steps (a batch of this size is a few hundred MB of
+#: states and observations at most; more would be a typing slip, not a learner's need).
+MAX_ENVS = 100_000
 DISCRETE_ID = "twolink/TwoLinkDiscrete-v0"
 OBSERVATIONS = ("state", "cos_sin")
 ACTIONS = ("box", "discrete")
@@ -336,8 +339,9 @@ class TwoLinkVectorEnv(VectorEnv):
                  delay: int = 0, nthread: int | None = None, render_mode: str | None = None):
         _check_task(task)
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) \
-                or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive whole number, got {num_envs!r}")
+                or not 1 <= num_envs <= MAX_ENVS:
+            raise ValueError(f"num_envs must be a whole number from 1 to {MAX_ENVS}, "
+                             f"got {num_envs!r}")
         if render_mode is not None:
             raise ValueError("the vector environment does not render; render single "
                              "TwoLinkEnv environments")
