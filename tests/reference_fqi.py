@@ -72,3 +72,76 @@ def fuzzy_q_iteration_reference(grid, next_points, rewards, *, gamma: float = 0.
         q = q_next
         if change <= delta or ell >= max_iterations:
             return np.array(q), ell
+
+
+def fuzzy_q_iteration_serial_reference(grid, next_points, rewards, *, gamma: float = 0.98,
+                                       delta: float = 0.01, max_iterations: int = 10000):
+    """Alg. 1 with serial (in-place) sweeps, as ApproxRL's ``fuzzyqi.m`` 'serial' option:
+    the bins in Matlab's linear order over the grid (first index fastest), the actions
+    inner, every Q(m, u) overwritten at once and read back through max_u~ Q(m~, u~) by
+    the updates after it. Returns (Q, sweeps)."""
+    n_x, n_u = rewards.shape
+    shape = [a.size for a in grid.axes]
+    strides = [int(np.prod(shape[i + 1:])) for i in range(len(shape))]   # C-order bin index
+    order = []
+    for linear in range(n_x):                                            # Matlab's ind2sub
+        rest, m = linear, 0
+        for size, stride in zip(shape, strides):
+            m += (rest % size) * stride
+            rest //= size
+        order.append(m)
+    mu = [[[(m_t, w) for m_t, w in enumerate(dense_memberships(grid, next_points[m, j])) if w]
+           for j in range(n_u)] for m in range(n_x)]
+    q = [[0.0] * n_u for _ in range(n_x)]
+    ell = 0
+    while True:
+        change = 0.0
+        for m in order:
+            for j in range(n_u):
+                total = 0.0
+                for m_t, w in mu[m][j]:
+                    total += w * max(q[m_t])
+                new = float(rewards[m, j]) + gamma * total
+                change = max(change, abs(new - q[m][j]))
+                q[m][j] = new
+        ell += 1
+        if change <= delta or ell >= max_iterations:
+            return np.array(q), ell
+
+
+def fuzzy_q_iteration_scipy(transitions, rewards, *, gamma: float = 0.98, delta: float = 0.01,
+                            max_iterations: int = 10000):
+    """Synchronous sweeps as numpy passes over a scipy CSR T (the package's first fast path,
+    kept as the reference the compiled sweeps are held against bit for bit):
+    V = max_u Q, Q' = gamma (T @ V) + rho, change = max |Q' - Q|. Returns (Q, sweeps, history)."""
+    n_x, n_u = rewards.shape
+    r = np.asarray(rewards, dtype=float).reshape(-1)
+    q = np.zeros(n_x * n_u)
+    history = []
+    while len(history) < max_iterations:
+        v = q.reshape(n_x, n_u).max(axis=1)
+        q_new = np.multiply(transitions @ v, gamma)
+        q_new += r
+        history.append(float(np.abs(q_new - q).max()))
+        q = q_new
+        if history[-1] <= delta:
+            break
+    return q.reshape(n_x, n_u), len(history), np.array(history)
+
+
+def fuzzy_q_iteration_robust_reference(transitions, rewards, *, mode: str, gamma: float = 0.98,
+                                       delta: float = 0.01, max_iterations: int = 10000):
+    """Synchronous sweeps over K models in numpy: Q' = min_k or mean_k (rho_k + gamma T_k V),
+    each T_k a scipy matrix. Returns (Q, sweeps)."""
+    n_x, n_u = rewards[0].shape
+    q = np.zeros((n_x, n_u))
+    for ell in range(1, max_iterations + 1):
+        v = q.max(axis=1)
+        per_model = np.stack([np.asarray(r, dtype=float) + gamma * (t @ v).reshape(n_x, n_u)
+                              for t, r in zip(transitions, rewards)])
+        q_new = per_model.min(axis=0) if mode == "worst" else per_model.sum(axis=0) / len(rewards)
+        change = np.abs(q_new - q).max()
+        q = q_new
+        if change <= delta:
+            break
+    return q, ell

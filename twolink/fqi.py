@@ -3,21 +3,29 @@
 Q_{l+1}(m, u) = rho(c_m, u) + gamma * sum_m~ mu_m~(f(c_m, u)) max_u~ Q_l(m~, u~)
 
 The transitions f(c_m, u_j) of every (bin centre, action) pair are computed once and
-stored as a sparse membership matrix T of shape (N_X * N_U, N_X); each synchronous
-sweep is then one sparse matrix-vector product. ``tests/reference_fqi.py`` holds the
-plain loop of Alg. 1 this is checked against.
+stored as the membership matrix T of shape (N_X * N_U, N_X): as a scipy CSR matrix
+(:func:`transition_matrix`, for peers and references) or in the fixed-width layout the
+compiled sweeps read (:class:`TransitionTable`, at most 2**d memberships per row).
+Sweeps are synchronous (Q_{l+1} from Q_l, as printed) or serial (each Q(m, u) overwritten
+at once, bins in Matlab's column-major order, as ApproxRL's ``fuzzyqi.m`` can run them).
+``tests/reference_fqi.py`` holds the plain loop of Alg. 1 and the scipy sweep this is
+checked against.
 """
 from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Callable, Optional
+from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 import scipy.sparse as sp
 
+from twolink import fqi_kernel
 from twolink.fuzzy import Grid
 from twolink.parameters import DELTA, GAMMA
+
+SWEEPS = ("synchronous", "serial")
+ROBUST_MODES = ("worst", "mean")
 
 
 def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
@@ -26,10 +34,7 @@ def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
     ``next_points`` has shape (N_X, N_U, d): the state reached from each bin centre
     under each action, already in the grid's coordinates.
     """
-    n_x, n_u, d = next_points.shape
-    if n_x != grid.size or d != len(grid.axes):
-        raise ValueError(f"next_points of shape {next_points.shape} do not match a grid "
-                         f"of {grid.size} bins over {len(grid.axes)} dimensions")
+    n_x, n_u, d = _check_points(grid, next_points)
     idx, w = grid.memberships(next_points.reshape(n_x * n_u, d))
     k = idx.shape[1]
     indptr = np.arange(0, n_x * n_u * k + 1, k)
@@ -37,6 +42,100 @@ def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
     t.sum_duplicates()
     t.eliminate_zeros()
     return t
+
+
+@dataclasses.dataclass(frozen=True)
+class TransitionTable:
+    """T in fixed width: row m * N_U + j lists the bins m~ with mu_m~(f(c_m, u_j)) > 0
+    in increasing order (``index``, int32) and their memberships (``weight``), padded
+    with zero weights to the widest row; ``state_shape`` is the grid's shape when known
+    (serial sweeps visit the bins in its column-major order)."""
+
+    index: np.ndarray
+    weight: np.ndarray
+    n_states: int
+    state_shape: Optional[tuple] = None
+
+    @property
+    def shape(self) -> tuple:
+        return (self.index.shape[0], self.n_states)
+
+    @property
+    def nnz(self) -> int:
+        return int(np.count_nonzero(self.weight))
+
+    @property
+    def nbytes(self) -> int:
+        return self.index.nbytes + self.weight.nbytes
+
+    def tocsr(self) -> sp.csr_matrix:
+        rows = np.repeat(np.arange(self.shape[0]), self.index.shape[1])
+        t = sp.csr_matrix((self.weight.reshape(-1), (rows, self.index.reshape(-1))),
+                          shape=self.shape)
+        t.eliminate_zeros()
+        return t
+
+
+def fixed_width(transitions: sp.spmatrix, state_shape: Optional[tuple] = None
+                ) -> TransitionTable:
+    """The :class:`TransitionTable` of a sparse T (summed duplicates, zeros dropped)."""
+    t = sp.csr_matrix(transitions, dtype=float, copy=True)
+    t.sum_duplicates()
+    t.eliminate_zeros()
+    n_rows, n_states = t.shape
+    counts = np.diff(t.indptr)
+    width = max(1, int(counts.max(initial=0)))
+    rows = np.repeat(np.arange(n_rows), counts)
+    cols = np.arange(t.nnz) - np.repeat(t.indptr[:-1], counts)
+    index = np.zeros((n_rows, width), dtype=np.int32)
+    weight = np.zeros((n_rows, width))
+    index[rows, cols] = t.indices
+    weight[rows, cols] = t.data
+    _pad_with_first(index, counts)
+    return TransitionTable(index, weight, n_states, _shape(state_shape, n_states))
+
+
+def transition_table(grid: Grid, next_points: np.ndarray) -> TransitionTable:
+    """T of :func:`transition_matrix` written straight into the fixed-width layout from the
+    grid's memberships (equal entry for entry to ``fixed_width(transition_matrix(...))``)."""
+    n_x, n_u, d = _check_points(grid, next_points)
+    idx, w = grid.memberships(next_points.reshape(n_x * n_u, d))
+    key = np.where(w != 0.0, idx, grid.size)              # zeros sort last
+    order = np.argsort(key, axis=1, kind="stable")
+    idx = np.take_along_axis(idx, order, 1)
+    w = np.take_along_axis(w, order, 1)
+    counts = np.count_nonzero(w, axis=1)
+    width = max(1, int(counts.max(initial=0)))
+    idx, w = idx[:, :width], np.ascontiguousarray(w[:, :width])
+    live = np.arange(width) < counts[:, None]
+    if np.any(live[:, 1:] & (idx[:, 1:] == idx[:, :-1])):   # a repeated bin: sum as CSR does
+        return fixed_width(transition_matrix(grid, next_points), grid.shape)
+    index = idx.astype(np.int32)
+    _pad_with_first(index, counts)
+    return TransitionTable(index, w, grid.size, grid.shape)
+
+
+def _check_points(grid: Grid, next_points: np.ndarray) -> tuple:
+    n_x, n_u, d = next_points.shape
+    if n_x != grid.size or d != len(grid.axes):
+        raise ValueError(f"next_points of shape {next_points.shape} do not match a grid "
+                         f"of {grid.size} bins over {len(grid.axes)} dimensions")
+    return n_x, n_u, d
+
+
+def _pad_with_first(index: np.ndarray, counts: np.ndarray) -> None:
+    """Padding entries (zero weight) point at the row's first bin, already in cache."""
+    pad = np.arange(index.shape[1]) >= counts[:, None]
+    index[pad] = np.broadcast_to(index[:, :1], index.shape)[pad]
+
+
+def _shape(state_shape, n_states: int) -> Optional[tuple]:
+    if state_shape is None:
+        return None
+    state_shape = tuple(int(n) for n in state_shape)
+    if int(np.prod(state_shape)) != n_states:
+        raise ValueError(f"state shape {state_shape} does not hold {n_states} states")
+    return state_shape
 
 
 @dataclasses.dataclass
@@ -50,18 +149,117 @@ class QIterationResult:
     seconds: float
 
 
-def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
-                      gamma: float = GAMMA, delta: float = DELTA, max_iterations: int = 10000,
-                      min_iterations: int = 0,
-                      callback: Optional[Callable[[int, float], None]] = None
-                      ) -> QIterationResult:
-    """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max|Q_l - Q_{l-1}| <= delta.
+def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards: np.ndarray,
+                      *, gamma: float = GAMMA, delta: float = DELTA,
+                      max_iterations: int = 10000, min_iterations: int = 0,
+                      callback: Optional[Callable[[int, float], None]] = None,
+                      sweeps: str = "synchronous",
+                      state_shape: Optional[tuple] = None) -> QIterationResult:
+    """Sweeps of Alg. 1 from Q_0 = 0 until max|Q_l - Q_{l-1}| <= delta.
 
-    ``rewards`` has shape (N_X, N_U): rho(c_m, u_j). ``min_iterations`` forces at least
-    that many sweeps (for benchmarks doing equal work); ``callback(l, change)`` is
-    called after each sweep.
+    ``rewards`` has shape (N_X, N_U): rho(c_m, u_j). ``sweeps="synchronous"`` computes
+    Q_{l+1} from Q_l throughout (as printed); ``"serial"`` overwrites each Q(m, u) at once,
+    bins in the column-major (Matlab, first index fastest) order of the grid's shape and
+    actions inner, each update using the max over actions of the current Q. Serial sweeps
+    need the grid's shape: from a :func:`transition_table` or as ``state_shape``.
+    ``min_iterations`` forces at least that many sweeps (for benchmarks doing equal work);
+    ``callback(l, change)`` is called after each sweep.
     """
-    rewards = np.asarray(rewards, dtype=float)
+    table, rewards = _check(transitions, rewards, gamma, delta, state_shape)
+    if sweeps not in SWEEPS:
+        raise ValueError(f"unknown sweeps {sweeps!r}; choose one of {', '.join(SWEEPS)}")
+    n_x, n_u = rewards.shape
+    if sweeps == "serial":
+        if table.state_shape is None:
+            raise ValueError("serial sweeps visit the bins in the grid's column-major order: "
+                             "pass a transition_table(grid, ...) or state_shape=grid.shape")
+        order = np.arange(n_x).reshape(table.state_shape).ravel(order="F")
+    start = time.perf_counter()
+    r = rewards.reshape(-1)
+    q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
+    v, v_next = np.zeros(n_x), np.empty(n_x)
+    history = np.empty(max(0, max_iterations))
+    step = max_iterations if callback is None else 1
+    done = 0
+    converged = False
+    while done < max_iterations:
+        if sweeps == "serial":
+            n = fqi_kernel.serial_sweeps(table.index, table.weight, r, q, v, order, gamma,
+                                         delta, history, done, step, min_iterations)
+        else:
+            n = fqi_kernel.synchronous_sweeps(table.index, table.weight, r, q, q_next, v,
+                                              v_next, gamma, delta, history, done, step,
+                                              min_iterations)
+            if n % 2:
+                q, q_next, v, v_next = q_next, q, v_next, v
+        done += n
+        if callback is not None:
+            callback(done, float(history[done - 1]))
+        if history[done - 1] <= delta and done >= min_iterations:
+            converged = True
+            break
+    return QIterationResult(q.reshape(n_x, n_u), done, history[:done].copy(), converged,
+                            time.perf_counter() - start)
+
+
+def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, TransitionTable]],
+                             rewards: Sequence[np.ndarray], *, mode: str = "worst",
+                             gamma: float = GAMMA, delta: float = DELTA,
+                             max_iterations: int = 10000, min_iterations: int = 0,
+                             callback: Optional[Callable[[int, float], None]] = None
+                             ) -> QIterationResult:
+    """Synchronous sweeps of Alg. 1 over K models at once, from Q_0 = 0:
+
+    Q_{l+1}(m, u) = min_k (``mode="worst"``) or mean_k (``"mean"``) of
+    rho_k(c_m, u) + gamma sum_m~ T_k[(m, u), m~] max_u~ Q_l(m~, u~),
+
+    one transition matrix and one reward table (N_X, N_U) per model k, all on one grid.
+    """
+    if mode not in ROBUST_MODES:
+        raise ValueError(f"unknown robust mode {mode!r}; choose one of {', '.join(ROBUST_MODES)}")
+    if len(transitions) == 0 or len(transitions) != len(rewards):
+        raise ValueError(f"need one reward table per transition matrix, got "
+                         f"{len(transitions)} matrices and {len(rewards)} reward tables")
+    checked = [_check(t, r, gamma, delta, None) for t, r in zip(transitions, rewards)]
+    shapes = {r.shape for _, r in checked}
+    if len(shapes) != 1:
+        raise ValueError(f"the models' reward tables differ in shape: {sorted(shapes)}")
+    n_x, n_u = checked[0][1].shape
+    width = max(t.index.shape[1] for t, _ in checked)
+    index = np.empty((len(checked), n_x * n_u, width), dtype=np.int32)
+    weight = np.zeros((len(checked), n_x * n_u, width))
+    for k, (t, _) in enumerate(checked):
+        w = t.index.shape[1]
+        index[k, :, :w], weight[k, :, :w] = t.index, t.weight
+        index[k, :, w:] = t.index[:, :1]
+    r = np.stack([rr.reshape(-1) for _, rr in checked])
+    start = time.perf_counter()
+    q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
+    v, v_next = np.zeros(n_x), np.empty(n_x)
+    history = np.empty(max(0, max_iterations))
+    step = max_iterations if callback is None else 1
+    done = 0
+    converged = False
+    while done < max_iterations:
+        n = fqi_kernel.robust_sweeps(index, weight, r, q, q_next, v, v_next, gamma, delta,
+                                     history, done, step, min_iterations, mode == "worst")
+        if n % 2:
+            q, q_next, v, v_next = q_next, q, v_next, v
+        done += n
+        if callback is not None:
+            callback(done, float(history[done - 1]))
+        if history[done - 1] <= delta and done >= min_iterations:
+            converged = True
+            break
+    return QIterationResult(q.reshape(n_x, n_u), done, history[:done].copy(), converged,
+                            time.perf_counter() - start)
+
+
+def _check(transitions, rewards, gamma, delta, state_shape) -> tuple:
+    """(TransitionTable, rewards as float (N_X, N_U)), or a clear error."""
+    rewards = np.ascontiguousarray(rewards, dtype=float)
+    if rewards.ndim != 2:
+        raise ValueError(f"rewards must have shape (N_X, N_U), got {rewards.shape}")
     n_x, n_u = rewards.shape
     if transitions.shape != (n_x * n_u, n_x):
         raise ValueError(f"transition matrix of shape {transitions.shape} does not match "
@@ -70,37 +268,12 @@ def fuzzy_q_iteration(transitions: sp.csr_matrix, rewards: np.ndarray, *,
         raise ValueError(f"gamma must lie in (0, 1), got {gamma}")
     if not delta > 0.0:
         raise ValueError(f"delta must be positive, got {delta}")
-    start = time.perf_counter()
-    r = rewards.reshape(-1)
-    q = np.zeros(n_x * n_u)
-    q_new = np.empty_like(q)
-    diff = np.empty_like(q)
-    v = np.empty(n_x)
-    history = []
-    converged = False
-    iterations = 0
-    while iterations < max_iterations:
-        _row_max(q.reshape(n_x, n_u), v)
-        np.multiply(transitions @ v, gamma, out=q_new)
-        q_new += r
-        np.subtract(q_new, q, out=diff)
-        change = float(np.abs(diff, out=diff).max())
-        q, q_new = q_new, q
-        iterations += 1
-        history.append(change)
-        if callback is not None:
-            callback(iterations, change)
-        if change <= delta and iterations >= min_iterations:
-            converged = True
-            break
-    return QIterationResult(q.reshape(n_x, n_u), iterations, np.asarray(history),
-                            converged, time.perf_counter() - start)
-
-
-def _row_max(q: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """max over actions of Q (N_X, N_U) into ``out`` (N_X,), as N_U column-wise maxima:
-    several times faster than ``q.max(axis=1)`` over a short last axis."""
-    np.copyto(out, q[:, 0])
-    for j in range(1, q.shape[1]):
-        np.maximum(out, q[:, j], out=out)
-    return out
+    if isinstance(transitions, TransitionTable):
+        if state_shape is not None:
+            transitions = dataclasses.replace(transitions,
+                                              state_shape=_shape(state_shape, n_x))
+        return transitions, rewards
+    if not sp.issparse(transitions):
+        raise TypeError(f"transitions must be a scipy sparse matrix or a TransitionTable, "
+                        f"got {type(transitions).__name__}")
+    return fixed_width(transitions, state_shape), rewards

@@ -1,0 +1,143 @@
+"""Compiled sweeps of fuzzy Q-iteration (Alg. 1) over a fixed-width transition table.
+
+T is held as ``index`` (rows, K) int32 and ``weight`` (rows, K) float64, row
+m * N_U + j listing the bins m~ with mu_m~(f(c_m, u_j)) > 0 in increasing order and
+padded with zero weights: every row of (12)-(13) has at most 2**d memberships, so no
+row pointers are needed. Each row is summed in index order from 0.0, as scipy's CSR
+product sums a canonical matrix, so the sweeps give the scipy path's Q bit for bit.
+
+The kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once ``min_done``
+sweeps are done) and write each sweep's change into ``history``; they return the
+number done. Callers loop over calls to report progress between them.
+"""
+from __future__ import annotations
+
+import os
+
+import numba
+import numpy as np
+
+#: Cache compiled code beside this module only where that directory is writable (an
+#: installed, read-only site-packages compiles once per process instead, silently).
+CACHE = os.access(os.path.dirname(os.path.abspath(__file__)), os.W_OK)
+
+_jit = numba.njit(cache=CACHE, nogil=True)
+
+
+@_jit
+def synchronous_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta,
+                       history, start, sweeps, min_done):
+    """Synchronous sweeps: Q'(m, j) = rho + gamma sum_k w V(idx), V = max_u Q, fused.
+
+    ``q`` (rows,) holds Q_start and ``v`` (N_X,) max_u Q_start; ``q_next`` and
+    ``v_next`` are scratch. The arrays swap roles every sweep: after an odd number of
+    sweeps the newest Q and V are in ``q_next`` and ``v_next``.
+    """
+    n_rows, width = index.shape
+    n_x = v.shape[0]
+    n_u = n_rows // n_x
+    done = 0
+    while done < sweeps:
+        change = 0.0
+        for m in range(n_x):
+            best = -np.inf
+            for j in range(n_u):
+                row = m * n_u + j
+                s = 0.0
+                for k in range(width):
+                    s += weight[row, k] * v[index[row, k]]
+                new = rewards[row] + gamma * s
+                d = abs(new - q[row])
+                if d > change:
+                    change = d
+                q_next[row] = new
+                if new > best:
+                    best = new
+            v_next[m] = best
+        q, q_next = q_next, q
+        v, v_next = v_next, v
+        history[start + done] = change
+        done += 1
+        if change <= delta and start + done >= min_done:
+            break
+    return done
+
+
+@_jit
+def serial_sweeps(index, weight, rewards, q, v, order, gamma, delta, history,
+                  start, sweeps, min_done):
+    """Serial (in-place, Gauss-Seidel) sweeps: states in ``order``, actions inner, each
+    Q(m, j) overwritten at once and V(m) = max_u Q(m, u) refreshed after it."""
+    n_rows, width = index.shape
+    n_x = v.shape[0]
+    n_u = n_rows // n_x
+    done = 0
+    while done < sweeps:
+        change = 0.0
+        for i in range(n_x):
+            m = order[i]
+            for j in range(n_u):
+                row = m * n_u + j
+                s = 0.0
+                for k in range(width):
+                    s += weight[row, k] * v[index[row, k]]
+                new = rewards[row] + gamma * s
+                d = abs(new - q[row])
+                if d > change:
+                    change = d
+                q[row] = new
+                best = q[m * n_u]
+                for jj in range(1, n_u):
+                    if q[m * n_u + jj] > best:
+                        best = q[m * n_u + jj]
+                v[m] = best
+        history[start + done] = change
+        done += 1
+        if change <= delta and start + done >= min_done:
+            break
+    return done
+
+
+@_jit
+def robust_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta, history,
+                  start, sweeps, min_done, worst):
+    """Synchronous sweeps over K models: ``index``/``weight`` (K, rows, width),
+    ``rewards`` (K, rows); Q'(m, j) = min_k (``worst``) or mean_k of rho_k + gamma T_k V
+    (the mean as the sum over k in order, divided by K). The arrays swap roles as in
+    :func:`synchronous_sweeps`."""
+    n_models, n_rows, width = index.shape
+    n_x = v.shape[0]
+    n_u = n_rows // n_x
+    done = 0
+    while done < sweeps:
+        change = 0.0
+        for m in range(n_x):
+            best = -np.inf
+            for j in range(n_u):
+                row = m * n_u + j
+                acc = np.inf if worst else 0.0
+                for c in range(n_models):
+                    s = 0.0
+                    for k in range(width):
+                        s += weight[c, row, k] * v[index[c, row, k]]
+                    val = rewards[c, row] + gamma * s
+                    if worst:
+                        if val < acc:
+                            acc = val
+                    else:
+                        acc += val
+                new = acc if worst else acc / n_models
+                d = abs(new - q[row])
+                if d > change:
+                    change = d
+                q_next[row] = new
+                if new > best:
+                    best = new
+            v_next[m] = best
+        q, q_next = q_next, q
+        v, v_next = v_next, v
+        history[start + done] = change
+        done += 1
+        if change <= delta and start + done >= min_done:
+            break
+    return done
