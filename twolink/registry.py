@@ -1,7 +1,8 @@
 """The registry of shipped policies: one table that the CLI, reports, tests and README read.
 
 Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
-(18), the model the transitions come from, agent 1's context) and whether it is one of
+(18), the model the transitions come from, agent 1's context, the sweeps of Alg. 1:
+synchronous as printed for all of them, SPEC.md) and whether it is one of
 the paper's policies or one of ours synthesised on the full model (6).
 """
 from __future__ import annotations
@@ -21,6 +22,7 @@ class ShippedPolicy:
     context: Optional[str]          # agent 1's context, decentralized only
     paper: bool                     # one of the paper's policies (synthesised on (11))
     description: str
+    sweeps: str = "synchronous"     # Alg. 1's sweeps (twolink.synthesis.SWEEPS)
 
     @property
     def file(self) -> Path:
@@ -29,7 +31,7 @@ class ShippedPolicy:
 
     def synthesis_options(self) -> dict:
         """Keyword arguments of :func:`twolink.synthesis.synthesize` that rebuild it."""
-        opts = {"model": self.model}
+        opts = {"model": self.model, "sweeps": self.sweeps}
         if self.context is not None:
             opts["context"] = self.context
         return opts

@@ -5,7 +5,9 @@ it is :mod:`twolink.reproduce_table`).
 The policies are the paper's, from :data:`twolink.registry.PAPER_POLICIES` (the
 centralized policy (16) and the decentralized agents (18) with both readings of agent
 1's context), synthesised afresh on the simplified model (11) and compared bit for bit
-with the shipped files.
+with the shipped files. Each is also synthesised with serial sweeps (ApproxRL's in-place
+update, :data:`twolink.synthesis.SWEEPS`), whose sweep counts are reported beside the
+synchronous ones.
 """
 from __future__ import annotations
 
@@ -39,7 +41,8 @@ _AGENT_INFO = ("q_size", "iterations", "seconds", "cpu_seconds", "transition_sec
 @dataclasses.dataclass
 class Reproduction:
     """What :func:`reproduce` measured. Dictionaries are keyed by policy name (the
-    registry's), then plant; ``trajectories`` by (policy, plant), from the paper's x0."""
+    registry's), then plant; ``trajectories`` by (policy, plant), from the paper's x0.
+    ``synthesis[name]["serial"]`` holds each agent's sweeps and times with serial sweeps."""
 
     x0: list
     duration: float
@@ -111,8 +114,12 @@ def reproduce(duration: float = HORIZON, *, policies=PAPER_POLICIES,
             entry = SHIPPED[name]
             policy = synthesize(entry.kind, TABLE_I, progress=progress,
                                 **entry.synthesis_options())
+            opts = {**entry.synthesis_options(), "sweeps": "serial"}
+            serial = synthesize(entry.kind, TABLE_I, progress=progress, **opts)
             res.synthesis[name] = {
+                "sweeps": policy.meta["sweeps"],
                 "agents": {a.name: {k: a.info[k] for k in _AGENT_INFO} for a in policy.agents},
+                "serial": {a.name: {k: a.info[k] for k in _AGENT_INFO} for a in serial.agents},
                 "matches_shipped_policy": matches_shipped(name, policy)}
             res.rollouts[name], res.evaluation_set[name] = {}, {}
             for plant_name, plant in plants.items():

@@ -35,10 +35,20 @@ def table(report: dict) -> str:
     for agent, name in agents:
         rows.append((f"iterations, {agent}", paper.ITERATIONS[agent],
                      s[name]["agents"][agent]["iterations"]))
-    for name in names:            # the other readings of agent 1's context
-        if name not in first.values() and SHIPPED[name].context and "agent1" in s[name]["agents"]:
-            rows.append((f"iterations, agent1 ({SHIPPED[name].context} context)",
-                         paper.ITERATIONS["agent1"], s[name]["agents"]["agent1"]["iterations"]))
+    others = [name for name in names      # the other readings of agent 1's context
+              if name not in first.values() and SHIPPED[name].context
+              and "agent1" in s[name]["agents"]]
+    for name in others:
+        rows.append((f"iterations, agent1 ({SHIPPED[name].context} context)",
+                     paper.ITERATIONS["agent1"], s[name]["agents"]["agent1"]["iterations"]))
+    for agent, name in agents:
+        if "serial" in s[name]:
+            rows.append((f"iterations, {agent} (serial sweeps)", paper.ITERATIONS[agent],
+                         s[name]["serial"][agent]["iterations"]))
+    for name in others:
+        if "serial" in s[name]:
+            rows.append((f"iterations, agent1 ({SHIPPED[name].context} context, serial sweeps)",
+                         paper.ITERATIONS["agent1"], s[name]["serial"]["agent1"]["iterations"]))
     for agent, name in agents:
         star = "*" if agent != "centralized" else ""
         rows.append((f"synthesis CPU time [s], {agent}", f"~{paper.CPU_SECONDS[agent]:g}{star}",

@@ -22,13 +22,17 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink import __version__, dynamics, fuzzy
-from twolink.fqi import fuzzy_q_iteration, transition_matrix
+from twolink.fqi import fuzzy_q_iteration, transition_table
 from twolink.integrate import SUBSTEPS, sample_step
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters
 from twolink.policy import Agent, Policy
 from twolink.reward import agent_reward, centralized_reward
 
 SYNTHESIS_MODELS = ("simplified", "full")
+#: How Alg. 1 sweeps (:func:`twolink.fqi.fuzzy_q_iteration`): ``synchronous`` as printed
+#: (Q_{l+1} from Q_l), or ``serial`` (each Q(m, j) overwritten at once, bins outer and
+#: actions inner, as the ``'serial'`` option of Busoniu's ApproxRL ``fuzzyqi.m``).
+SWEEPS = ("synchronous", "serial")
 CONTEXTS = ("frozen", "propagated")
 KINDS = ("centralized", "decentralized")
 
@@ -149,12 +153,29 @@ def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
                    time.perf_counter() - start)
 
 
+def check_sweeps(sweeps: str) -> str:
+    """``sweeps`` if it is one of :data:`SWEEPS`, else a ValueError naming them."""
+    if sweeps not in SWEEPS:
+        raise ValueError(f"unknown sweeps {sweeps!r}; choose one of {', '.join(SWEEPS)}")
+    return sweeps
+
+
+def check_refine(refine: int) -> int:
+    """``refine`` if it is a positive whole number, else a ValueError."""
+    if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or refine < 1:
+        raise ValueError(f"refine must be a positive whole number, got {refine!r}")
+    return int(refine)
+
+
 def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
-          progress: bool = False, extra: Optional[dict] = None) -> Agent:
-    """Build the sparse transition matrix once, then run Alg. 1 to convergence."""
+          sweeps: str = "synchronous", progress: bool = False,
+          extra: Optional[dict] = None) -> Agent:
+    """Build the sparse transition matrix once, then run Alg. 1 to convergence with
+    ``sweeps`` (:data:`SWEEPS`)."""
+    check_sweeps(sweeps)
     cpu0 = time.process_time()
     t0 = time.perf_counter()
-    trans = transition_matrix(problem.grid, problem.next_points)
+    trans = transition_table(problem.grid, problem.next_points)
     build = problem.seconds + time.perf_counter() - t0
     with tqdm(desc=f"Q-iteration {problem.name}", unit=" sweeps", disable=None if progress else True,
               leave=False, mininterval=0.25) as bar:
@@ -162,10 +183,11 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
             bar.update(1)
             bar.set_postfix(change=f"{change:.3g}")
         result = fuzzy_q_iteration(trans, problem.rewards, gamma=gamma, delta=delta,
+                                   sweeps=sweeps, state_shape=problem.grid.shape,
                                    callback=tick)
     if not result.converged:
         raise RuntimeError(f"Q-iteration for {problem.name} did not converge")
-    info = {"iterations": result.iterations, "converged": result.converged,
+    info = {"iterations": result.iterations, "sweeps": sweeps, "converged": result.converged,
             "final_change": float(result.history[-1]),
             "transition_seconds": build, "sweep_seconds": result.seconds,
             "seconds": build + result.seconds,
@@ -183,17 +205,25 @@ def _meta(p: ArmParameters, model: str, gamma: float, delta: float, **more) -> d
 
 def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: str = "simplified",
                context: str = "frozen", gamma: float = GAMMA, delta: float = DELTA,
+               sweeps: str = "synchronous", refine: int = 1,
                progress: bool = False) -> Policy:
-    """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``."""
+    """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``
+    with ``sweeps`` of Alg. 1 (:data:`SWEEPS`) over the paper's bins, each subdivided
+    ``refine`` times (:meth:`fuzzy.Axis.refined`; 1: the paper's grid). Both are recorded
+    in the policy's provenance (``meta``)."""
+    check_sweeps(sweeps)
+    refine = check_refine(refine)
+    opts = {"gamma": gamma, "delta": delta, "sweeps": sweeps, "progress": progress}
+    more = {"sweeps": sweeps, "refine": refine}
     if kind == "centralized":
-        agent = solve(centralized_problem(p, model), gamma=gamma, delta=delta, progress=progress)
-        return Policy(kind, [agent], _meta(p, model, gamma, delta))
+        agent = solve(centralized_problem(p, model, refine=refine), **opts)
+        return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
     if kind == "decentralized":
         if context not in CONTEXTS:
             raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
                              f"{', '.join(CONTEXTS)}")
-        a2 = solve(agent2_problem(p, model), gamma=gamma, delta=delta, progress=progress)
-        a1 = solve(agent1_problem(a2, p, model, context), gamma=gamma, delta=delta,
-                   progress=progress, extra={"context": context})
-        return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context))
+        a2 = solve(agent2_problem(p, model, refine=refine), **opts)
+        a1 = solve(agent1_problem(a2, p, model, context, refine=refine), **opts,
+                   extra={"context": context})
+        return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
     raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")

@@ -1,13 +1,16 @@
 """``twolink synthesize``: fuzzy Q-iteration of a policy, saved as a policy file.
 
 By default the policy goes to a new file in the current directory, named after what was
-synthesised (``./<kind>[_<model>][_<context>].npz``), and an existing file is kept unless
-``--force``. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
+synthesised (``./<kind>[_<model>][_<context>][_serial][_refine<K>].npz``), and an existing
+file is kept unless ``--force``. ``--sweeps`` picks Alg. 1's sweeps (synchronous as printed,
+or serial, in place, as ApproxRL's ``fuzzyqi.m``), ``--refine K`` subdivides every bin of
+the paper's grid K times; both are recorded in the policy's provenance. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
 :data:`twolink.registry.SHIPPED` into the source checkout's ``policies/``, with the kind,
 model and context of its registry entry.
 """
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -15,16 +18,31 @@ from twolink.artifacts import check_outputs
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
-from twolink.synthesis import CONTEXTS, KINDS, SYNTHESIS_MODELS, synthesize
+from twolink.synthesis import CONTEXTS, KINDS, SWEEPS, SYNTHESIS_MODELS, synthesize
 
 
-def default_file_name(kind: str, model: str = "simplified", context: str = "frozen") -> str:
-    """``<kind>[_<model>][_<context>].npz``, the model and context only when not the default
-    (so the five shipped combinations get their registry names)."""
+def default_file_name(kind: str, model: str = "simplified", context: str = "frozen",
+                      sweeps: str = "synchronous", refine: int = 1) -> str:
+    """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>].npz``, each part only when not
+    the default (so the five shipped combinations get their registry names)."""
     name = kind + ("" if model == "simplified" else f"_{model}")
     if kind == "decentralized" and context != "frozen":
         name += f"_{context}"
+    if sweeps != "synchronous":
+        name += f"_{sweeps}"
+    if refine != 1:
+        name += f"_refine{refine}"
     return f"{name}.npz"
+
+
+def _refine(text: str) -> int:
+    try:
+        k = int(text)
+    except ValueError:
+        k = 0
+    if k < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive whole number, got {text!r}")
+    return k
 
 
 def add_parser(sub):
@@ -41,6 +59,13 @@ def add_parser(sub):
     p.add_argument("--context", choices=CONTEXTS, default=None,
                    help="agent 1's reading of link 2 over a transition (decentralized only; "
                         "default: frozen)")
+    p.add_argument("--sweeps", choices=SWEEPS, default=None,
+                   help="Alg. 1's sweeps: synchronous (as printed, the default) or serial "
+                        "(each Q(m, u) overwritten at once, bins in Matlab's order, as "
+                        "ApproxRL's fuzzyqi.m)")
+    p.add_argument("--refine", type=_refine, default=None, metavar="K",
+                   help="subdivide every bin of the paper's grid K times (default 1: the "
+                        "paper's grid; see the README's 'Finer grids')")
     p.add_argument("--gamma", type=float, default=GAMMA, help=f"discount factor (default {GAMMA})")
     p.add_argument("--delta", type=float, default=DELTA,
                    help=f"stop when max |Q_l - Q_(l-1)| <= delta (default {DELTA})")
@@ -58,9 +83,10 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     """(kind, synthesize() options, output path) for every policy to write; checks first."""
     if args.ship:
         if args.kind or args.model or args.context or args.output or args.force \
-                or args.gamma != GAMMA or args.delta != DELTA:
+                or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA:
             raise ValueError("--ship takes everything from the registry: give no kind, "
-                             "--model, --context, --gamma, --delta, -o or --force with it")
+                             "--model, --context, --sweeps, --refine, --gamma, --delta, -o "
+                             "or --force with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
@@ -73,11 +99,14 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     context = args.context or "frozen"
     if args.kind == "centralized" and args.context is not None:
         raise ValueError("--context applies to the decentralized policy only")
-    out = args.output or Path(default_file_name(args.kind, model, context))
+    sweeps = args.sweeps or "synchronous"
+    refine = args.refine or 1
+    out = args.output or Path(default_file_name(args.kind, model, context, sweeps, refine))
     check_outputs({"-o": out})
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
-    opts = {"model": model, "context": context, "gamma": args.gamma, "delta": args.delta}
+    opts = {"model": model, "context": context, "gamma": args.gamma, "delta": args.delta,
+            "sweeps": sweeps, "refine": refine}
     return [(args.kind, opts, out)]
 
 
@@ -91,7 +120,7 @@ def run(args) -> int:
         summary.append({"path": str(out), "kind": policy.kind, "agents": info})
         if not args.json:
             for name, i in info.items():
-                print(f"{name}: Q size {i['q_size']}, {i['iterations']} iterations, "
+                print(f"{name}: Q size {i['q_size']}, {i['iterations']} {i['sweeps']} sweeps, "
                       f"{i['seconds']:.3f} s ({i['transition_seconds']:.3f} s transitions, "
                       f"{i['sweep_seconds']:.3f} s sweeps)")
             print(f"wrote {out}")
