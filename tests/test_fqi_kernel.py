@@ -160,3 +160,24 @@ def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="one reward table"):
         fuzzy_q_iteration_robust([t, t], [p.rewards])
     assert isinstance(t, TransitionTable) and sp.issparse(t.tocsr())
+
+
+def test_table_equals_the_csr_matrix_at_awkward_points(rng):
+    """Far outside the axes, exactly on centres, on pi == -pi and at the clamped ends."""
+    from twolink.fuzzy import angle_axis, speed_axis, torque_axis
+    grid = Grid((angle_axis("a"), speed_axis("s"), angle_axis("b"), torque_axis("tau2", 0.1)))
+    n = grid.size * 2
+    pts = np.stack([rng.uniform(-20, 20, n), rng.uniform(-9, 9, n), rng.uniform(-7, 7, n),
+                    rng.uniform(-0.2, 0.2, n)], -1)
+    pts[:12, 0] = grid.axes[0].centers
+    pts[12:24, 2] = grid.axes[2].centers
+    pts[24:31, 1] = grid.axes[1].centers
+    pts[31:34, 3] = grid.axes[3].centers
+    pts[40:50, 0] = np.pi + 2 * np.pi * np.arange(-5, 5)
+    pts[50:60, 2] = np.nextafter(np.pi, 0) - 2 * np.pi * np.arange(10)
+    pts[60:80, 1] = [-1e9, 1e9] * 10
+    next_points = pts.reshape(grid.size, 2, 4)
+    table = transition_table(grid, next_points)
+    via_csr = fixed_width(transition_matrix(grid, next_points), grid.shape)
+    np.testing.assert_array_equal(table.index, via_csr.index)
+    np.testing.assert_array_equal(table.weight, via_csr.weight)

@@ -96,23 +96,24 @@ def fixed_width(transitions: sp.spmatrix, state_shape: Optional[tuple] = None
 
 
 def transition_table(grid: Grid, next_points: np.ndarray) -> TransitionTable:
-    """T of :func:`transition_matrix` written straight into the fixed-width layout from the
-    grid's memberships (equal entry for entry to ``fixed_width(transition_matrix(...))``)."""
+    """T of :func:`transition_matrix` written straight into the fixed-width layout by a
+    compiled pass over the points (equal entry for entry, bit for bit, to
+    ``fixed_width(transition_matrix(...))``)."""
     n_x, n_u, d = _check_points(grid, next_points)
-    idx, w = grid.memberships(next_points.reshape(n_x * n_u, d))
-    key = np.where(w != 0.0, idx, grid.size)              # zeros sort last
-    order = np.argsort(key, axis=1, kind="stable")
-    idx = np.take_along_axis(idx, order, 1)
-    w = np.take_along_axis(w, order, 1)
-    counts = np.count_nonzero(w, axis=1)
+    sizes = np.array(grid.shape, dtype=np.int64)
+    centers = np.zeros((d, int(sizes.max())))
+    for a, axis in enumerate(grid.axes):
+        centers[a, :axis.size] = axis.centers
+    circular = np.array([axis.circular for axis in grid.axes])
+    points = np.ascontiguousarray(next_points, dtype=float).reshape(n_x * n_u, d)
+    index = np.empty((n_x * n_u, 2 ** d), dtype=np.int32)
+    weight = np.empty((n_x * n_u, 2 ** d))
+    counts = fqi_kernel.membership_rows(points, centers, sizes, circular, index, weight)
     width = max(1, int(counts.max(initial=0)))
-    idx, w = idx[:, :width], np.ascontiguousarray(w[:, :width])
-    live = np.arange(width) < counts[:, None]
-    if np.any(live[:, 1:] & (idx[:, 1:] == idx[:, :-1])):   # a repeated bin: sum as CSR does
-        return fixed_width(transition_matrix(grid, next_points), grid.shape)
-    index = idx.astype(np.int32)
-    _pad_with_first(index, counts)
-    return TransitionTable(index, w, grid.size, grid.shape)
+    if width < 2 ** d:
+        index = np.ascontiguousarray(index[:, :width])
+        weight = np.ascontiguousarray(weight[:, :width])
+    return TransitionTable(index, weight, grid.size, grid.shape)
 
 
 def _check_points(grid: Grid, next_points: np.ndarray) -> tuple:

@@ -150,3 +150,70 @@ def robust_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta, hi
         if change <= delta and start + done >= min_done:
             break
     return done
+
+
+@_jit
+def membership_rows(points, centers, sizes, circular, index, weight):
+    """The memberships (12)-(13) of ``points`` (rows, d) written as rows of the fixed-width
+    table: ``index``/``weight`` (rows, 2**d) get the bins with non-zero membership in
+    increasing order, zero-padded; returns each row's count. ``centers`` (d, max size)
+    holds every axis's centres (row a: the first ``sizes[a]``), as :class:`twolink.fuzzy.Axis`
+    computes them: the same operations in the same order, so the weights are equal bit for
+    bit to :meth:`twolink.fuzzy.Grid.memberships`."""
+    n_rows, d = points.shape
+    two_pi = 2.0 * np.pi
+    lo = np.empty(d, dtype=np.int64)
+    hi = np.empty(d, dtype=np.int64)
+    w_lo = np.empty(d)
+    w_hi = np.empty(d)
+    counts = np.empty(n_rows, dtype=np.int64)
+    flat = np.empty(2 ** d, dtype=np.int64)
+    prod = np.empty(2 ** d)
+    for i in range(n_rows):
+        for a in range(d):
+            n = sizes[a]
+            c0 = centers[a, 0]
+            v = points[i, a]
+            if circular[a]:
+                v = np.mod(v - c0, two_pi) + c0
+                j = np.searchsorted(centers[a, :n], v, side="right") - 1
+                j = min(max(j, 0), n - 1)
+                upper = c0 + two_pi if j == n - 1 else centers[a, j + 1]
+                w = (v - centers[a, j]) / (upper - centers[a, j])
+                h = (j + 1) % n
+            else:
+                v = min(max(v, c0), centers[a, n - 1])
+                j = np.searchsorted(centers[a, :n], v, side="right") - 1
+                j = min(max(j, 0), n - 2)
+                w = (v - centers[a, j]) / (centers[a, j + 1] - centers[a, j])
+                h = j + 1
+            w = min(max(w, 0.0), 1.0)
+            # the pair in increasing bin order, so products come out sorted
+            if h < j:
+                lo[a], hi[a], w_lo[a], w_hi[a] = h, j, w, 1.0 - w
+            else:
+                lo[a], hi[a], w_lo[a], w_hi[a] = j, h, 1.0 - w, w
+        # C-order product over the axes, as Grid.memberships builds it
+        flat[0] = 0
+        prod[0] = 1.0
+        size = 1
+        for a in range(d):
+            n = sizes[a]
+            for t in range(size - 1, -1, -1):
+                f, p = flat[t], prod[t]
+                flat[2 * t] = f * n + lo[a]
+                prod[2 * t] = p * w_lo[a]
+                flat[2 * t + 1] = f * n + hi[a]
+                prod[2 * t + 1] = p * w_hi[a]
+            size *= 2
+        c = 0
+        for t in range(size):
+            if prod[t] != 0.0:
+                index[i, c] = flat[t]
+                weight[i, c] = prod[t]
+                c += 1
+        counts[i] = c
+        for t in range(c, size):
+            index[i, t] = index[i, 0] if c > 0 else 0
+            weight[i, t] = 0.0
+    return counts
