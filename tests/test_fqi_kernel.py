@@ -181,3 +181,25 @@ def test_table_equals_the_csr_matrix_at_awkward_points(rng):
     via_csr = fixed_width(transition_matrix(grid, next_points), grid.shape)
     np.testing.assert_array_equal(table.index, via_csr.index)
     np.testing.assert_array_equal(table.weight, via_csr.weight)
+
+
+@pytest.mark.parametrize("model", ["simplified", "full"])
+@pytest.mark.parametrize("freeze_link2", [False, True])
+def test_compiled_transitions_equal_sample_step_bit_for_bit(rng, model, freeze_link2):
+    """The compiled RK4 against ``sample_step`` of ``dynamics.MODELS``, over bin centres,
+    states far outside the grid (wrapping, saturation) and torques beyond the limits."""
+    from twolink import dynamics
+    from twolink.integrate import sample_step, sample_step_compiled
+    from twolink.synthesis import centralized_actions
+    accel = dynamics.MODELS[model]
+    if freeze_link2:
+        def accel(pp, s, t, inner=accel):
+            return inner(pp, s, t) * np.array([1.0, 0.0])
+    x = np.concatenate([centralized_problem().grid.centers()[::7],
+                        rng.uniform(-12, 12, (500, 4))])
+    tau = centralized_actions(TABLE_I) * 1.7
+    fast = sample_step_compiled(model, TABLE_I, x[:, None], tau[None],
+                                freeze_link2=freeze_link2)
+    np.testing.assert_array_equal(fast, sample_step(accel, TABLE_I, x[:, None], tau[None]))
+    with pytest.raises(ValueError, match="no compiled model"):
+        sample_step_compiled("exact", TABLE_I, x, tau[0])

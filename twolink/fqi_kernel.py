@@ -12,25 +12,13 @@ number done. Callers loop over calls to report progress between them.
 """
 from __future__ import annotations
 
-import os
-
-import numba
 import numpy as np
 
-def _cache_wanted() -> bool:
-    """Cache compiled code where numba can write it: NUMBA_CACHE_DIR when set, else the
-    ``__pycache__`` beside this module. In a read-only site-packages the kernels are
-    compiled once per process instead (about 0.3-0.5 s each), with no warning."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return True
-    here = os.path.dirname(os.path.abspath(__file__))
-    pycache = os.path.join(here, "__pycache__")
-    return os.access(pycache if os.path.isdir(pycache) else here, os.W_OK)
+from twolink._numba import cache_wanted, njit
 
-
-CACHE = _cache_wanted()
-
-_jit = numba.njit(cache=CACHE, nogil=True)
+#: Whether the kernels' compiled code is cached (see :mod:`twolink._numba`).
+CACHE = cache_wanted(__file__)
+_jit = njit(__file__)
 
 
 @_jit

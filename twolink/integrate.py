@@ -79,3 +79,38 @@ def integration_error(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau:
     d = np.abs(d).reshape(-1, 4)
     return {"substeps": substeps, "reference_substeps": reference_substeps,
             "max": d.max(0).tolist(), "rms": np.sqrt((d**2).mean(0)).tolist()}
+
+
+# --------------------------------------------------------------------------- compiled
+#: The models :func:`sample_step_compiled` knows, by the names of ``dynamics.MODELS``.
+COMPILED_MODELS = ("simplified", "full")
+
+
+def sample_step_compiled(model: str, p: ArmParameters, x: np.ndarray, tau: np.ndarray, *,
+                         ts: float = TS, substeps: int = SUBSTEPS,
+                         freeze_link2: bool = False) -> np.ndarray:
+    """:func:`sample_step` of ``dynamics.MODELS[model]`` (the horizontal arm) compiled:
+    one pass per (state, torque) pair, the same operations in the same order, so equal to
+    the numpy path bit for bit where libm's sin and cos are numpy's (tests hold it to it).
+
+    ``freeze_link2`` multiplies the accelerations by [1, 0] (link 2 held, as agent 1's
+    frozen context does).
+    """
+    if model not in COMPILED_MODELS:
+        raise ValueError(f"no compiled model {model!r}; choose one of {', '.join(COMPILED_MODELS)}")
+    if not isinstance(substeps, (int, np.integer)) or substeps < 1:
+        raise ValueError(f"substeps must be a positive integer, got {substeps}")
+    x = np.asarray(x, dtype=float)
+    tau = np.asarray(tau, dtype=float)
+    batch = np.broadcast_shapes(x.shape[:-1], tau.shape[:-1])
+    xs = np.ascontiguousarray(np.broadcast_to(x, batch + (4,))).reshape(-1, 4)
+    us = np.ascontiguousarray(np.broadcast_to(tau, batch + (2,))).reshape(-1, 2)
+    from twolink import integrate_kernel      # numba loads on first use, not on import
+
+    out = np.empty_like(xs)
+    integrate_kernel.rk4_pairs(
+        xs, us, COMPILED_MODELS.index(model), float(p.P1), float(p.P2), float(p.P3),
+        float(p.b1), float(p.b2), float(p.tau1_max), float(p.tau2_max),
+        float(p.dtheta1_max), float(p.dtheta2_max), float(ts), int(substeps),
+        1.0, 0.0 if freeze_link2 else 1.0, freeze_link2, out)
+    return out.reshape(batch + (4,))
