@@ -7,6 +7,8 @@ import time
 import tracemalloc
 from typing import Callable, Optional
 
+import numpy as np
+
 
 @dataclasses.dataclass
 class Row:
@@ -109,3 +111,17 @@ def format_table(rows: list[Row]) -> str:
         out.append(f"  {r.name:<{w_name}}  {_fmt(r.value):>{w_val}}  {r.unit:<{w_unit}}  {r.note}"
                    .rstrip())
     return "\n".join(out).lstrip("\n")
+
+
+def copy_bandwidth(nbytes: int) -> Callable[[], int]:
+    """A callable copying a float64 array of ``nbytes`` into another (numpy ``copyto``);
+    it returns the bytes it moves, 2 * nbytes (read and write). Timed beside a kernel
+    that moves the same bytes, it gives the machine's attainable bandwidth in the same run."""
+    src = np.random.default_rng(0).random(max(1, nbytes // 8))
+    dst = np.empty_like(src)
+
+    def copy() -> int:
+        np.copyto(dst, src)
+        return 2 * src.nbytes
+
+    return copy

@@ -17,11 +17,14 @@ from unittest import mock
 import numpy as np
 import scipy.sparse as sp
 
-from benchmarks.common import (Row, available_ram_bytes, interleaved_best, peak_bytes,
-                               total_ram_bytes)
+from benchmarks.common import (Row, available_ram_bytes, best_time, copy_bandwidth,
+                               interleaved_best, peak_bytes, total_ram_bytes)
 from twolink import synthesis as core
-from twolink.fqi import fuzzy_q_iteration, transition_matrix
-from twolink.parameters import DELTA, GAMMA
+from twolink.fqi import (TransitionTable, fuzzy_q_iteration, fuzzy_q_iteration_robust,
+                         transition_matrix, transition_table)
+from twolink.integrate import sample_step_compiled
+from twolink.parameters import DELTA, GAMMA, TABLE_I
+from twolink.reward import centralized_reward
 
 SECTION = "synthesis"
 SCALING = "scaling"
@@ -112,17 +115,41 @@ def _no_op(*args, **kwargs):
 
 # --------------------------------------------------------------------------- measurements
 def _synthesis(problem_fn):
-    """Build the problem and T, then run Alg. 1 to convergence."""
+    """Build the problem and T (fixed-width table), then run Alg. 1 to convergence."""
     t0 = time.perf_counter()
     problem = problem_fn()
     t1 = time.perf_counter()
-    trans = transition_matrix(problem.grid, problem.next_points)
+    trans = transition_table(problem.grid, problem.next_points)
     t2 = time.perf_counter()
     result = fuzzy_q_iteration(trans, problem.rewards)
     t3 = time.perf_counter()
     if not result.converged:
         raise RuntimeError(f"Q-iteration for {problem.name} did not converge")
     return problem, trans, result, (t1 - t0, t2 - t1, t3 - t2)
+
+
+def sweep_bytes(table: TransitionTable) -> int:
+    """Bytes a synchronous sweep must move at least: T's indices and weights, rho, Q read
+    (for the change), Q' written, V' written and V read once (its gathers hit cache)."""
+    n_rows, n_x = table.shape
+    return table.nbytes + 3 * 8 * n_rows + 2 * 8 * n_x
+
+
+def compiled_centralized(problem, p=TABLE_I):
+    """f(c_m, u) and rho of the centralized ``problem`` by the compiled RK4
+    (``integrate.sample_step_compiled``), on its grid and actions."""
+    nxt = sample_step_compiled("simplified", p, problem.grid.centers()[:, None, :],
+                               problem.actions[None])
+    return nxt, centralized_reward(nxt)
+
+
+def _centralized_end_to_end(problem, p=TABLE_I):
+    """Centralized synthesis with the compiled transitions: (seconds, result)."""
+    t0 = time.perf_counter()
+    nxt, rewards = compiled_centralized(problem, p)
+    table = transition_table(problem.grid, nxt)
+    result = fuzzy_q_iteration(table, rewards)
+    return time.perf_counter() - t0, result
 
 
 def _agreement(ours_q: np.ndarray, v: np.ndarray, greedy: np.ndarray) -> tuple[float, float]:
@@ -142,16 +169,20 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     rows: list[Row] = []
     build = BUILDERS[name]
     times = [_synthesis(build) for _ in range(max(1, repeats))]
-    problem, trans, result, _ = times[-1]
+    problem, table, result, _ = times[-1]
+    trans = transition_matrix(problem.grid, problem.next_points)     # the peers' T
     t_model, t_matrix, t_sweeps = (min(t[3][i] for t in times) for i in range(3))
     n = result.iterations
     sec = f"{SECTION}: {name}"
     rows += [
         Row(sec, "Q-table size", result.q.size, "values",
             f"{problem.grid.size} bins x {len(problem.actions)} actions"),
-        Row(sec, "transition matrix nnz", trans.nnz, "entries"),
-        Row(sec, "model transitions f(c_m,u)", t_model, "s", "RK4 on model (11), all pairs"),
-        Row(sec, "transition matrix T", t_matrix, "s", "memberships -> scipy CSR"),
+        Row(sec, "transition matrix nnz", trans.nnz, "entries",
+            f"fixed width {table.index.shape[1]}: {table.nbytes / 2**20:.1f} MiB"),
+        Row(sec, "model transitions f(c_m,u)", t_model, "s",
+            "RK4 on model (11), all pairs, as the package builds the problem"),
+        Row(sec, "transition matrix T", t_matrix, "s",
+            "memberships -> fixed-width table (compiled)"),
         Row(sec, "sweeps to convergence", n, "sweeps", f"delta = {DELTA}"),
         Row(sec, "sweeps (to convergence)", t_sweeps, "s"),
         Row(sec, "total synthesis", t_model + t_matrix + t_sweeps, "s",
@@ -162,7 +193,7 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
 
     # Equal work: every solver does exactly n sweeps from zero on the same (T, rho).
     def ours():
-        res = fuzzy_q_iteration(trans, problem.rewards, delta=1e-300, min_iterations=n,
+        res = fuzzy_q_iteration(table, problem.rewards, delta=1e-300, min_iterations=n,
                                 max_iterations=n)
         if res.iterations != n:
             raise RuntimeError(f"forced {n} sweeps, did {res.iterations}")
@@ -177,8 +208,16 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     t_mdp_setup = time.perf_counter() - t0
 
     # Interleaved repeats: on a shared machine every solver sees the same background load.
+    moved = sweep_bytes(table)
+    copy = copy_bandwidth(moved // 2)          # a copy moving the bytes of one sweep
+    copies = max(1, n // 4)
+
+    def copy_n():
+        return sum(copy() for _ in range(copies))
+
     best, out = interleaved_best({"ours": ours, "quantecon": qe_sweeps,
-                                  "quantecon_solve": qe_solve, "mdptoolbox": mdp_solve},
+                                  "quantecon_solve": qe_solve, "mdptoolbox": mdp_solve,
+                                  "copy": copy_n},
                                  sweep_repeats or repeats)
     res_n = out["ours"]
     # QuantEcon's policy is greedy in one more sweep, Q_{n+1} = rho + gamma T V_n.
@@ -195,6 +234,16 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     t_qe_solve = best["quantecon_solve"]
     rows.append(Row(sec, "ours: time per sweep", per_sweep["ours"] * 1e3, "ms",
                     f"{n} forced sweeps, best of {sweep_repeats or repeats} interleaved"))
+    sweep_gbs = moved / per_sweep["ours"] / 1e9
+    copy_gbs = out["copy"] / best["copy"] / 1e9
+    rows += [
+        Row(sec, "ours: bytes per sweep", moved / 2**20, "MiB",
+            "T (int32 index + float64 weight) + rho + Q + Q' + V + V'"),
+        Row(sec, "ours: sweep bandwidth", sweep_gbs, "GB/s", "bytes per sweep / time per sweep"),
+        Row(sec, "copy bandwidth (same bytes)", copy_gbs, "GB/s",
+            f"numpy copyto of {moved / 2 / 2**20:.1f} MiB (read + write), same run"),
+        Row(sec, "sweep / copy bandwidth", sweep_gbs / copy_gbs, "share"),
+    ]
     rows += [
         Row(sec, "quantecon: time per sweep", per_sweep["quantecon"] * 1e3, "ms",
             "DiscreteDP bellman_operator, sparse s-a pairs"),
@@ -219,7 +268,25 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         ]
     summary = {"q_size": int(result.q.size), "iterations": n,
                "total": t_model + t_matrix + t_sweeps, "per_sweep": per_sweep,
-               "agreement": checks, "peak_bytes": mem}
+               "agreement": checks, "peak_bytes": mem, "sweep_bytes": moved,
+               "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs}
+    if name == "centralized":
+        nxt, rewards = compiled_centralized(problem)
+        if not (np.array_equal(nxt, problem.next_points)
+                and np.array_equal(rewards, problem.rewards)):
+            raise RuntimeError("compiled transitions differ from the package's")
+        ends = [_centralized_end_to_end(problem) for _ in range(max(1, repeats))]
+        t_rk4, _ = best_time(lambda: compiled_centralized(problem), max(1, repeats))
+        end, res_end = min(ends, key=lambda e: e[0])
+        if not np.array_equal(res_end.q, result.q):
+            raise RuntimeError("end-to-end synthesis with compiled transitions differs")
+        rows += [
+            Row(sec, "model transitions, compiled RK4", t_rk4, "s",
+                "integrate.sample_step_compiled + rewards; bit-equal to the numpy path"),
+            Row(sec, "total synthesis, compiled transitions", end, "s",
+                f"compiled RK4 + table + sweeps, best of {len(ends)}; same Q bit for bit"),
+        ]
+        summary["total_compiled"] = end
     return rows, summary
 
 
@@ -246,7 +313,112 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
         Row(sec, f"fastest peer ({fastest}) / ours per sweep, centralized",
             c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x", ">= 1 is the target"),
     ]
+    r, summaries["worst_case"] = bench_worst_case(8, repeats=repeats)
+    rows += r
+    jit = jit_compile_seconds()
+    summaries["jit_seconds"] = jit
+    sec = f"{SECTION}: compiled kernels"
+    rows += [Row(sec, f"JIT compile: {name}", secs, "s",
+                 "first call, fresh process, empty numba cache") for name, secs in jit.items()]
     return rows, summaries
+
+
+# --------------------------------------------------------------------------- robust
+def worst_case_models(k: int = 8, spread: float = 0.2) -> list:
+    """K parameter sets around Table I: the corners of m1, m2, b1 scaled by 1 +- spread
+    (the first 8; more repeat the corners with I1 and I2 scaled too)."""
+    corners = [dict(m1=a, m2=b, b1=c) for a in (1 - spread, 1 + spread)
+               for b in (1 - spread, 1 + spread) for c in (1 - spread, 1 + spread)]
+    out = []
+    for i in range(k):
+        f = dict(corners[i % 8])
+        if i >= 8:
+            f.update(I1=1 + spread, I2=1 - spread)
+        out.append(TABLE_I.scaled(**f))
+    return out
+
+
+def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
+    """Robust centralized synthesis over K models: min (and mean) over k of
+    rho_k + gamma T_k V in one compiled sweep; transitions by the compiled RK4."""
+    problem = BUILDERS["centralized"]()
+    models = worst_case_models(k)
+
+    def synthesize(mode="worst"):
+        t0 = time.perf_counter()
+        tables, rewards = [], []
+        for p in models:
+            nxt, r = compiled_centralized(problem, p)
+            tables.append(transition_table(problem.grid, nxt))
+            rewards.append(r)
+        t1 = time.perf_counter()
+        res = fuzzy_q_iteration_robust(tables, rewards, mode=mode)
+        t2 = time.perf_counter()
+        if not res.converged:
+            raise RuntimeError(f"robust Q-iteration ({mode}) did not converge")
+        return (t1 - t0, t2 - t1), res, tables
+
+    runs = [synthesize() for _ in range(max(1, repeats))]
+    t_build = min(r[0][0] for r in runs)
+    t_sweeps = min(r[0][1] for r in runs)
+    total = min(sum(r[0]) for r in runs)
+    _, res, tables = runs[-1]
+    mean_runs = [synthesize("mean") for _ in range(max(1, repeats))]
+    moved = sum(t.nbytes for t in tables) + 8 * k * tables[0].shape[0] \
+        + sweep_bytes(tables[0]) - tables[0].nbytes
+    per_sweep = t_sweeps / res.iterations
+    sec = f"{SECTION}: worst case over K = {k} models, centralized"
+    rows = [
+        Row(sec, "transitions + tables (K models)", t_build, "s",
+            "compiled RK4 + rewards + fixed-width tables, m1, m2, b1 scaled by 0.8/1.2"),
+        Row(sec, "sweeps to convergence (worst)", res.iterations, "sweeps", f"delta = {DELTA}"),
+        Row(sec, "sweeps (worst)", t_sweeps, "s", "min over k of rho_k + gamma T_k V"),
+        Row(sec, "total robust synthesis (worst)", total, "s", f"best of {len(runs)}"),
+        Row(sec, "time per sweep (worst)", per_sweep * 1e3, "ms"),
+        Row(sec, "bytes per sweep", moved / 2**20, "MiB", "K tables + K rho + Q + Q' + V + V'"),
+        Row(sec, "sweep bandwidth", moved / per_sweep / 1e9, "GB/s"),
+        Row(sec, "sweeps to convergence (mean)", mean_runs[-1][1].iterations, "sweeps"),
+        Row(sec, "total robust synthesis (mean)", min(sum(r[0]) for r in mean_runs), "s",
+            f"best of {len(mean_runs)}"),
+    ]
+    return rows, {"k": k, "total": total, "sweeps_seconds": t_sweeps,
+                  "iterations": res.iterations, "per_sweep": per_sweep,
+                  "sweep_gbs": moved / per_sweep / 1e9}
+
+
+def jit_compile_seconds() -> dict:
+    """Seconds the first call of each compiled kernel takes in a fresh process with an
+    empty numba cache (compile time; the cached load is a few milliseconds)."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    code = (
+        "import json, time, numpy as np\n"
+        "from twolink import fqi, integrate\n"
+        "from twolink.fuzzy import Grid, angle_axis, speed_axis\n"
+        "from twolink.parameters import TABLE_I\n"
+        "g = Grid((angle_axis('a'), speed_axis('s')))\n"
+        "x = np.zeros((g.size, 4)); tau = np.zeros((3, 2))\n"
+        "out = {}\n"
+        "t0 = time.perf_counter(); nxt = integrate.sample_step_compiled("
+        "'simplified', TABLE_I, x[:, None], tau[None]); out['rk4'] = time.perf_counter() - t0\n"
+        "t0 = time.perf_counter(); t = fqi.transition_table(g, nxt[..., [1, 3]]); "
+        "out['table'] = time.perf_counter() - t0\n"
+        "r = np.zeros((g.size, 3)) - 1\n"
+        "for s in ('synchronous', 'serial'):\n"
+        "    t0 = time.perf_counter(); fqi.fuzzy_q_iteration(t, r, sweeps=s); "
+        "out[s] = time.perf_counter() - t0\n"
+        "t0 = time.perf_counter(); fqi.fuzzy_q_iteration_robust([t, t], [r, r]); "
+        "out['robust'] = time.perf_counter() - t0\n"
+        "print(json.dumps(out))\n")
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        done = subprocess.run([sys.executable, "-c", code], env=env, check=True,
+                              capture_output=True, text=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 # --------------------------------------------------------------------------- scaling

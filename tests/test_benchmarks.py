@@ -44,6 +44,36 @@ def test_peers_solve_the_same_mdp_and_agree(name):
     _positive_finite(rows)
 
 
+def test_sweep_bandwidth_rows_are_bytes_over_time():
+    rows, summary = synthesis.bench_problem("agent2", repeats=1)
+    by = _by_name(rows)
+    sec = "synthesis: agent2"
+    moved = summary["sweep_bytes"]
+    assert by[(sec, "ours: bytes per sweep")].value == pytest.approx(moved / 2**20)
+    assert summary["sweep_gbs"] == pytest.approx(moved / summary["per_sweep"]["ours"] / 1e9)
+    assert by[(sec, "sweep / copy bandwidth")].value == pytest.approx(
+        summary["sweep_gbs"] / summary["copy_gbs"])
+
+
+def test_sweep_bytes_count_the_table_and_the_vectors():
+    from twolink.fqi import transition_table
+    p = synthesis.BUILDERS["agent2"](1)
+    t = transition_table(p.grid, p.next_points)
+    rows, n_x = t.shape
+    assert synthesis.sweep_bytes(t) == rows * t.index.shape[1] * (4 + 8) + 24 * rows + 16 * n_x
+
+
+def test_worst_case_rows_and_models():
+    models = synthesis.worst_case_models(8)
+    assert len({(m.m1, m.m2, m.b1) for m in models}) == 8
+    rows, summary = synthesis.bench_worst_case(2, repeats=1)
+    names = {r.name for r in rows}
+    assert {"total robust synthesis (worst)", "sweeps to convergence (worst)",
+            "sweep bandwidth", "total robust synthesis (mean)"} <= names
+    assert summary["k"] == 2 and summary["iterations"] > 0
+    _positive_finite(rows)
+
+
 def test_mdptoolbox_full_setup_gives_the_same_values():
     p = synthesis.BUILDERS["agent2"](1)
     from twolink.fqi import transition_matrix
