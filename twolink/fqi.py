@@ -227,13 +227,13 @@ def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, Transition
         raise ValueError(f"the models' reward tables differ in shape: {sorted(shapes)}")
     n_x, n_u = checked[0][1].shape
     width = max(t.index.shape[1] for t, _ in checked)
-    index = np.empty((len(checked), n_x * n_u, width), dtype=np.int32)
-    weight = np.zeros((len(checked), n_x * n_u, width))
+    index = np.empty((n_x * n_u, len(checked), width), dtype=np.int32)
+    weight = np.zeros((n_x * n_u, len(checked), width))
     for k, (t, _) in enumerate(checked):
         w = t.index.shape[1]
-        index[k, :, :w], weight[k, :, :w] = t.index, t.weight
-        index[k, :, w:] = t.index[:, :1]
-    r = np.stack([rr.reshape(-1) for _, rr in checked])
+        index[:, k, :w], weight[:, k, :w] = t.index, t.weight
+        index[:, k, w:] = t.index[:, :1]
+    r = np.stack([rr.reshape(-1) for _, rr in checked], axis=1)
     start = time.perf_counter()
     q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
     v, v_next = np.zeros(n_x), np.empty(n_x)

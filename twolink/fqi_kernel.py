@@ -98,11 +98,12 @@ def serial_sweeps(index, weight, rewards, q, v, order, gamma, delta, history,
 @_jit
 def robust_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta, history,
                   start, sweeps, min_done, worst):
-    """Synchronous sweeps over K models: ``index``/``weight`` (K, rows, width),
-    ``rewards`` (K, rows); Q'(m, j) = min_k (``worst``) or mean_k of rho_k + gamma T_k V
+    """Synchronous sweeps over K models: ``index``/``weight`` (rows, K, width) (a row's
+    K models side by side, one stream through memory),
+    ``rewards`` (rows, K); Q'(m, j) = min_k (``worst``) or mean_k of rho_k + gamma T_k V
     (the mean as the sum over k in order, divided by K). The arrays swap roles as in
     :func:`synchronous_sweeps`."""
-    n_models, n_rows, width = index.shape
+    n_rows, n_models, width = index.shape
     n_x = v.shape[0]
     n_u = n_rows // n_x
     done = 0
@@ -116,8 +117,8 @@ def robust_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta, hi
                 for c in range(n_models):
                     s = 0.0
                     for k in range(width):
-                        s += weight[c, row, k] * v[index[c, row, k]]
-                    val = rewards[c, row] + gamma * s
+                        s += weight[row, c, k] * v[index[row, c, k]]
+                    val = rewards[row, c] + gamma * s
                     if worst:
                         if val < acc:
                             acc = val
