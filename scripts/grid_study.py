@@ -16,11 +16,13 @@ k: k - 1 evenly spaced centres inserted between neighbouring centres, 12k angle 
   cells; row i's noise from the i-th child of SeedSequence([seed, 1])); the median settle
   time of the random poses that succeed.
 
-Nothing is tuned: every configuration runs the same sets. Runs in about 3-4 minutes on
+``--sweeps serial`` synthesises with serial sweeps instead (the shipped policies are
+synchronous). Nothing is tuned: every configuration runs the same sets. Runs in about 3-4 minutes on
 2 cores with the defaults (refine 3 of the centralized problem is most of it).
 
 Run: .venv/bin/python scripts/grid_study.py [--refine 1 2 3] [--states 200] [--seed 7]
-     [--noise-deg 1] [--json] [--report FILE]
+     [--noise-deg 1] [--models simplified full] [--sweeps synchronous|serial]
+     [--json] [--report FILE]
 Used in the README, section "Finer grids".
 """
 from __future__ import annotations
@@ -45,7 +47,7 @@ from twolink.parameters import HORIZON
 from twolink.artifacts import write_json
 from twolink.formatting import format_rate
 from twolink.sweeps import SPEED_PER_DEG
-from twolink.synthesis import synthesize
+from twolink.synthesis import SWEEPS, synthesize
 
 KINDS = ("centralized", "decentralized")
 MODELS = ("simplified", "full")
@@ -90,10 +92,11 @@ def _outcome(traj) -> Outcome:
                    float(np.median(st)) if len(st) else None)
 
 
-def measure_one(kind, model, refine, plants, *, poses, seed, noise_deg) -> Row:
+def measure_one(kind, model, refine, plants, *, poses, seed, noise_deg,
+                sweeps="synchronous") -> Row:
     tracemalloc.start()
     t0 = time.perf_counter()
-    policy = synthesize(kind, model=model, refine=refine, progress=True)
+    policy = synthesize(kind, model=model, refine=refine, sweeps=sweeps, progress=True)
     seconds = time.perf_counter() - t0
     peak = tracemalloc.get_traced_memory()[1] / 2**20
     tracemalloc.stop()
@@ -118,16 +121,17 @@ def measure_one(kind, model, refine, plants, *, poses, seed, noise_deg) -> Row:
                closed)
 
 
-def measure(refines, *, states: int, seed: int, noise_deg: float) -> list[Row]:
+def measure(refines, *, states: int, seed: int, noise_deg: float, models=MODELS,
+            sweeps: str = "synchronous") -> list[Row]:
     poses = random_poses(states, seed)
-    configs = sorted(((k, m, r) for r in refines for k in KINDS for m in MODELS),
+    configs = sorted(((k, m, r) for r in refines for k in KINDS for m in models),
                      key=lambda c: (c[2], c[0] == "centralized", c[1]))
     rows = []
     with make_plant("simplified") as simplified, make_plant("mujoco") as mj:
         plants = {"simplified": simplified, "mujoco": mj}
         for kind, model, refine in tqdm(configs, desc="grid study", unit=" config"):
             rows.append(measure_one(kind, model, refine, plants, poses=poses, seed=seed,
-                                    noise_deg=noise_deg))
+                                    noise_deg=noise_deg, sweeps=sweeps))
     return rows
 
 
@@ -135,8 +139,8 @@ def _rate(o: dict) -> str:
     return f"{format_rate(o['successes'], o['states'])} e{o['edge_stalls']}"
 
 
-def print_tables(rows, *, states, seed, noise_deg) -> None:
-    print("synthesis (synchronous sweeps; peak: traced numpy/scipy allocations, "
+def print_tables(rows, *, states, seed, noise_deg, sweeps="synchronous") -> None:
+    print(f"synthesis ({sweeps} sweeps; peak: traced numpy/scipy allocations, "
           "RSS: process high-water mark so far)")
     print(f"{'kind':<14}{'model':<11}{'refine':>6}{'Q size':>10}{'nnz(T)':>12}"
           f"{'sweeps':>16}{'time [s]':>10}{'peak [MiB]':>12}{'RSS [MiB]':>11}")
@@ -172,6 +176,10 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=7, help="seed of the random poses (default 7)")
     parser.add_argument("--noise-deg", type=float, default=1.0,
                         help="observation noise std on the angles, degrees (default 1)")
+    parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS),
+                        help="synthesis models (default: simplified full)")
+    parser.add_argument("--sweeps", choices=SWEEPS, default="synchronous",
+                        help="Alg. 1's sweeps (default synchronous, as the shipped policies)")
     parser.add_argument("--json", action="store_true", help="print the rows as JSON")
     parser.add_argument("--report", default=None, metavar="FILE",
                         help="also write the rows as JSON to FILE")
@@ -183,15 +191,17 @@ def main(argv=None):
     if not (math.isfinite(args.noise_deg) and args.noise_deg >= 0):
         parser.error("--noise-deg must be a non-negative number")
     rows = measure(sorted(set(args.refine)), states=args.states, seed=args.seed,
-                   noise_deg=args.noise_deg)
+                   noise_deg=args.noise_deg, models=args.models, sweeps=args.sweeps)
     data = [dataclasses.asdict(r) for r in rows]
     if args.report:
         write_json(args.report, {"states": args.states, "seed": args.seed,
+                                 "sweeps": args.sweeps,
                                  "noise_deg": args.noise_deg, "rows": data})
     if args.json:
         print(json.dumps(data, indent=2))
     else:
-        print_tables(rows, states=args.states, seed=args.seed, noise_deg=args.noise_deg)
+        print_tables(rows, states=args.states, seed=args.seed, noise_deg=args.noise_deg,
+                     sweeps=args.sweeps)
     return 0
 
 
