@@ -160,6 +160,10 @@ def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="one reward table"):
         fuzzy_q_iteration_robust([t, t], [p.rewards])
     assert isinstance(t, TransitionTable) and sp.issparse(t.tocsr())
+    with pytest.raises(ValueError, match="bin indices"):       # the kernels do not check bounds
+        TransitionTable(np.array([[0, 3]]), np.array([[0.5, 0.5]]), 3)
+    with pytest.raises(ValueError, match="one"):
+        TransitionTable(np.array([[0, 1]]), np.array([[1.0]]), 3)
 
 
 def test_table_equals_the_csr_matrix_at_awkward_points(rng):

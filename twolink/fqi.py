@@ -56,6 +56,19 @@ class TransitionTable:
     n_states: int
     state_shape: Optional[tuple] = None
 
+    def __post_init__(self):
+        # the compiled sweeps do not check bounds: refuse a table that would read outside V
+        index = np.ascontiguousarray(self.index, dtype=np.int32)
+        weight = np.ascontiguousarray(self.weight, dtype=float)
+        if index.ndim != 2 or index.shape != weight.shape:
+            raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
+                             f"(rows, width) shape")
+        if index.size and (index.min() < 0 or index.max() >= self.n_states):
+            raise ValueError(f"bin indices must lie in [0, {self.n_states})")
+        object.__setattr__(self, "index", index)
+        object.__setattr__(self, "weight", weight)
+        object.__setattr__(self, "state_shape", _shape(self.state_shape, self.n_states))
+
     @property
     def shape(self) -> tuple:
         return (self.index.shape[0], self.n_states)
