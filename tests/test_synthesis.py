@@ -91,3 +91,21 @@ def test_synthesize_and_mjcf_check_their_output_before_any_work(tmp_path, capsys
     assert main(["mjcf", "-o", str(tmp_path / "missing" / "a.xml")]) == 2
     assert "does not exist" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_refine_writes_a_finer_policy_and_records_it(tmp_path, monkeypatch, capsys):
+    """--refine 2: every state axis of the paper's grid gets a centre between neighbours
+    (12 -> 24 angle bins, 7 -> 13 speed bins); agent 1's tau2 axis stays three torques."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["synthesize", "decentralized", "--refine", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["path"] == "decentralized_refine2.npz"
+    pol = Policy.load(tmp_path / "decentralized_refine2.npz")
+    assert pol.meta["refine"] == 2 and pol.meta["sweeps"] == "synchronous"
+    a2, a1 = pol.agents
+    assert a2.grid.shape == (24, 13) and a1.grid.shape == (24, 13, 24, 3)
+    assert out["agents"]["agent1"]["q_size"] == 24 * 13 * 24 * 3 * 3
+    paper = Policy.load(SHIPPED["decentralized"].file)
+    # the paper's centres are among the refined ones, every other centre is new
+    for fine, coarse in zip(a1.grid.axes[:3], paper.agents[1].grid.axes[:3]):
+        np.testing.assert_allclose(fine.centers[::2], coarse.centers, atol=1e-15)
