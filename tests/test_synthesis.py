@@ -109,3 +109,35 @@ def test_refine_writes_a_finer_policy_and_records_it(tmp_path, monkeypatch, caps
     # the paper's centres are among the refined ones, every other centre is new
     for fine, coarse in zip(a1.grid.axes[:3], paper.agents[1].grid.axes[:3]):
         np.testing.assert_allclose(fine.centers[::2], coarse.centers, atol=1e-15)
+
+
+def test_grid_study_measures_the_papers_grid_as_reproduce_does(capsys, monkeypatch):
+    """scripts/grid_study.py at refine 1 on (11): the evaluation-set outcomes of the
+    paper's policies on the simplified plant are those `twolink reproduce` reports."""
+    import importlib.util
+    from pathlib import Path
+    from twolink.metrics import evaluation_set, stalled_at_band_edge, success
+    from twolink.plants import make_plant
+    from twolink.policy import load_policy
+    from twolink.rollout import rollout
+
+    path = Path(__file__).resolve().parent.parent / "scripts" / "grid_study.py"
+    spec = importlib.util.spec_from_file_location("grid_study", path)
+    study = importlib.util.module_from_spec(spec)
+    import sys
+    monkeypatch.setitem(sys.modules, "grid_study", study)     # dataclasses look it up
+    spec.loader.exec_module(study)
+    rows = study.measure([1], states=4, seed=3, noise_deg=1.0, models=["simplified"])
+    assert [(r.kind, r.refine) for r in rows] == [("decentralized", 1), ("centralized", 1)]
+    with make_plant("simplified") as plant:
+        for r in rows:
+            ev = rollout(load_policy(r.kind), plant, evaluation_set())
+            got = r.closed_loop["simplified"]["evaluation"]
+            assert (got["successes"], got["states"], got["edge_stalls"]) == (
+                int(success(ev).sum()), 65, int(stalled_at_band_edge(ev).sum()))
+            assert r.q_size == {"centralized": 63504, "decentralized": 9072 + 252}[r.kind]
+            assert r.closed_loop["mujoco"]["random"]["states"] == 4
+            assert r.peak_traced_mib > 0 and r.nnz > 0
+    with pytest.raises(SystemExit):
+        study.main(["--refine", "0"])
+    assert "--refine factors must be positive" in capsys.readouterr().err
