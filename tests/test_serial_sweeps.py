@@ -83,6 +83,7 @@ def test_cli_sweeps_option_is_recorded_in_the_policy(tmp_path, monkeypatch, caps
     (["decentralized", "--sweeps", "bogus"], "argument --sweeps: invalid choice: 'bogus'"),
     (["centralized", "--refine", "0"], "argument --refine: must be a positive whole number"),
     (["--ship", "centralized", "--sweeps", "serial"], "--ship takes everything from the registry"),
+    (["centralized", "--refine", "4"], "Q-table of 12960000 values (99 MiB) is over the 64 MiB"),
 ])
 def test_bad_sweeps_are_refused_before_any_work(tmp_path, monkeypatch, capsys, argv, message):
     monkeypatch.chdir(tmp_path)

@@ -9,6 +9,7 @@ from twolink.commands import synthesize as synthesize_command
 from twolink.commands.synthesize import default_file_name
 from twolink.policy import Policy
 from twolink.registry import SHIPPED
+from twolink.synthesis import table_sizes
 
 
 def test_default_names_are_the_registry_names():
@@ -105,6 +106,9 @@ def test_refine_writes_a_finer_policy_and_records_it(tmp_path, monkeypatch, caps
     a2, a1 = pol.agents
     assert a2.grid.shape == (24, 13) and a1.grid.shape == (24, 13, 24, 3)
     assert out["agents"]["agent1"]["q_size"] == 24 * 13 * 24 * 3 * 3
+    assert table_sizes("decentralized", 2) == {a: out["agents"][a]["q_size"]
+                                               for a in ("agent2", "agent1")}
+    assert table_sizes("centralized", 3) == {"centralized": 36 * 36 * 19 * 19 * 9}
     paper = Policy.load(SHIPPED["decentralized"].file)
     # the paper's centres are among the refined ones, every other centre is new
     for fine, coarse in zip(a1.grid.axes[:3], paper.agents[1].grid.axes[:3]):

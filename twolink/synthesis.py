@@ -167,6 +167,18 @@ def check_refine(refine: int) -> int:
     return int(refine)
 
 
+def table_sizes(kind: str, refine: int = 1) -> dict:
+    """Q-table size of every agent of ``kind`` on the paper's grid refined ``refine`` times,
+    known before anything is synthesised: ``{agent: N_X * N_U}``."""
+    refine = check_refine(refine)
+    ang, spd = fuzzy.angle_axis("a").refined(refine).size, fuzzy.speed_axis("s").refined(refine).size
+    if kind == "centralized":
+        return {"centralized": ang * ang * spd * spd * 9}
+    if kind == "decentralized":
+        return {"agent2": ang * spd * 3, "agent1": ang * spd * ang * 3 * 3}
+    raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
+
+
 def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
           sweeps: str = "synchronous", progress: bool = False,
           extra: Optional[dict] = None) -> Agent:
