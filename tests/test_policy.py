@@ -284,3 +284,12 @@ def test_refined_problems_for_scaling_studies():
     assert a1.grid.shape == (24, 13, 24, 3) and a1.rewards.shape == (24 * 13 * 24 * 3, 3)
     with pytest.raises(ValueError, match="needs agent 2"):
         agent1_problem(None, context="propagated")
+
+
+def test_save_refuses_what_load_would_refuse(tmp_path, monkeypatch):
+    from twolink import policy as policy_module
+    policy = load_policy("decentralized")
+    monkeypatch.setattr(policy_module, "MAX_Q_BYTES", policy.agents[1].q.nbytes - 1)
+    with pytest.raises(ValueError, match="agent agent1: a Q-table of 72576 bytes is larger"):
+        policy.save(tmp_path / "p.npz")
+    assert list(tmp_path.iterdir()) == []

@@ -50,7 +50,7 @@ TIE_TOLERANCE = 1e-9
 _MAX_HEADER_BYTES = 1 << 20
 #: The largest Q-table a policy file may hold (bytes, uncompressed): 64 MiB, some 130 times
 #: the centralized table of the paper.
-_MAX_Q_BYTES = 64 << 20
+MAX_Q_BYTES = 64 << 20
 #: Room for the .npy header in front of a Q-table's data.
 _NPY_HEADER_BYTES = 4096
 
@@ -197,6 +197,10 @@ class Policy:
     def save(self, path: os.PathLike) -> Path:
         """Write the policy atomically (a temporary file, then a rename), with its sha256."""
         path = Path(path)
+        for a in self.agents:          # what load() would refuse is never written
+            if a.q.nbytes > MAX_Q_BYTES:
+                raise ValueError(f"agent {a.name}: a Q-table of {a.q.nbytes} bytes is larger "
+                                 f"than the {MAX_Q_BYTES} bytes a policy file may hold")
         header = self.header()
         header["sha256"] = _content_hash(header, {a.name: a.q for a in self.agents})
         arrays = {f"q_{a.name}": np.ascontiguousarray(a.q, dtype="<f8") for a in self.agents}
@@ -300,9 +304,9 @@ def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
             raise PolicyFileError(f"{path}: agent {name}: Q must have shape "
                                   f"({grid_sizes[name]}, N_U), header says {shape}")
         nbytes = 8 * shape[0] * shape[1]
-        if nbytes > _MAX_Q_BYTES:
+        if nbytes > MAX_Q_BYTES:
             raise PolicyFileError(f"{path}: agent {name}: a Q-table of shape {shape} is "
-                                  f"larger than the {_MAX_Q_BYTES} bytes a policy may hold")
+                                  f"larger than the {MAX_Q_BYTES} bytes a policy may hold")
         _member_size(zf, member, nbytes + _NPY_HEADER_BYTES, path, f"agent {name}'s Q-table",
                      f"a float64 table of shape {shape} needs")
         q = _read_member(zf, member)

@@ -18,7 +18,7 @@ from twolink.artifacts import check_outputs
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
-from twolink.policy import _MAX_Q_BYTES        # what Policy.load accepts per Q-table
+from twolink.policy import MAX_Q_BYTES        # what Policy.load accepts per Q-table
 from twolink.synthesis import (CONTEXTS, KINDS, SWEEPS, SYNTHESIS_MODELS, synthesize,
                                table_sizes)
 
@@ -104,9 +104,9 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     sweeps = args.sweeps or "synchronous"
     refine = args.refine or 1
     biggest = max(table_sizes(args.kind, refine).values())
-    if biggest * 8 > _MAX_Q_BYTES:
+    if biggest * 8 > MAX_Q_BYTES:
         raise ValueError(f"--refine {refine}: a {args.kind} Q-table of {biggest} values "
-                         f"({biggest * 8 / 2**20:.0f} MiB) is over the {_MAX_Q_BYTES >> 20} "
+                         f"({biggest * 8 / 2**20:.0f} MiB) is over the {MAX_Q_BYTES >> 20} "
                          f"MiB a policy file may hold")
     out = args.output or Path(default_file_name(args.kind, model, context, sweeps, refine))
     check_outputs({"-o": out})
