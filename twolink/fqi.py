@@ -188,8 +188,29 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
             raise ValueError("serial sweeps visit the bins in the grid's column-major order: "
                              "pass a transition_table(grid, ...) or state_shape=grid.shape")
         order = np.arange(n_x).reshape(table.state_shape).ravel(order="F")
-    start = time.perf_counter()
     r = rewards.reshape(-1)
+    if sweeps == "serial":
+        def kernel(q, q_next, v, v_next, history, done, step):
+            return fqi_kernel.serial_sweeps(table.index, table.weight, r, q, v, order, gamma,
+                                            delta, history, done, step, min_iterations)
+    else:
+        def kernel(q, q_next, v, v_next, history, done, step):
+            return fqi_kernel.synchronous_sweeps(table.index, table.weight, r, q, q_next, v,
+                                                 v_next, gamma, delta, history, done, step,
+                                                 min_iterations)
+    return _iterate(kernel, (n_x, n_u), in_place=sweeps == "serial", delta=delta,
+                    max_iterations=max_iterations, min_iterations=min_iterations,
+                    callback=callback)
+
+
+def _iterate(kernel, shape, *, in_place: bool, delta: float, max_iterations: int,
+             min_iterations: int, callback) -> QIterationResult:
+    """Run a compiled sweep ``kernel`` from Q_0 = 0 until the change is <= ``delta``: all
+    sweeps in one call, or one per call when there is a ``callback(l, change)``. A kernel
+    that is not ``in_place`` writes Q_{l+1} into the other buffer; an odd number of its
+    sweeps leaves the newest Q there."""
+    n_x, n_u = shape
+    start = time.perf_counter()
     q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
     v, v_next = np.zeros(n_x), np.empty(n_x)
     history = np.empty(max(0, max_iterations))
@@ -197,15 +218,9 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
     done = 0
     converged = False
     while done < max_iterations:
-        if sweeps == "serial":
-            n = fqi_kernel.serial_sweeps(table.index, table.weight, r, q, v, order, gamma,
-                                         delta, history, done, step, min_iterations)
-        else:
-            n = fqi_kernel.synchronous_sweeps(table.index, table.weight, r, q, q_next, v,
-                                              v_next, gamma, delta, history, done, step,
-                                              min_iterations)
-            if n % 2:
-                q, q_next, v, v_next = q_next, q, v_next, v
+        n = kernel(q, q_next, v, v_next, history, done, step)
+        if n % 2 and not in_place:
+            q, q_next, v, v_next = q_next, q, v_next, v
         done += n
         if callback is not None:
             callback(done, float(history[done - 1]))
@@ -247,26 +262,13 @@ def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, Transition
         index[:, k, :w], weight[:, k, :w] = t.index, t.weight
         index[:, k, w:] = t.index[:, :1]
     r = np.stack([rr.reshape(-1) for _, rr in checked], axis=1)
-    start = time.perf_counter()
-    q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
-    v, v_next = np.zeros(n_x), np.empty(n_x)
-    history = np.empty(max(0, max_iterations))
-    step = max_iterations if callback is None else 1
-    done = 0
-    converged = False
-    while done < max_iterations:
-        n = fqi_kernel.robust_sweeps(index, weight, r, q, q_next, v, v_next, gamma, delta,
-                                     history, done, step, min_iterations, mode == "worst")
-        if n % 2:
-            q, q_next, v, v_next = q_next, q, v_next, v
-        done += n
-        if callback is not None:
-            callback(done, float(history[done - 1]))
-        if history[done - 1] <= delta and done >= min_iterations:
-            converged = True
-            break
-    return QIterationResult(q.reshape(n_x, n_u), done, history[:done].copy(), converged,
-                            time.perf_counter() - start)
+
+    def kernel(q, q_next, v, v_next, history, done, step):
+        return fqi_kernel.robust_sweeps(index, weight, r, q, q_next, v, v_next, gamma, delta,
+                                        history, done, step, min_iterations, mode == "worst")
+    return _iterate(kernel, (n_x, n_u), in_place=False, delta=delta,
+                    max_iterations=max_iterations, min_iterations=min_iterations,
+                    callback=callback)
 
 
 def _check(transitions, rewards, gamma, delta, state_shape) -> tuple:
