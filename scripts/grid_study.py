@@ -44,14 +44,15 @@ from twolink.perturbations import ObservationNoise, row_generators
 from twolink.plants import make_plant
 from twolink.rollout import rollout, steps_for
 from twolink.parameters import HORIZON
-from twolink.artifacts import write_json
+from twolink.artifacts import check_outputs, write_json
 from twolink.formatting import format_rate
 from twolink.sweeps import SPEED_PER_DEG
-from twolink.synthesis import SWEEPS, synthesize
+from twolink.policy import MAX_Q_BYTES
+from twolink.synthesis import KINDS, SWEEPS, table_sizes, synthesize
+from twolink.synthesis import SYNTHESIS_MODELS as MODELS
 
-KINDS = ("centralized", "decentralized")
-MODELS = ("simplified", "full")
-PLANTS = ("simplified", "mujoco")
+#: Most random poses per run (each is a 5 s rollout on two plants, three times).
+MAX_STATES = 100_000
 
 
 @dataclasses.dataclass
@@ -184,10 +185,20 @@ def main(argv=None):
     parser.add_argument("--report", default=None, metavar="FILE",
                         help="also write the rows as JSON to FILE")
     args = parser.parse_args(argv)
-    if args.states < 1:
-        parser.error("--states must be at least 1")
+    if not 1 <= args.states <= MAX_STATES:
+        parser.error(f"--states must be from 1 to {MAX_STATES}")
     if any(r < 1 for r in args.refine):
         parser.error("--refine factors must be positive whole numbers")
+    for r in args.refine:              # what a policy file may hold bounds the grid
+        biggest = max(n for k in KINDS for n in table_sizes(k, r).values())
+        if biggest * 8 > MAX_Q_BYTES:
+            parser.error(f"--refine {r}: a Q-table of {biggest} values is over the "
+                         f"{MAX_Q_BYTES >> 20} MiB a policy may hold")
+    if args.report:
+        try:
+            check_outputs({"--report": args.report})
+        except (OSError, ValueError) as exc:
+            parser.error(str(exc))
     if not (math.isfinite(args.noise_deg) and args.noise_deg >= 0):
         parser.error("--noise-deg must be a non-negative number")
     rows = measure(sorted(set(args.refine)), states=args.states, seed=args.seed,

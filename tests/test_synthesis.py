@@ -145,3 +145,18 @@ def test_grid_study_measures_the_papers_grid_as_reproduce_does(capsys, monkeypat
     with pytest.raises(SystemExit):
         study.main(["--refine", "0"])
     assert "--refine factors must be positive" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--states", "1000000000"], "--states must be from 1 to 100000"),
+    (["--refine", "9"], "--refine 9: a Q-table of 317552400 values is over the 64 MiB"),
+    (["--report", "/nonexistent/r.json"], "directory /nonexistent does not exist"),
+])
+def test_grid_study_refuses_unbounded_work_before_starting(args, message):
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parent.parent / "scripts" / "grid_study.py"
+    res = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 2 and message in res.stderr.strip().splitlines()[-1]
