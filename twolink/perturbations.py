@@ -15,6 +15,10 @@ from twolink.parameters import TABLE_I, ArmParameters
 
 #: Table I parameters a sweep may perturb (the plant's physical constants).
 PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max", "tau2_max")
+#: The ten physical parameters of the arm (not its torque or speed limits): what a
+#: challenge's joint plant perturbation and a robust synthesis's model draws change.
+#: l2 has no dynamic effect on the horizontal arm (only the drawn arm's length).
+PHYSICAL = ("l1", "l2", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2")
 
 
 def perturbed(base: ArmParameters = TABLE_I, **relative: float) -> ArmParameters:
