@@ -137,3 +137,181 @@ class ActuationDelay:
         for u in self._history:
             u[rows] = 0.0
 
+
+
+def keyed_generators(entropy, keys) -> list[np.random.Generator]:
+    """One generator per key (a tuple of whole numbers): ``SeedSequence(entropy,
+    spawn_key=key)``, the child a chain of ``spawn`` calls would give (key (p, s) is the
+    s-th child of the p-th child). A row keyed by (plant, state) thus draws the same
+    numbers whatever the number of plants and states beside it."""
+    return [np.random.Generator(np.random.PCG64(
+        np.random.SeedSequence(entropy, spawn_key=tuple(int(k) for k in key))))
+        for key in keys]
+
+
+def _whole(samples, what: str) -> np.ndarray:
+    d = np.asarray(samples, dtype=float)
+    if not np.all(np.isfinite(d)) or np.any(d < 0) or np.any(d != np.round(d)):
+        raise ValueError(f"{what} must be a non-negative whole number of samples, got {samples}")
+    return d.astype(int)
+
+
+class ObservationDelay:
+    """Readings that reach the controller late, row by row.
+
+    Row i is handed the reading it was given ``samples[i]`` sample periods ago (one number
+    applies to every row). Until that many readings exist it is handed its first reading of
+    the episode (the sensor's buffer starts full of it). Readings are the (B, 4) or (4,)
+    arrays of successive calls; state lives in the object, so make one per rollout or call
+    :meth:`restart`.
+    """
+
+    def __init__(self, samples=1):
+        self.samples = _whole(samples, "observation delay")
+        self._history: list = []          # the last max(samples) + 1 readings, oldest first
+        self._age = None                  # readings each row has had since its restart
+
+    def __call__(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        if not self.samples.any():
+            return x
+        flat = x.reshape(-1, x.shape[-1])
+        if self._age is None:
+            self._age = np.zeros(len(flat), dtype=int)
+        self._history.append(flat.copy())
+        del self._history[:-1 - int(self.samples.max())]
+        self._age += 1
+        back = np.minimum(np.broadcast_to(self.samples, self._age.shape), self._age - 1)
+        out = np.empty_like(flat)
+        for d in np.unique(back):
+            rows = back == d
+            out[rows] = self._history[-1 - d][rows]
+        return out.reshape(x.shape)
+
+    def restart(self, rows) -> None:
+        """Rows ``rows`` start afresh: their next reading is their first."""
+        if self._age is not None:
+            self._age[rows] = 0
+
+
+#: Sample periods a stuck reading stays stuck (0.2 s at Ts = 0.05 s): the sample it
+#: sticks at and the next STUCK_SAMPLES - 1.
+STUCK_SAMPLES = 4
+
+
+class ReadingFaults:
+    """Dropped and stuck readings, row by row (a sensor bus that loses or freezes data).
+
+    Every sample, a faulty row (one with a non-zero ``dropout`` or ``stuck`` probability)
+    draws two uniforms [u_drop, u_stick] in [0, 1) from its own generator ``rngs[i]``
+    (rows with both probabilities zero draw nothing), and is handed, in this order of
+    precedence:
+
+    1. its new reading on the first sample of an episode (nothing to repeat yet; no
+       fault starts there);
+    2. the reading it was last handed while it is stuck;
+    3. the reading it was last handed if u_stick < stuck: it sticks for this sample and
+       the next ``hold - 1`` (:data:`STUCK_SAMPLES` by default);
+    4. the reading it was last handed if u_drop < dropout (a dropped reading);
+    5. otherwise its new reading.
+
+    ``block`` as in :class:`ObservationNoise`: the uniforms of ``block`` steps drawn at
+    once (the same numbers); keep 1 when the generators serve other draws between steps.
+    """
+
+    def __init__(self, dropout=0.0, stuck=0.0, *, rngs: Sequence, hold: int = STUCK_SAMPLES,
+                 block: int = 1):
+        drop = np.atleast_1d(np.asarray(dropout, dtype=float))
+        stick = np.atleast_1d(np.asarray(stuck, dtype=float))
+        for name, p in (("dropout", drop), ("stuck", stick)):
+            if not np.all(np.isfinite(p)) or np.any(p < 0) or np.any(p >= 1):
+                raise ValueError(f"{name} probability must lie in [0, 1), got {p.tolist()}")
+        if int(hold) != hold or hold < 1:
+            raise ValueError(f"hold must be a positive whole number of samples, got {hold}")
+        if int(block) != block or block < 1:
+            raise ValueError(f"block must be a positive whole number of steps, got {block}")
+        self.rngs = list(rngs)
+        rows = len(self.rngs)
+        try:
+            drop, stick = (np.broadcast_to(v, (rows,)) for v in (drop, stick))
+        except ValueError:
+            raise ValueError(f"{rows} generators for fault probabilities of {len(drop)} and "
+                             f"{len(stick)} rows") from None
+        self.dropout, self.stuck, self.hold, self.block = drop, stick, int(hold), int(block)
+        self._faulty = np.flatnonzero((drop > 0) | (stick > 0))
+        self._drawn = np.empty((0, len(self._faulty), 2))
+        self._last = None                               # the readings last handed (rows, d)
+        self._left = np.zeros(rows, dtype=int)          # samples a stuck row stays stuck
+        self._fresh = np.ones(rows, dtype=bool)         # next sample is an episode's first
+
+    def __call__(self, x) -> np.ndarray:
+        """The readings handed on for new readings x (rows, d) or (d,)."""
+        if not len(self._faulty):
+            return x
+        x = np.asarray(x, dtype=float)
+        flat = x.reshape(-1, x.shape[-1])
+        if len(flat) != len(self.rngs):
+            raise ValueError(f"{len(self.rngs)} fault generators for a batch of {len(flat)} "
+                             f"readings")
+        if not len(self._drawn):
+            self._drawn = np.stack([self.rngs[i].random((self.block, 2))
+                                    for i in self._faulty], 1)
+        u, self._drawn = self._drawn[0], self._drawn[1:]
+        f = self._faulty
+        if self._last is None:
+            self._last = flat.copy()
+        held = self._left[f] > 0
+        sticks = ~held & (u[:, 1] < self.stuck[f])
+        drops = ~held & ~sticks & (u[:, 0] < self.dropout[f])
+        repeat = (held | sticks | drops) & ~self._fresh[f]
+        self._left[f] = np.where(held, self._left[f] - 1,
+                                 np.where(sticks, self.hold - 1, 0))
+        self._left[f[self._fresh[f]]] = 0
+        out = flat.copy()
+        out[f[repeat]] = self._last[f[repeat]]
+        self._last = out.copy()
+        self._fresh[:] = False
+        return out.reshape(x.shape)
+
+    def restart(self, rows) -> None:
+        """Rows ``rows`` start a new episode (not stuck; their next reading gets through)."""
+        self._left[rows] = 0
+        self._fresh[rows] = True
+
+
+class Sensors:
+    """What a controller is handed of the true states, row by row: Gaussian noise
+    (:class:`ObservationNoise`), then dropped and stuck readings (:class:`ReadingFaults`),
+    then the observation delay (:class:`ObservationDelay`), in that order (a sensor
+    measures, the bus loses or freezes the reading, it arrives late).
+
+    ``rngs``: one generator per row for the noise; ``fault_rngs`` one per row for the
+    faults (default: the same generators, each step drawing the noise's 4 normals, then
+    the faults' 2 uniforms; keep ``block`` 1 then).
+    """
+
+    def __init__(self, angle_std=0.0, speed_std=0.0, dropout=0.0, stuck=0.0, delay=0, *,
+                 rngs: Sequence, fault_rngs: Sequence | None = None, block: int = 1):
+        self.noise = ObservationNoise(angle_std, speed_std, rngs=rngs, block=block)
+        self.faults = ReadingFaults(dropout, stuck, rngs=rngs if fault_rngs is None
+                                    else fault_rngs, block=block)
+        self.delay = ObservationDelay(delay)
+
+    @property
+    def noisy(self) -> bool:
+        """Whether any row's readings may leave the true states' bounds (Gaussian noise)."""
+        return bool(np.any(self.noise.std > 0))
+
+    def __call__(self, x) -> np.ndarray:
+        return self.delay(self.faults(self.noise(x)))
+
+    def set_generator(self, row: int, rng) -> None:
+        """Row ``row`` draws its noise and faults from ``rng`` from now on (a new episode)."""
+        self.noise.rngs[row] = rng
+        self.faults.rngs[row] = rng
+
+    def restart(self, rows) -> None:
+        """Rows ``rows`` start a new episode (see :meth:`ReadingFaults.restart` and
+        :meth:`ObservationDelay.restart`)."""
+        self.faults.restart(rows)
+        self.delay.restart(rows)
