@@ -2,8 +2,9 @@
 
 Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
 (18), the model the transitions come from, agent 1's context, the sweeps of Alg. 1:
-synchronous as printed for all of them, SPEC.md) and whether it is one of
-the paper's policies or one of ours synthesised on the full model (6).
+synchronous as printed for all of them, SPEC.md; for the robust ones the worst case over
+K parameter draws, their spread and seed) and whether it is one of the paper's policies or
+one of ours synthesised on the full model (6).
 """
 from __future__ import annotations
 
@@ -23,6 +24,10 @@ class ShippedPolicy:
     paper: bool                     # one of the paper's policies (synthesised on (11))
     description: str
     sweeps: str = "synchronous"     # Alg. 1's sweeps (twolink.synthesis.SWEEPS)
+    robust: Optional[str] = None    # robust synthesis: "worst" or "mean" over the draws
+    draws: int = 1                  # K models: the centre and K - 1 joint draws
+    spread: float = 0.0             # each physical parameter uniform in +-spread (relative)
+    seed: int = 0                   # seed of the draws (twolink.synthesis.parameter_draws)
 
     @property
     def file(self) -> Path:
@@ -34,10 +39,17 @@ class ShippedPolicy:
         opts = {"model": self.model, "sweeps": self.sweeps}
         if self.context is not None:
             opts["context"] = self.context
+        if self.robust is not None:
+            opts.update(robust=self.robust, draws=self.draws, spread=self.spread,
+                        seed=self.seed)
         return opts
 
 
-#: Every shipped policy, in report order: the paper's three, then the two on (6).
+#: The seed of the shipped robust policies' parameter draws (fixed before any evaluation).
+ROBUST_SEED = 2006
+
+#: Every shipped policy, in report order: the paper's three, the two on (6), then the two
+#: robust ones (worst case over K = 8 models within +-20 %, on (6)).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
                   "the centralized policy (16) on the simplified model (11)"),
@@ -49,6 +61,14 @@ SHIPPED = {p.name: p for p in (
                   "the centralized policy (16) synthesised on the full model (6)"),
     ShippedPolicy("decentralized_full", "decentralized", "full", "frozen", False,
                   "the decentralized agents (18) synthesised on (6), frozen context"),
+    ShippedPolicy("centralized_robust", "centralized", "full", None, False,
+                  "the centralized policy (16) on (6), worst case over 8 models within "
+                  "+-20 % (all physical parameters jointly)",
+                  robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
+    ShippedPolicy("decentralized_robust", "decentralized", "full", "frozen", False,
+                  "the decentralized agents (18) on (6), each the worst case over 8 models "
+                  "within +-20 %, frozen context",
+                  robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
 )}
 #: The paper's policies (synthesised on (11)).
 PAPER_POLICIES = tuple(n for n, p in SHIPPED.items() if p.paper)

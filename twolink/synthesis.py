@@ -10,6 +10,16 @@
 
 Transitions f(c_m, u) come from the chosen model sampled over Ts (``twolink.integrate``);
 rewards are evaluated on the state reached, r_{k+1}.
+
+Robust synthesis (``robust="worst"`` or ``"mean"``) solves every agent over K parameter
+draws at once (:func:`twolink.fqi.fuzzy_q_iteration_robust`):
+Q(m, u) = min_k [rho_k(c_m, u) + gamma sum_m~ T_k[(m, u), m~] max_u~ Q(m~, u~)] (or the
+mean over k). Draw 0 is the centre model itself (so the nominal plant is always among the
+K, and K = 1 is the ordinary synthesis, bit for bit); draws 1..K-1 change every parameter of
+:data:`twolink.perturbations.PHYSICAL` jointly, each uniform in +-spread
+(:func:`parameter_draws`). The K models' transitions use the compiled RK4
+(:func:`twolink.integrate.sample_step_compiled`, bit-equal to the numpy path, which the
+non-robust synthesis keeps).
 """
 from __future__ import annotations
 
@@ -22,13 +32,21 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink import __version__, dynamics, fuzzy
-from twolink.fqi import fuzzy_q_iteration, transition_table
-from twolink.integrate import SUBSTEPS, sample_step
+from twolink.fqi import ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust, transition_table
+from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters
+from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import Agent, Policy
 from twolink.reward import agent_reward, centralized_reward
 
 SYNTHESIS_MODELS = ("simplified", "full")
+#: Models that take their parameters from a file (twolink.parameter_file): the full
+#: model (6) with identified parameters, recorded as model "identified".
+IDENTIFIED_MODELS = {"identified": "full"}
+#: Robust synthesis: the largest relative spread of a draw, and the memory the K models'
+#: transitions may take (estimated by :func:`robust_bytes` before any work).
+MAX_SPREAD = 0.9
+MAX_ROBUST_BYTES = 2 * 2**30
 #: How Alg. 1 sweeps (:func:`twolink.fqi.fuzzy_q_iteration`): ``synchronous`` as printed
 #: (Q_{l+1} from Q_l), or ``serial`` (each Q(m, j) overwritten at once, bins outer and
 #: actions inner, as the ``'serial'`` option of Busoniu's ApproxRL ``fuzzyqi.m``).
@@ -50,11 +68,33 @@ class Problem:
     seconds: float = 0.0         # time to compute the transitions
 
 
-def _accel(model: str):
+def dynamics_of(model: str) -> str:
+    """The name in ``dynamics.MODELS`` of synthesis model ``model`` ("identified" is the
+    full model (6)), or a ValueError naming the models."""
+    if model in IDENTIFIED_MODELS:
+        return IDENTIFIED_MODELS[model]
     if model not in SYNTHESIS_MODELS:
         raise ValueError(f"unknown synthesis model {model!r}; choose one of "
-                         f"{', '.join(SYNTHESIS_MODELS)}")
-    return dynamics.MODELS[model]
+                         f"{', '.join(SYNTHESIS_MODELS + tuple(IDENTIFIED_MODELS))}")
+    return model
+
+
+def _accel(model: str):
+    return dynamics.MODELS[dynamics_of(model)]
+
+
+def _step(model: str, p: ArmParameters, x: np.ndarray, tau: np.ndarray, *,
+          compiled: bool, freeze_link2: bool = False) -> np.ndarray:
+    """One sample period of ``model`` from every x under every tau: the numpy RK4
+    (``sample_step``, the shipped non-robust policies) or the compiled one."""
+    if compiled:
+        return sample_step_compiled(dynamics_of(model), p, x, tau, freeze_link2=freeze_link2)
+    accel = _accel(model)
+    if freeze_link2:
+        def link1_only(pp, s, t):
+            return accel(pp, s, t) * np.array([1.0, 0.0])
+        return sample_step(link1_only, p, x, tau)
+    return sample_step(accel, p, x, tau)
 
 
 def _levels(tmax: float) -> np.ndarray:
@@ -73,31 +113,32 @@ def centralized_actions(p: ArmParameters = TABLE_I) -> np.ndarray:
 
 
 def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
-                        refine: int = 1) -> Problem:
+                        refine: int = 1, compiled: bool = False) -> Problem:
     """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2].
 
-    ``refine`` > 1 subdivides every bin (for scaling studies; see :meth:`fuzzy.Axis.refined`).
+    ``refine`` > 1 subdivides every bin (for scaling studies; see :meth:`fuzzy.Axis.refined`);
+    ``compiled`` samples the model with the compiled RK4.
     """
     start = time.perf_counter()
-    accel = _accel(model)
+    dynamics_of(model)
     grid = _grid(fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
                  fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"), refine=refine)
     actions = centralized_actions(p)
     centers = grid.centers()
-    nxt = sample_step(accel, p, centers[:, None, :], actions[None, :, :])
+    nxt = _step(model, p, centers[:, None, :], actions[None, :, :], compiled=compiled)
     return Problem("centralized", grid, actions, ("tau1", "tau2"), nxt,
                    centralized_reward(nxt), time.perf_counter() - start)
 
 
 def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
-                   refine: int = 1) -> Problem:
+                   refine: int = 1, compiled: bool = False) -> Problem:
     """Agent 2's MDP over (theta2, dtheta2), u = tau2.
 
     Under (11) link 2 does not depend on link 1. Under the full model agent 2 cannot see
     link 1 and assumes it at rest (theta1 = dtheta1 = 0, tau1 = 0).
     """
     start = time.perf_counter()
-    accel = _accel(model)
+    dynamics_of(model)
     grid = _grid(fuzzy.angle_axis("theta2"), fuzzy.speed_axis("dtheta2"), refine=refine)
     actions = _levels(p.tau2_max)[:, None]
     c = grid.centers()
@@ -105,14 +146,15 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
     x[:, 1], x[:, 3] = c[:, 0], c[:, 1]
     tau = np.zeros((len(actions), 2))
     tau[:, 1] = actions[:, 0]
-    nxt = sample_step(accel, p, x[:, None, :], tau[None, :, :])
+    nxt = _step(model, p, x[:, None, :], tau[None, :, :], compiled=compiled)
     return Problem("agent2", grid, actions, ("tau2",), nxt[..., [1, 3]],
                    agent_reward(nxt, 2), time.perf_counter() - start)
 
 
 def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
                    model: str = "simplified", context: str = "frozen", *,
-                   refine: int = 1, axes: Optional[tuple] = None) -> Problem:
+                   refine: int = 1, axes: Optional[tuple] = None,
+                   compiled: bool = False) -> Problem:
     """Agent 1's MDP over (theta1, dtheta1, theta2, tau2), u = tau1 (see module docstring).
 
     ``agent2`` (agent 2's synthesised controller) is needed by the propagated context only.
@@ -130,7 +172,7 @@ def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
         raise ValueError(f"agent 1's state axes must be theta1, dtheta1, theta2, got "
                          f"{', '.join(a.name for a in axes)}")
     start = time.perf_counter()
-    accel = _accel(model)
+    dynamics_of(model)
     grid = fuzzy.Grid(_grid(*axes, refine=refine).axes
                       + (fuzzy.torque_axis("tau2", p.tau2_max),))
     actions = _levels(p.tau1_max)[:, None]
@@ -141,12 +183,10 @@ def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
     tau[:, :, 0] = actions[None, :, 0]
     tau[:, :, 1] = c[:, 3:4]
     if context == "frozen":
-        def link1_only(pp, s, t):
-            return accel(pp, s, t) * np.array([1.0, 0.0])
-        nxt = sample_step(link1_only, p, x[:, None, :], tau)
+        nxt = _step(model, p, x[:, None, :], tau, compiled=compiled, freeze_link2=True)
         tau2_next = np.broadcast_to(c[:, None, 3], nxt.shape[:-1])
     else:
-        nxt = sample_step(accel, p, x[:, None, :], tau)
+        nxt = _step(model, p, x[:, None, :], tau, compiled=compiled)
         tau2_next = agent2.act(nxt[..., [1, 3]])[..., 0]
     points = np.stack([nxt[..., 0], nxt[..., 2], nxt[..., 1], tau2_next], -1)
     return Problem("agent1", grid, actions, ("tau1",), points, agent_reward(nxt, 1),
@@ -179,6 +219,53 @@ def table_sizes(kind: str, refine: int = 1) -> dict:
     raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
 
 
+def check_robust(robust: str, draws: int, spread: float, seed: int) -> tuple:
+    """(mode, K, spread, seed) of a robust synthesis, or a ValueError saying what is wrong."""
+    if robust not in ROBUST_MODES:
+        raise ValueError(f"unknown robust mode {robust!r}; choose one of {', '.join(ROBUST_MODES)}")
+    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
+        raise ValueError(f"draws must be a positive whole number, got {draws!r}")
+    if isinstance(spread, bool) or not isinstance(spread, (int, float, np.floating)) \
+            or not 0.0 <= spread < MAX_SPREAD:
+        raise ValueError(f"spread must lie in [0, {MAX_SPREAD}), got {spread!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
+    return robust, int(draws), float(spread), int(seed)
+
+
+def parameter_draws(p: ArmParameters, draws: int, spread: float, seed: int
+                    ) -> list[ArmParameters]:
+    """The K models of a robust synthesis: draw 0 is ``p`` itself; draws 1..K-1 change
+    every parameter of :data:`~twolink.perturbations.PHYSICAL` of ``p`` jointly, each by a
+    relative amount uniform in +-``spread``, in turn from ``numpy.random.default_rng(seed)``."""
+    _, draws, spread, seed = check_robust("worst", draws, spread, seed)
+    rng = np.random.default_rng(seed)
+    return [p] + [random_perturbation(rng, spread, p, PHYSICAL) for _ in range(draws - 1)]
+
+
+def robust_bytes(kind: str, refine: int = 1, draws: int = 1) -> int:
+    """Peak bytes the K = ``draws`` models' transitions of the largest agent of ``kind``
+    take during a robust synthesis, known before any work: per model and (bin, action)
+    row, its reached point and RK4 state, its reward, and the fixed-width table (at most
+    2**d memberships of int32 index + float64 weight) twice (the K tables, then side by
+    side for the compiled sweeps)."""
+    sizes = table_sizes(kind, refine)
+    dims = {"centralized": 4, "agent2": 2, "agent1": 4}
+    return max(draws * rows * (8 * dims[a] + 32 + 8 + 2 * 12 * 2 ** dims[a])
+               for a, rows in sizes.items())
+
+
+def check_robust_size(kind: str, refine: int, draws: int) -> int:
+    """:func:`robust_bytes`, or a ValueError with the estimate when it is over
+    :data:`MAX_ROBUST_BYTES`."""
+    need = robust_bytes(kind, refine, draws)
+    if need > MAX_ROBUST_BYTES:
+        raise ValueError(f"--draws {draws}: the transitions of {draws} {kind} models take "
+                         f"about {need / 2**20:.0f} MiB, over the {MAX_ROBUST_BYTES >> 20} MiB "
+                         f"a robust synthesis may use")
+    return need
+
+
 def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
           sweeps: str = "synchronous", progress: bool = False,
           extra: Optional[dict] = None) -> Agent:
@@ -209,6 +296,44 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
     return Agent(problem.name, problem.grid, problem.actions, result.q, problem.outputs, info)
 
 
+def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
+                 delta: float = DELTA, progress: bool = False,
+                 extra: Optional[dict] = None) -> Agent:
+    """Alg. 1 over the K ``problems`` (one grid and action set, K models) at once:
+    Q(m, u) = min_k (``mode="worst"``) or mean_k of rho_k + gamma T_k max_u Q."""
+    first = problems[0]
+    for other in problems[1:]:
+        if other.grid.shape != first.grid.shape or not np.array_equal(other.actions,
+                                                                        first.actions):
+            raise ValueError("the robust problems must share one grid and one action set")
+    cpu0 = time.process_time()
+    t0 = time.perf_counter()
+    tables = [transition_table(pr.grid, pr.next_points) for pr in problems]
+    table_seconds = time.perf_counter() - t0
+    model_seconds = sum(pr.seconds for pr in problems)
+    with tqdm(desc=f"robust Q-iteration {first.name}", unit=" sweeps",
+              disable=None if progress else True, leave=False, mininterval=0.25) as bar:
+        def tick(ell, change):
+            bar.update(1)
+            bar.set_postfix(change=f"{change:.3g}")
+        result = fuzzy_q_iteration_robust(tables, [pr.rewards for pr in problems], mode=mode,
+                                          gamma=gamma, delta=delta, callback=tick)
+    if not result.converged:
+        raise RuntimeError(f"robust Q-iteration for {first.name} did not converge")
+    build = model_seconds + table_seconds
+    info = {"iterations": result.iterations, "sweeps": "synchronous",
+            "converged": result.converged, "final_change": float(result.history[-1]),
+            "robust": mode, "draws": len(problems),
+            "model_seconds": model_seconds, "table_seconds": table_seconds,
+            "transition_seconds": build, "sweep_seconds": result.seconds,
+            "seconds": build + result.seconds,
+            "cpu_seconds": time.process_time() - cpu0 + model_seconds,
+            "q_size": int(result.q.size),
+            "transition_nnz": int(sum(t.nnz for t in tables))}
+    info.update(extra or {})
+    return Agent(first.name, first.grid, first.actions, result.q, first.outputs, info)
+
+
 def _meta(p: ArmParameters, model: str, gamma: float, delta: float, **more) -> dict:
     return {"parameters": p.as_dict(), "model": model, "gamma": gamma, "delta": delta,
             "ts": TS, "substeps": SUBSTEPS, "reward": "r_{k+1} on the state reached",
@@ -218,24 +343,65 @@ def _meta(p: ArmParameters, model: str, gamma: float, delta: float, **more) -> d
 def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: str = "simplified",
                context: str = "frozen", gamma: float = GAMMA, delta: float = DELTA,
                sweeps: str = "synchronous", refine: int = 1,
+               robust: Optional[str] = None, draws: int = 1, spread: float = 0.0,
+               seed: int = 0, source: Optional[dict] = None,
                progress: bool = False) -> Policy:
     """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``
     with ``sweeps`` of Alg. 1 (:data:`SWEEPS`) over the paper's bins, each subdivided
     ``refine`` times (:meth:`fuzzy.Axis.refined`; 1: the paper's grid). Both are recorded
-    in the policy's provenance (``meta``)."""
+    in the policy's provenance (``meta``).
+
+    ``robust`` ("worst" or "mean") solves every agent over the K = ``draws`` models of
+    :func:`parameter_draws` (``p`` and K - 1 joint draws within +-``spread``, from
+    ``seed``), recorded in ``meta["robust"]``; ``meta["parameters"]`` stays ``p``, the
+    centre. ``model="identified"`` is the full model (6) with ``p`` read from a parameter
+    file, whose provenance ``source`` is recorded as ``meta["parameters_source"]``.
+    """
     check_sweeps(sweeps)
     refine = check_refine(refine)
-    opts = {"gamma": gamma, "delta": delta, "sweeps": sweeps, "progress": progress}
+    dynamics_of(model)
+    if kind not in KINDS:
+        raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
+    if kind == "decentralized" and context not in CONTEXTS:
+        raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
+                         f"{', '.join(CONTEXTS)}")
     more = {"sweeps": sweeps, "refine": refine}
+    if model in IDENTIFIED_MODELS:
+        more["dynamics"] = dynamics_of(model)
+    if source is not None:
+        more["parameters_source"] = dict(source)
+    if robust is None:
+        if (draws, spread, seed) != (1, 0.0, 0):
+            raise ValueError("draws, spread and seed apply to a robust synthesis only: "
+                             "give robust='worst' or 'mean'")
+        return _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine,
+                                   progress, more)
+    robust, draws, spread, seed = check_robust(robust, draws, spread, seed)
+    if sweeps != "synchronous":
+        raise ValueError("robust synthesis runs synchronous sweeps only")
+    check_robust_size(kind, refine, draws)
+    models = parameter_draws(p, draws, spread, seed)
+    more["robust"] = {"mode": robust, "draws": draws, "spread": spread, "seed": seed,
+                      "draw_0": "centre", "perturbed": list(PHYSICAL),
+                      "models": [m.as_dict() for m in models]}
+    opts = {"mode": robust, "gamma": gamma, "delta": delta, "progress": progress}
+    build = {"model": model, "refine": refine, "compiled": True}
+    if kind == "centralized":
+        agent = solve_robust([centralized_problem(m, **build) for m in models], **opts)
+        return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
+    a2 = solve_robust([agent2_problem(m, **build) for m in models], **opts)
+    a1 = solve_robust([agent1_problem(a2, m, context=context, **build) for m in models],
+                      **opts, extra={"context": context})
+    return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
+
+
+def _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine, progress,
+                        more) -> Policy:
+    opts = {"gamma": gamma, "delta": delta, "sweeps": sweeps, "progress": progress}
     if kind == "centralized":
         agent = solve(centralized_problem(p, model, refine=refine), **opts)
         return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
-    if kind == "decentralized":
-        if context not in CONTEXTS:
-            raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
-                             f"{', '.join(CONTEXTS)}")
-        a2 = solve(agent2_problem(p, model, refine=refine), **opts)
-        a1 = solve(agent1_problem(a2, p, model, context, refine=refine), **opts,
-                   extra={"context": context})
-        return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
-    raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
+    a2 = solve(agent2_problem(p, model, refine=refine), **opts)
+    a1 = solve(agent1_problem(a2, p, model, context, refine=refine), **opts,
+               extra={"context": context})
+    return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
