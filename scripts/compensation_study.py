@@ -1,0 +1,171 @@
+"""What run-time compensation (twolink.estimation) buys on MuJoCo, with and without it.
+
+For every policy and condition, success (k/n, 95 % Wilson interval, SPEC.md's rule) over
+the 65 states of the evaluation set, 5 s rollouts on the MuJoCo plant:
+
+* ``delay``: a ``--delay``-sample actuation delay (Table I plant);
+* ``noise``: Gaussian reading noise, ``--noise-deg`` on the angles and ``--noise-deg`` x
+  0.02 rad/s on the speeds (twolink.sweeps.SPEED_PER_DEG), Table I plant;
+* ``combined``: both, on ``--plants`` plants whose ten physical parameters
+  (perturbations.PHYSICAL) change jointly, each uniform in +-``--spread``
+  (perturbations.random_perturbation), 65 states on each.
+
+"with" wraps the policy in ``estimation.compensated(policy, delay=, noise=)``: the d-step
+predictor when there is delay, the observer when there is noise. Both columns see the
+same plants and the same noise (row i's noise from the i-th child of
+SeedSequence([seed, 1]); plants from default_rng(seed)).
+
+``--tune`` instead measures the combined condition for each candidate observer process
+std (estimation.PROCESS_STD) on the given seed: run it on a development seed, never on
+the seed of the reported figures.
+
+Run: .venv/bin/python scripts/compensation_study.py [--policies centralized_full ...]
+     [--seed 2027] [--plants 32] [--spread 0.2] [--delay 1] [--noise-deg 1] [--json]
+     .venv/bin/python scripts/compensation_study.py --tune --seed 1000
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.estimation import PROCESS_STD, compensated
+from twolink.formatting import format_rate
+from twolink.metrics import evaluation_set, success, wilson_interval
+from twolink.parameters import HORIZON, TABLE_I
+from twolink.perturbations import (PHYSICAL, ActuationDelay, ObservationNoise,
+                                   random_perturbation, row_generators)
+from twolink.plants import MujocoPlant
+from twolink.policy import load_policy
+from twolink.rollout import rollout
+from twolink.sweeps import SPEED_PER_DEG
+
+CONDITIONS = ("delay", "noise", "combined")
+#: Candidate observer process stds (rad/s per sample) of --tune.
+TUNE_PROCESS_STD = (0.01, 0.03, 0.1, 0.3, 1.0)
+#: Most plants of the combined condition (65 rollouts each).
+MAX_PLANTS = 1000
+
+
+def plants_for(condition: str, count: int, spread: float, seed: int) -> list:
+    """Parameter sets of the condition: Table I, or ``count`` jointly perturbed plants."""
+    if condition != "combined":
+        return [TABLE_I]
+    rng = np.random.default_rng(seed)
+    return [random_perturbation(rng, spread, names=PHYSICAL) for _ in range(count)]
+
+
+def measure(policy, params: list, *, delay: int, noise_deg: float, seed: int,
+            compensate: bool, **design) -> dict:
+    """Success over the evaluation set on each plant of ``params``: counts and rate."""
+    x0 = np.tile(evaluation_set(), (len(params), 1))
+    rows = np.repeat(params, len(evaluation_set())).tolist()
+    controller = compensated(policy, delay=delay, noise=noise_deg > 0, **design) \
+        if compensate else policy
+    if delay:
+        controller = ActuationDelay(controller, delay)
+    observe = None
+    if noise_deg > 0:
+        noise = ObservationNoise(math.radians(noise_deg), noise_deg * SPEED_PER_DEG,
+                                 rngs=row_generators([seed, 1], len(x0)), block=20)
+        observe = lambda k, x: noise(x)            # noqa: E731
+    with MujocoPlant(rows if len(params) > 1 else params[0]) as plant:
+        traj = rollout(controller, plant, x0, duration=HORIZON, observe=observe)
+    ok = success(traj)
+    k, n = int(ok.sum()), int(ok.size)
+    per_plant = ok.reshape(len(params), -1).mean(1)
+    lo, hi = wilson_interval(k, n)
+    return {"successes": k, "n": n, "rate": k / n, "wilson95": [lo, hi],
+            "worst_plant_rate": float(per_plant.min())}
+
+
+def study(policies, *, seed: int, plants: int, spread: float, delay: int,
+          noise_deg: float, conditions=CONDITIONS) -> list:
+    settings = {"delay": (delay, 0.0), "noise": (0, noise_deg), "combined": (delay, noise_deg)}
+    runs = [(name, c, comp) for name in policies for c in conditions for comp in (False, True)]
+    out = []
+    for name, cond, comp in tqdm(runs, desc="compensation study", file=sys.stderr):
+        d, nd = settings[cond]
+        params = plants_for(cond, plants, spread, seed)
+        r = measure(load_policy(name), params, delay=d, noise_deg=nd, seed=seed,
+                    compensate=comp)
+        out.append({"policy": name, "condition": cond, "compensated": comp, "delay": d,
+                    "noise_deg": nd, "plants": len(params), **r})
+    return out
+
+
+def tune(policies, *, seed: int, plants: int, spread: float, delay: int,
+         noise_deg: float) -> list:
+    params = plants_for("combined", plants, spread, seed)
+    out = []
+    for name in policies:
+        for q in tqdm(TUNE_PROCESS_STD, desc=f"tune {name}", file=sys.stderr):
+            r = measure(load_policy(name), params, delay=delay, noise_deg=noise_deg, seed=seed,
+                        compensate=True, process_std=q)
+            out.append({"policy": name, "process_std": q, **r})
+    return out
+
+
+def _check(args) -> None:
+    if not 1 <= args.plants <= MAX_PLANTS:
+        raise ValueError(f"--plants must lie in [1, {MAX_PLANTS}], got {args.plants}")
+    if not 0 <= args.spread < 1:
+        raise ValueError(f"--spread must lie in [0, 1), got {args.spread}")
+    if not 0 <= args.delay <= 20:
+        raise ValueError(f"--delay must lie in [0, 20] samples, got {args.delay}")
+    if not (math.isfinite(args.noise_deg) and 0 <= args.noise_deg <= 45):
+        raise ValueError(f"--noise-deg must lie in [0, 45], got {args.noise_deg}")
+    for name in args.policies:
+        load_policy(name)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--policies", nargs="+", default=["centralized_full", "decentralized_full"],
+                    help="shipped policy names or .npz paths")
+    ap.add_argument("--seed", type=int, default=2027,
+                    help="seed of the plants and the noise (not the development seed 1000)")
+    ap.add_argument("--plants", type=int, default=32, help="plants of the combined condition")
+    ap.add_argument("--spread", type=float, default=0.2,
+                    help="joint relative change of the physical parameters (combined)")
+    ap.add_argument("--delay", type=int, default=1, help="actuation delay (samples)")
+    ap.add_argument("--noise-deg", type=float, default=1.0,
+                    help="angle noise std (deg); speeds get 0.02 rad/s per deg")
+    ap.add_argument("--tune", action="store_true",
+                    help="measure the candidate observer process stds (development seed)")
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    args = ap.parse_args(argv)
+    try:
+        _check(args)
+    except ValueError as exc:
+        ap.exit(2, f"compensation_study: error: {exc}\n")
+    opts = dict(seed=args.seed, plants=args.plants, spread=args.spread, delay=args.delay,
+                noise_deg=args.noise_deg)
+    rows = tune(args.policies, **opts) if args.tune else study(args.policies, **opts)
+    if args.json:
+        print(json.dumps({"options": opts, "process_std": PROCESS_STD, "results": rows},
+                         indent=2))
+        return 0
+    if args.tune:
+        print(f"| policy | process std | success (k/n, 95 % CI) | worst plant |")
+        print("|---|---|---|---|")
+        for r in rows:
+            print(f"| {r['policy']} | {r['process_std']:g} | "
+                  f"{format_rate(r['successes'], r['n'])} | {100 * r['worst_plant_rate']:.0f} % |")
+        return 0
+    print(f"seed {args.seed}; combined: {args.plants} plants, +-{100 * args.spread:g} % joint, "
+          f"delay {args.delay}, noise {args.noise_deg:g} deg")
+    print("| policy | condition | without compensation | with compensation |")
+    print("|---|---|---|---|")
+    for a, b in zip(rows[::2], rows[1::2]):
+        print(f"| {a['policy']} | {a['condition']} | {format_rate(a['successes'], a['n'])} | "
+              f"{format_rate(b['successes'], b['n'])} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,291 @@
+"""Run-time compensation: a state observer for noisy readings, a d-step delay predictor.
+
+Timing (per batch row, sample k counted from the row's restart): the reading y_k is the
+state x_{k-o} (observation delay o; before o samples have passed, the initial state),
+possibly noisy; the command u_k issued now reaches the plant d samples later (actuation
+delay d; the actuators hold zero torque until the first command arrives, as
+:class:`twolink.perturbations.ActuationDelay` does), so the plant runs
+x_{j+1} = f(x_j, u_{j-d}).
+
+:class:`StateEstimator` turns readings into the state the next command will act on:
+
+* the **observer** is a predictor-corrector on the synthesis model f (the RK4 sample
+  step of (6) or (11), :func:`twolink.integrate.sample_step`): the prior
+  x^-_m = f(x_{m-1}, u_{m-1-d}) is corrected by a constant gain, x_m = x^-_m + L (y - x^-_m),
+  angles of the innovation and of the estimate wrapped. L is the steady-state Kalman gain
+  of each joint's sampled double integrator (angle, speed) with white acceleration
+  disturbances (:data:`PROCESS_STD`) and the reading's noise (default: the medium
+  challenge's 1 deg and 0.02 rad/s). A reading equal bit for bit to its row's previous
+  reading is a repeated one (dropped or stuck): the observer predicts through it;
+* the **predictor** rolls f from the estimate of x_{k-o} over the o + d commands
+  u_{k-o-d}, ..., u_{k-1} already in the pipeline and returns x^_{k+d}.
+
+:class:`Compensator` wraps a policy: u_k = h(x^_{k+d}). With the observer off the
+estimate is the reading itself, so with no delay and no observer the wrapper returns
+exactly the policy's torques; :func:`compensated` then returns the policy itself.
+Everything is vectorised over the batch rows; rows restart independently.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+
+from twolink.dynamics import MODELS
+from twolink.integrate import sample_step, wrap_angle
+from twolink.parameters import TABLE_I, TS, ArmParameters
+
+#: Synthesis models a compensator can predict with: ``identified`` is the full model (6)
+#: with the parameters identified on the plant (carried in the policy's meta).
+PREDICTION_MODELS = {"simplified": "simplified", "full": "full", "identified": "full"}
+#: Longest actuation plus observation delay (samples) a compensator accepts: 10 s.
+MAX_DELAY = 200
+#: Noise the observer's gain is designed for when none is given: the medium challenge's
+#: 1 deg angle noise and 0.02 rad/s speed noise (twolink.challenges.LEVELS["medium"]).
+DESIGN_ANGLE_NOISE_DEG = 1.0
+DESIGN_SPEED_NOISE = 0.02
+#: Std (rad/s per sample period) of the acceleration disturbance each joint's speed takes
+#: in the observer's design model: how far the synthesis model is trusted over one Ts.
+#: Chosen on the development seed (scripts/compensation_study.py --tune, seed 1000) for
+#: centralized_full under the medium challenge (+-20 % joint parameters, one-sample delay,
+#: 1 deg / 0.02 rad/s noise) among 0.01, 0.03, 0.1, 0.3, 1: see the README.
+PROCESS_STD = 0.1
+#: The smallest reading noise (std) a gain is designed for; zero noise would make the
+#: Kalman design singular (the gain is then 1 to within 1e-6 anyway).
+_MIN_STD = 1e-6
+
+
+def observer_gain(angle_std: float, speed_std: float,
+                  process_std: float = PROCESS_STD, ts: float = TS) -> np.ndarray:
+    """Steady-state Kalman gain L (2, 2) of one joint, state [theta, dtheta], both read.
+
+    Design model: theta' = theta + ts dtheta + ts/2 w, dtheta' = dtheta + w, w ~ N(0,
+    process_std^2); readings [theta, dtheta] + N(0, diag(angle_std^2, speed_std^2)).
+    The corrected estimate is x^- + L (y - x^-).
+    """
+    for name, v in (("angle_std", angle_std), ("speed_std", speed_std),
+                    ("process_std", process_std), ("ts", ts)):
+        if not (isinstance(v, (int, float, np.number)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be a finite non-negative number, got {v!r}")
+    F = np.array([[1.0, ts], [0.0, 1.0]])
+    G = np.array([[0.5 * ts], [1.0]])
+    Q = G @ G.T * max(process_std, _MIN_STD) ** 2
+    R = np.diag([max(angle_std, _MIN_STD) ** 2, max(speed_std, _MIN_STD) ** 2])
+    P = scipy.linalg.solve_discrete_are(F.T, np.eye(2), Q, R)     # prior covariance
+    return P @ np.linalg.inv(P + R)
+
+
+def _check_samples(value, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{what} must be a whole number of samples, got {value!r}")
+    if value < 0:
+        raise ValueError(f"{what} must be a non-negative whole number of samples, got {value}")
+    if value > MAX_DELAY:
+        raise ValueError(f"{what} of {value} samples is beyond the {MAX_DELAY} a compensator "
+                         f"accepts")
+    return int(value)
+
+
+def _synthesis_model(policy, model, params) -> tuple[str, ArmParameters]:
+    """The prediction model's name in dynamics.MODELS and its parameters (from the
+    policy's meta where not given)."""
+    meta = getattr(policy, "meta", {}) or {}
+    name = meta.get("model") if model is None else model
+    if name is None:
+        raise ValueError("the policy names no synthesis model in its meta; give model= "
+                         f"(one of {', '.join(PREDICTION_MODELS)})")
+    if name not in PREDICTION_MODELS:
+        raise ValueError(f"unknown prediction model {name!r}; choose one of "
+                         f"{', '.join(PREDICTION_MODELS)}")
+    if params is None:
+        params = ArmParameters.from_dict(meta["parameters"]) if "parameters" in meta else TABLE_I
+    if not isinstance(params, ArmParameters):
+        raise ValueError(f"params must be an ArmParameters, got {type(params).__name__}")
+    return PREDICTION_MODELS[name], params
+
+
+class StateEstimator:
+    """Observer and d-step predictor, batched over rows (see the module docstring).
+
+    Per sample call :meth:`update` with the readings (B, 4) (or one (4,)), then
+    :meth:`record` with the commands issued for them. ``model`` is a name of
+    :data:`twolink.dynamics.MODELS` (or ``identified``), ``params`` its parameters.
+    """
+
+    def __init__(self, *, model: str, params: ArmParameters = TABLE_I, delay: int = 0,
+                 observation_delay: int = 0, observer: bool = True,
+                 angle_noise_deg: float = DESIGN_ANGLE_NOISE_DEG,
+                 speed_noise: float = DESIGN_SPEED_NOISE, process_std: float = PROCESS_STD):
+        self.delay = _check_samples(delay, "delay")
+        self.observation_delay = _check_samples(observation_delay, "observation delay")
+        if self.delay + self.observation_delay > MAX_DELAY:
+            raise ValueError(f"delay plus observation delay must be at most {MAX_DELAY} "
+                             f"samples, got {self.delay + self.observation_delay}")
+        if not isinstance(observer, (bool, np.bool_)):
+            raise ValueError(f"observer must be True or False, got {observer!r}")
+        self.observer = bool(observer)
+        self.model, self.params = _synthesis_model(None, model, params)
+        self._accel = MODELS[self.model]
+        if not (isinstance(angle_noise_deg, (int, float, np.number))
+                and math.isfinite(angle_noise_deg)):
+            raise ValueError(f"angle_noise_deg must be a finite number, got {angle_noise_deg!r}")
+        self.gain = observer_gain(math.radians(angle_noise_deg), speed_noise, process_std)
+        self._rows = None           # batch size, set by the first reading
+        self._single = False
+
+    # ------------------------------------------------------------------ state
+    def _allocate(self, rows: int) -> None:
+        self._rows = rows
+        n = self.delay + self.observation_delay + 1
+        self._u = np.zeros((n, rows, 2))          # issued commands, oldest first
+        self._k = np.zeros(rows, dtype=np.int64)  # samples since the row's restart
+        self._fresh = np.ones(rows, dtype=bool)   # no reading yet
+        self._x = np.zeros((rows, 4))             # estimate of the measured state
+        self._y = np.full((rows, 4), np.nan)      # the previous reading
+        self._pending = False                     # a reading awaits its command
+        self.prediction = None                    # the last x^_{k+d} (rows, 4)
+
+    def restart(self, rows=None) -> None:
+        """Rows ``rows`` (indices or a bool mask; all when None) begin a new episode: their
+        readings, estimates and commands are forgotten."""
+        if self._rows is None:
+            return
+        idx = np.arange(self._rows)[slice(None) if rows is None else rows]
+        self._u[:, idx] = 0.0
+        self._k[idx] = 0
+        self._fresh[idx] = True
+        self._x[idx] = 0.0
+        self._y[idx] = np.nan
+
+    def _check(self, y) -> np.ndarray:
+        y = np.asarray(y)
+        if y.dtype.kind not in "iuf":
+            raise ValueError(f"readings must hold real numbers, got dtype {y.dtype}")
+        if y.ndim not in (1, 2) or y.shape[-1] != 4:
+            raise ValueError(f"readings must have shape (4,) or (B, 4), got {y.shape}")
+        if not np.all(np.isfinite(y)):
+            raise ValueError("readings contain NaN or infinite values")
+        flat = y.astype(float).reshape(-1, 4)
+        if self._rows is None:
+            self._allocate(len(flat))
+            self._single = y.ndim == 1
+        elif len(flat) != self._rows or (y.ndim == 1) != self._single:
+            raise ValueError(f"readings of shape {y.shape} after a batch of {self._rows} rows; "
+                             f"make a new compensator for another batch")
+        return flat
+
+    def _step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return sample_step(self._accel, self.params, x, u)
+
+    # ----------------------------------------------------------------- update
+    def update(self, y) -> np.ndarray:
+        """The predicted state x^_{k+d} (same shape as y) the command issued now acts on."""
+        if self._rows is not None and self._pending:
+            raise ValueError("update() twice without record(): pass the command issued for "
+                             "the previous reading first")
+        flat = self._check(y)
+        o, d = self.observation_delay, self.delay
+        if self.observer:
+            new_time = self._k >= o           # the reading is of a later time than the last
+            repeated = np.all(flat == self._y, axis=-1)
+            prior = self._x.copy()
+            if new_time.any():                # x^-_m = f(x_{m-1}, u_{m-1-d})
+                prior[new_time] = self._step(self._x[new_time], self._u[0][new_time])
+            innovation = flat - prior
+            innovation[:, :2] = wrap_angle(innovation[:, :2])
+            for j in (0, 1):                  # joint j: components (j, 2 + j)
+                e = innovation[:, [j, 2 + j]]
+                prior[:, [j, 2 + j]] += np.where(repeated[:, None], 0.0, e @ self.gain.T)
+            prior[:, :2] = wrap_angle(prior[:, :2])
+            self._x = np.where(self._fresh[:, None], flat, prior)
+        else:
+            self._x = flat.copy()
+        self._y = flat.copy()
+        self._fresh[:] = False
+        # Roll from x_{k-o} over u_{k-o-d}, ..., u_{k-1} (rows in their first o samples
+        # read x_0 and roll over the first k + d steps only).
+        z = self._x
+        skip = np.maximum(o - self._k, 0)
+        for s in range(o + d):
+            active = s >= skip
+            if active.all():
+                z = self._step(z, self._u[1 + s])
+            elif active.any():
+                z = z.copy()
+                z[active] = self._step(z[active], self._u[1 + s][active])
+        self.prediction = z.copy()
+        self._pending = True
+        return z[0].copy() if self._single else z.copy()
+
+    def record(self, u) -> None:
+        """The commands (B, 2) (or one (2,)) issued for the last readings."""
+        if self._rows is None or not self._pending:
+            raise ValueError("record() before update(): pass a reading first")
+        u = np.asarray(u, dtype=float)
+        if u.shape != ((2,) if self._single else (self._rows, 2)):
+            raise ValueError(f"commands must have shape {(2,) if self._single else (self._rows, 2)}, "
+                             f"got {u.shape}")
+        if not np.all(np.isfinite(u)):
+            raise ValueError("commands contain NaN or infinite values")
+        self._u = np.concatenate([self._u[1:], u.reshape(1, -1, 2)])
+        self._k += 1
+        self._pending = False
+
+    @property
+    def estimate(self) -> np.ndarray:
+        """The observer's estimate of the measured state x_{k-o} (rows, 4)."""
+        if self._rows is None:
+            raise ValueError("no reading yet")
+        return self._x.copy()
+
+
+class Compensator:
+    """A batched policy wrapper: observer (noisy measurements) + d-step predictor (delays).
+
+    ``policy(x)`` is evaluated on x^_{k+d}, the synthesis model's prediction of the state
+    when the command issued now reaches the plant (``delay`` samples of actuation delay,
+    ``observation_delay`` samples of reading delay), from the observer's estimate when
+    ``observer`` (else from the reading itself). ``model``/``params`` default to the
+    policy's synthesis model and parameters (its meta). Keyword ``angle_noise_deg``,
+    ``speed_noise`` and ``process_std`` design the observer's gain (:func:`observer_gain`).
+    State lives in the wrapper: make one per rollout, or :meth:`restart` rows.
+    """
+
+    def __init__(self, policy, *, delay: int = 0, observation_delay: int = 0,
+                 observer: bool = True, params: ArmParameters | None = None,
+                 model: str | None = None, **design):
+        if not callable(policy):
+            raise ValueError(f"policy must be callable, got {type(policy).__name__}")
+        name, p = _synthesis_model(policy, model, params)
+        self.policy = policy
+        self.kind = getattr(policy, "kind", "")
+        self.meta = getattr(policy, "meta", {})
+        self.estimator = StateEstimator(model=name, params=p, delay=delay,
+                                        observation_delay=observation_delay,
+                                        observer=observer, **design)
+
+    def __call__(self, y) -> np.ndarray:
+        """Torque command(s) (..., 2) issued now for the measured state(s) (4,) or (B, 4)."""
+        u = np.asarray(self.policy(self.estimator.update(y)), dtype=float)
+        self.estimator.record(u)
+        return u
+
+    def restart(self, rows=None) -> None:
+        """Rows ``rows`` begin a new episode (their state forgotten; all when None)."""
+        self.estimator.restart(rows)
+
+
+def compensated(policy, *, delay: int = 0, observation_delay: int = 0, noise: bool = False,
+                **kw):
+    """``policy`` compensated for ``delay`` actuation and ``observation_delay`` reading
+    samples, with the observer on when ``noise`` (noisy, dropped or stuck readings); the
+    policy itself when there is nothing to compensate. ``kw`` go to :class:`Compensator`."""
+    delay = _check_samples(delay, "delay")
+    observation_delay = _check_samples(observation_delay, "observation delay")
+    if not isinstance(noise, (bool, np.bool_)):
+        raise ValueError(f"noise must be True or False, got {noise!r}")
+    if delay == 0 and observation_delay == 0 and not noise:
+        return policy
+    return Compensator(policy, delay=delay, observation_delay=observation_delay,
+                       observer=bool(noise), **kw)
