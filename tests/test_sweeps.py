@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from twolink.metrics import settle_time, success
+from twolink.metrics import discounted_return, settle_time, success
 from twolink.parameters import TABLE_I
 from reference_sweeps import reference_cell
 from twolink.perturbations import perturbed
@@ -63,8 +63,9 @@ def test_zero_perturbation_reproduces_the_nominal_rollout_exactly():
         [Cell("centralized", f, 0.0, states="quick", duration=SHORT)
          for f in ("noise", "delay", "torque_limit", "joint")]
     for rec in run_cells(zero):
-        for k in ("successes", "settle_times", "mean_return"):
+        for k in ("successes", "settle_times", "returns", "mean_return"):
             assert rec[k] == nominal[k], rec["cell"]
+    assert nominal["returns"] == discounted_return(tr).tolist()
     assert perturbed(TABLE_I, m1=0.0) == TABLE_I
 
 
@@ -146,7 +147,7 @@ def test_changed_policy_invalidates_stored_cells(tmp_path):
 
 def test_a_bad_line_in_the_middle_is_refused(tmp_path):
     path = tmp_path / "sweep.jsonl"
-    path.write_text('{"format": "twolink-sweep", "format_version": 2}\n{"key": 1\n{}\n')
+    path.write_text('{"format": "twolink-sweep", "format_version": 3}\n{"key": 1\n{}\n')
     with pytest.raises(ValueError, match="line 2"):
         run_sweep(_cells()[:1], path, executor="serial")
     (tmp_path / "x.jsonl").write_text("hello\n")
@@ -174,21 +175,21 @@ def test_a_torn_last_line_is_dropped_reported_and_its_cell_rerun(tmp_path, capsy
 
 
 def test_a_file_of_the_older_format_starts_over(tmp_path, capsys):
-    """Version 1 files hold noise cells drawn before per-row generators: not reused."""
+    """Version 2 files hold no per-row returns: not reused."""
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[3:4]
     run_sweep(cells, path, executor="serial")
     lines = path.read_text().splitlines(keepends=True)
-    path.write_text(lines[0].replace('"format_version": 2', '"format_version": 1') + lines[1])
-    with pytest.raises(ValueError, match="older format version 1"):
+    path.write_text(lines[0].replace('"format_version": 3', '"format_version": 2') + lines[1])
+    with pytest.raises(ValueError, match="older format version 2"):
         load_results(path)
     redone = []
     run_sweep(cells, path, executor="serial", on_task=redone.extend)
     assert len(redone) == 1 and path.read_text() == "".join(lines)
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "older format version 1; every cell runs again" in err[0]
-    path.write_text(lines[0].replace('"format_version": 2', '"format_version": 3'))
-    with pytest.raises(ValueError, match="unsupported sweep results version 3"):
+    assert len(err) == 1 and "older format version 2; every cell runs again" in err[0]
+    path.write_text(lines[0].replace('"format_version": 3', '"format_version": 4'))
+    with pytest.raises(ValueError, match="unsupported sweep results version 4"):
         run_sweep(cells, path, executor="serial")
 
 

@@ -21,7 +21,9 @@ from typing import Optional
 FORMAT = "twolink-sweep"
 #: 2: per-row noise generators (twolink.perturbations.ObservationNoise); version 1 files
 #: hold noise cells drawn otherwise, so a sweep starts them over.
-FORMAT_VERSION = 2
+#: 3: records hold per-row returns (the worst-case return of a joint size needs them);
+#: older files are started over.
+FORMAT_VERSION = 3
 _HEADER = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION}) + "\n"
 
 

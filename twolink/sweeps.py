@@ -188,12 +188,14 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
 
 
 def cell_record(c: Cell, st, ok, ret, digest: str) -> dict:
-    """A cell's result: per-row settle times, successes, and their summaries (JSON-ready)."""
+    """A cell's result: per-row settle times, successes, discounted returns, and their
+    summaries (JSON-ready)."""
     return {"key": c.key, "cell": dataclasses.asdict(c), "rows": int(len(ok)),
             "policy_digest": digest,
             "success_rate": float(np.mean(ok)),
             "settle_times": [float(v) if math.isfinite(v) else None for v in st],
             "successes": [bool(v) for v in ok],
+            "returns": [float(v) for v in ret],
             "mean_return": math.fsum(float(v) for v in ret) / len(ret)}
 
 
