@@ -1,0 +1,267 @@
+"""The one evaluation call the report, the tests and users share: :func:`evaluate`.
+
+A policy runs from every initial state on every plant (a list of parameter sets, e.g.
+drawn by a :class:`twolink.challenges.Challenge`) as one batch on MuJoCo (one
+``mujoco.rollout`` call per Ts, per-row models), under the challenge's delays, noise and
+faults (:mod:`twolink.perturbations`), optionally through the compensation wrapper of
+:mod:`twolink.estimation`. Success and settle time are those of the report
+(:func:`twolink.metrics.success`, :func:`twolink.metrics.settle_time`) on the true
+states; the controller only ever sees the measured ones.
+
+Randomness: the run of plant p from state s draws its noise from
+``SeedSequence([seed, NOISE_STREAM], spawn_key=(p, s))`` and its faults from
+``SeedSequence([seed, FAULT_STREAM], spawn_key=(p, s))``, and drawn plants come from
+:func:`twolink.challenges.draw_plants` with the same seed: a run's numbers never depend
+on which plants and states share its batch.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.challenges import MAX_PLANTS, Challenge, challenge as challenge_named
+from twolink.metrics import (discounted_return, evaluation_set, settle_time, success,
+                             wilson_interval)
+from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
+from twolink.perturbations import ActuationDelay, keyed_generators
+from twolink.plants import MujocoPlant, check_states
+from twolink.rollout import rollout, steps_for
+
+#: Second words of the seeds of a run's observation noise and reading faults.
+NOISE_STREAM = 7919
+FAULT_STREAM = 7927
+#: Speed noise std (rad/s) per degree of angle noise when ``angle_noise_deg`` is given
+#: without a challenge: the goal band's ratio, 0.1 rad/s per 5 deg (so 1 deg goes with
+#: 0.02 rad/s, as in the ``medium`` challenge).
+SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
+#: Plants drawn when a plant-perturbing challenge is given without ``params`` or ``count``.
+DEFAULT_PLANTS = 32
+#: Most runs (plants x states) one evaluation holds.
+MAX_RUNS = 200_000
+
+
+@dataclasses.dataclass(frozen=True)
+class Evaluation:
+    """Per-plant, per-state outcomes (P plants x n states) of :func:`evaluate`.
+
+    ``success`` (P, n) bool, ``settle`` (P, n) seconds (inf if never settled), ``returns``
+    (P, n) discounted returns of (15), all on the true states.
+    """
+
+    success: np.ndarray
+    settle: np.ndarray
+    returns: np.ndarray
+    params: tuple
+    x0: np.ndarray
+    challenge: Challenge
+    seed: int
+    horizon: float
+    compensated: bool
+    label: str = ""
+
+    @property
+    def count(self) -> int:
+        """Successful runs."""
+        return int(self.success.sum())
+
+    @property
+    def runs(self) -> int:
+        return int(self.success.size)
+
+    @property
+    def rate(self) -> float:
+        return self.count / self.runs
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """95 % Wilson interval of :attr:`rate`."""
+        return wilson_interval(self.count, self.runs)
+
+    @property
+    def plant_counts(self) -> np.ndarray:
+        """Successful runs per plant (P,)."""
+        return self.success.sum(axis=1)
+
+    @property
+    def worst_plant(self) -> int:
+        """Index of the plant with the fewest successes (the first such)."""
+        return int(np.argmin(self.plant_counts))
+
+    @property
+    def worst_plant_rate(self) -> float:
+        return int(self.plant_counts.min()) / self.success.shape[1]
+
+    @property
+    def worst_return(self) -> float:
+        """The lowest return of any run (the worst case, RRLS-style)."""
+        return float(self.returns.min())
+
+    @property
+    def mean_return(self) -> float:
+        return math.fsum(float(v) for v in self.returns.ravel()) / self.runs
+
+    @property
+    def median_settle(self) -> float:
+        """Median settle time over all runs (failures count as inf, so it is inf when
+        half or more of the runs fail)."""
+        return float(np.median(self.settle))
+
+    def as_dict(self, *, rows: bool = True) -> dict:
+        """JSON-ready summary; with ``rows`` also the per-plant, per-state outcomes."""
+        lo, hi = self.interval
+        med = self.median_settle
+        out = {"label": self.label, "challenge": self.challenge.as_dict(), "seed": self.seed,
+               "horizon": self.horizon, "compensated": self.compensated,
+               "plants": len(self.params), "states": int(self.success.shape[1]),
+               "successes": self.count, "runs": self.runs, "rate": self.rate,
+               "wilson95": [lo, hi],
+               "plant_successes": [int(v) for v in self.plant_counts],
+               "worst_plant": self.worst_plant, "worst_plant_rate": self.worst_plant_rate,
+               "worst_return": self.worst_return, "mean_return": self.mean_return,
+               "median_settle": med if math.isfinite(med) else None}
+        if rows:
+            out.update(
+                params=[p.as_dict() for p in self.params], x0=self.x0.tolist(),
+                success=self.success.tolist(),
+                settle=[[float(v) if math.isfinite(v) else None for v in r] for r in self.settle],
+                returns=self.returns.tolist())
+        return out
+
+
+def _check_number(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _challenge(challenge, delay, angle_noise_deg) -> Challenge:
+    """The challenge in force: the one given, or one made of ``delay`` and ``angle_noise_deg``."""
+    delay = _check_number("delay", delay)
+    angle = _check_number("angle_noise_deg", angle_noise_deg)
+    if challenge is not None:
+        if delay or angle:
+            raise ValueError("give either a challenge or delay/angle_noise_deg, not both "
+                             "(the challenge sets its own delays and noise)")
+        return challenge_named(challenge)
+    if angle < 0:
+        raise ValueError(f"angle_noise_deg must be non-negative, got {angle_noise_deg}")
+    return Challenge("custom", action_delay=delay, angle_noise_deg=angle,
+                     speed_noise=angle * SPEED_PER_DEG,
+                     description=f"{delay:g}-sample delay, {angle:g} deg noise")
+
+
+def _plants(params, ch: Challenge, count, seed) -> list[ArmParameters]:
+    if params is None:
+        if count is None:
+            count = DEFAULT_PLANTS if ch.spread > 0 else 1
+        if ch.spread > 0:
+            return ch.plants(count, seed)
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
+                or not 1 <= count <= MAX_PLANTS:
+            raise ValueError(f"count must be a whole number of plants from 1 to {MAX_PLANTS}, "
+                             f"got {count!r}")
+        return [ch.plant(None, TABLE_I)] * int(count)
+    if isinstance(params, ArmParameters):
+        params = [params]
+    params = list(params)
+    if not params or not all(isinstance(p, ArmParameters) for p in params):
+        raise ValueError("params must be a non-empty list of ArmParameters")
+    if len(params) > MAX_PLANTS:
+        raise ValueError(f"at most {MAX_PLANTS} plants, got {len(params)}")
+    if count is not None and count != len(params):
+        raise ValueError(f"count {count!r} disagrees with the {len(params)} params given")
+    return params
+
+
+def _states(x0) -> np.ndarray:
+    if x0 is None:
+        return evaluation_set()
+    x0 = check_states(x0, what="x0")
+    if x0.ndim == 1:
+        x0 = x0[None]
+    if x0.ndim != 2 or not len(x0):
+        raise ValueError(f"x0 must be states of shape (n, 4), got shape {x0.shape}")
+    return x0
+
+
+def controller(policy, ch: Challenge, *, compensate: bool = True):
+    """The policy as the controller sees it: wrapped by
+    :func:`twolink.estimation.compensated` for the challenge's delays and noise when
+    ``compensate`` and there is anything to compensate, else the policy itself."""
+    noise = bool(ch.angle_noise_deg or ch.speed_noise or ch.dropout or ch.stuck)
+    if not compensate or not (ch.action_delay or ch.observation_delay or noise):
+        return policy
+    from twolink.estimation import compensated     # running layer, beside this module
+    return compensated(policy, delay=ch.action_delay,
+                       observation_delay=ch.observation_delay, noise=noise)
+
+
+def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
+             horizon: float = HORIZON, compensate: bool = True, challenge=None, *,
+             count: int | None = None, nthread: int | None = None, label: str | None = None,
+             progress: bool = False) -> Evaluation:
+    """Run ``policy`` from every state of ``x0`` on every plant of ``params`` on MuJoCo.
+
+    ``policy``: a :class:`twolink.policy.Policy` or a shipped name / file path.
+    ``params``: the plants (a list of ArmParameters; default: drawn by the challenge,
+    ``count`` of them (32 when the challenge perturbs the plant), else Table I).
+    Given ``params`` are the plants as they are (e.g. ``challenge.plants(count, seed)``);
+    the challenge then adds only its delays, noise and faults.
+    ``x0``: initial states (n, 4) (default: the evaluation set of SPEC.md, 65 states).
+    ``challenge``: a :class:`twolink.challenges.Challenge` or a level name; without one,
+    ``delay`` (samples of actuation delay) and ``angle_noise_deg`` (deg, with speed noise
+    :data:`SPEED_PER_DEG` rad/s per deg) apply. ``seed``: drawn plants, noise and faults.
+    ``horizon``: seconds per run (success = settled 1 s before its end).
+    ``compensate``: drive the policy through :func:`twolink.estimation.compensated`.
+    """
+    ch = _challenge(challenge, delay, angle_noise_deg)
+    horizon = _check_number("horizon", horizon)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
+    plants = _plants(params, ch, count, seed)
+    x0 = _states(x0)
+    runs = len(plants) * len(x0)
+    if runs > MAX_RUNS:
+        raise ValueError(f"{len(plants)} plants x {len(x0)} states = {runs} runs, over the "
+                         f"{MAX_RUNS} an evaluation holds; evaluate fewer at a time")
+    steps = steps_for(horizon, rows=runs)
+    latency = ch.action_delay + ch.observation_delay
+    if latency >= steps:
+        raise ValueError(f"a delay of {latency} samples is not shorter than the horizon of "
+                         f"{steps} samples ({horizon:g} s)")
+    if isinstance(policy, str):
+        from twolink.policy import load_policy
+        label = policy if label is None else label
+        policy = load_policy(policy)
+    if label is None:
+        label = str(getattr(policy, "meta", {}).get("name", getattr(policy, "kind", "")))
+
+    keys = [(p, s) for p in range(len(plants)) for s in range(len(x0))]
+    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
+    faulty = ch.dropout > 0 or ch.stuck > 0
+    sensors = ch.sensors(
+        rngs=keyed_generators([int(seed), NOISE_STREAM], keys) if noisy else [None] * runs,
+        fault_rngs=keyed_generators([int(seed), FAULT_STREAM], keys) if faulty
+        else [None] * runs, block=steps)
+    act = ActuationDelay(controller(policy, ch, compensate=compensate), ch.action_delay)
+    bar = tqdm(total=steps, desc=f"evaluate {label}", unit=" Ts", leave=False,
+               disable=None if progress else True)
+
+    def observe(k, x):
+        bar.update()
+        return sensors(x)
+
+    try:
+        with MujocoPlant([p for p in plants for _ in x0], nthread=nthread) as plant:
+            traj = rollout(act, plant, np.tile(x0, (len(plants), 1)), duration=horizon,
+                           observe=observe)
+    finally:
+        bar.close()
+    shape = (len(plants), len(x0))
+    return Evaluation(success(traj).reshape(shape), settle_time(traj).reshape(shape),
+                      discounted_return(traj).reshape(shape), tuple(plants), x0.copy(), ch,
+                      int(seed), horizon, act.policy is not policy, label)
