@@ -82,12 +82,19 @@ class ObservationNoise:
         self.block = int(block)
         self._drawn = np.empty((0, len(self._noisy), 4))                  # (steps, noisy, 4)
 
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        """The measured state(s): x (4,) or (rows, 4) plus this step's noise."""
+    def __call__(self, x: np.ndarray, rows=None) -> np.ndarray:
+        """The measured state(s): x (4,) or (rows, 4) plus this step's noise.
+
+        ``rows``: x holds only these rows of the batch (in this order), e.g. the arms a
+        vector environment resets; only with ``block`` 1.
+        """
         if not len(self._noisy):
             return x
         x = np.asarray(x, dtype=float)
         flat = x.reshape(-1, 4)
+        if rows is not None:
+            return self._rows(flat, _row_indices(rows, len(flat), len(self.rngs),
+                                                 self.block)).reshape(x.shape)
         if len(flat) != len(self.rngs):
             raise ValueError(f"{len(self.rngs)} noise generators for a batch of {len(flat)} states")
         if not len(self._drawn):
@@ -97,6 +104,23 @@ class ObservationNoise:
         seen = flat.copy()
         seen[self._noisy] += self.std[self._noisy] * z
         return seen.reshape(x.shape)
+
+    def _rows(self, flat, rows):
+        seen = flat.copy()
+        for j, i in enumerate(rows):
+            if np.any(self.std[i] > 0):
+                seen[j] += self.std[i] * self.rngs[i].standard_normal(4)
+        return seen
+
+
+def _row_indices(rows, n: int, size: int, block: int) -> np.ndarray:
+    """Checked indices ``rows`` of a batch of ``size`` rows for a call with ``n`` of them."""
+    if block != 1:
+        raise ValueError("a call on some rows of the batch needs block 1")
+    rows = np.asarray(rows, dtype=int).reshape(-1)
+    if len(rows) != n or np.any((rows < 0) | (rows >= size)):
+        raise ValueError(f"rows {rows.tolist()} do not index {n} of {size} batch rows")
+    return rows
 
 
 class ActuationDelay:
@@ -161,32 +185,40 @@ class ObservationDelay:
 
     Row i is handed the reading it was given ``samples[i]`` sample periods ago (one number
     applies to every row). Until that many readings exist it is handed its first reading of
-    the episode (the sensor's buffer starts full of it). Readings are the (B, 4) or (4,)
-    arrays of successive calls; state lives in the object, so make one per rollout or call
-    :meth:`restart`.
+    the episode (the sensor's buffer starts full of it). Readings are the (B, d) or (d,)
+    arrays of successive calls (``rows``: the call holds only these rows of the batch);
+    state lives in the object, so make one per rollout or call :meth:`restart`.
     """
 
     def __init__(self, samples=1):
         self.samples = _whole(samples, "observation delay")
-        self._history: list = []          # the last max(samples) + 1 readings, oldest first
+        self._buffer = None               # (batch, D + 1, d): row i's reading k at k % (D + 1)
         self._age = None                  # readings each row has had since its restart
 
-    def __call__(self, x) -> np.ndarray:
+    def __call__(self, x, rows=None) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         if not self.samples.any():
             return x
         flat = x.reshape(-1, x.shape[-1])
-        if self._age is None:
+        if self._buffer is None:
+            if rows is not None:
+                raise ValueError("the first call of an observation delay holds every row")
+            depth = int(self.samples.max()) + 1
+            self._buffer = np.zeros((len(flat), depth, flat.shape[-1]))
             self._age = np.zeros(len(flat), dtype=int)
-        self._history.append(flat.copy())
-        del self._history[:-1 - int(self.samples.max())]
-        self._age += 1
-        back = np.minimum(np.broadcast_to(self.samples, self._age.shape), self._age - 1)
-        out = np.empty_like(flat)
-        for d in np.unique(back):
-            rows = back == d
-            out[rows] = self._history[-1 - d][rows]
-        return out.reshape(x.shape)
+            try:
+                self._samples = np.broadcast_to(self.samples, (len(flat),))
+            except ValueError:
+                raise ValueError(f"{self.samples.size} delays for a batch of {len(flat)} "
+                                 f"readings") from None
+        size, depth = self._buffer.shape[:2]
+        idx = np.arange(size) if rows is None else _row_indices(rows, len(flat), size, 1)
+        if len(idx) != len(flat):
+            raise ValueError(f"an observation delay of {size} rows given {len(flat)} readings")
+        self._buffer[idx, self._age[idx] % depth] = flat
+        self._age[idx] += 1
+        back = np.minimum(self._samples[idx], self._age[idx] - 1)
+        return self._buffer[idx, (self._age[idx] - 1 - back) % depth].reshape(x.shape)
 
     def restart(self, rows) -> None:
         """Rows ``rows`` start afresh: their next reading is their first."""
@@ -244,33 +276,40 @@ class ReadingFaults:
         self._left = np.zeros(rows, dtype=int)          # samples a stuck row stays stuck
         self._fresh = np.ones(rows, dtype=bool)         # next sample is an episode's first
 
-    def __call__(self, x) -> np.ndarray:
-        """The readings handed on for new readings x (rows, d) or (d,)."""
+    def __call__(self, x, rows=None) -> np.ndarray:
+        """The readings handed on for new readings x (rows, d) or (d,); ``rows``: x holds
+        only these rows of the batch (in this order; only with ``block`` 1)."""
         if not len(self._faulty):
             return x
         x = np.asarray(x, dtype=float)
         flat = x.reshape(-1, x.shape[-1])
-        if len(flat) != len(self.rngs):
-            raise ValueError(f"{len(self.rngs)} fault generators for a batch of {len(flat)} "
-                             f"readings")
-        if not len(self._drawn):
-            self._drawn = np.stack([self.rngs[i].random((self.block, 2))
-                                    for i in self._faulty], 1)
-        u, self._drawn = self._drawn[0], self._drawn[1:]
-        f = self._faulty
+        size = len(self.rngs)
+        if rows is None:
+            if len(flat) != size:
+                raise ValueError(f"{size} fault generators for a batch of {len(flat)} readings")
+            idx, pos = np.arange(size), self._faulty
+            if not len(self._drawn):
+                self._drawn = np.stack([self.rngs[i].random((self.block, 2))
+                                        for i in self._faulty], 1)
+            u, self._drawn = self._drawn[0], self._drawn[1:]
+        else:
+            idx = _row_indices(rows, len(flat), size, self.block)
+            pos = np.flatnonzero((self.dropout[idx] > 0) | (self.stuck[idx] > 0))
+            u = np.array([self.rngs[i].random(2) for i in idx[pos]]).reshape(-1, 2)
         if self._last is None:
-            self._last = flat.copy()
+            self._last = np.zeros((size, flat.shape[-1]))
+        f = idx[pos]                                   # faulty batch rows of this call
+        fresh = self._fresh[f]
         held = self._left[f] > 0
         sticks = ~held & (u[:, 1] < self.stuck[f])
         drops = ~held & ~sticks & (u[:, 0] < self.dropout[f])
-        repeat = (held | sticks | drops) & ~self._fresh[f]
-        self._left[f] = np.where(held, self._left[f] - 1,
-                                 np.where(sticks, self.hold - 1, 0))
-        self._left[f[self._fresh[f]]] = 0
+        repeat = (held | sticks | drops) & ~fresh
+        self._left[f] = np.where(fresh, 0, np.where(held, self._left[f] - 1,
+                                                    np.where(sticks, self.hold - 1, 0)))
         out = flat.copy()
-        out[f[repeat]] = self._last[f[repeat]]
-        self._last = out.copy()
-        self._fresh[:] = False
+        out[pos[repeat]] = self._last[f[repeat]]
+        self._last[idx] = out
+        self._fresh[idx] = False
         return out.reshape(x.shape)
 
     def restart(self, rows) -> None:
@@ -302,8 +341,10 @@ class Sensors:
         """Whether any row's readings may leave the true states' bounds (Gaussian noise)."""
         return bool(np.any(self.noise.std > 0))
 
-    def __call__(self, x) -> np.ndarray:
-        return self.delay(self.faults(self.noise(x)))
+    def __call__(self, x, rows=None) -> np.ndarray:
+        """The readings handed to the controller for true states x (B, 4) or (4,);
+        ``rows``: x holds only these rows of the batch (in this order; ``block`` 1)."""
+        return self.delay(self.faults(self.noise(x, rows), rows), rows)
 
     def set_generator(self, row: int, rng) -> None:
         """Row ``row`` draws its noise and faults from ``rng`` from now on (a new episode)."""
