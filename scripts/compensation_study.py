@@ -15,7 +15,7 @@ predictor when there is delay, the observer when there is noise. Both columns se
 same plants and the same noise (row i's noise from the i-th child of
 SeedSequence([seed, 1]); plants from default_rng(seed)).
 
-``--tune`` instead measures the combined condition for each candidate observer process
+``--tune`` instead measures the noise and combined conditions (compensated) for each candidate observer process
 std (estimation.PROCESS_STD) on the given seed: run it on a development seed, never on
 the seed of the reported figures.
 
@@ -100,13 +100,13 @@ def study(policies, *, seed: int, plants: int, spread: float, delay: int,
 
 def tune(policies, *, seed: int, plants: int, spread: float, delay: int,
          noise_deg: float) -> list:
-    params = plants_for("combined", plants, spread, seed)
     out = []
     for name in policies:
         for q in tqdm(TUNE_PROCESS_STD, desc=f"tune {name}", file=sys.stderr):
-            r = measure(load_policy(name), params, delay=delay, noise_deg=noise_deg, seed=seed,
-                        compensate=True, process_std=q)
-            out.append({"policy": name, "process_std": q, **r})
+            for cond, d in (("noise", 0), ("combined", delay)):
+                r = measure(load_policy(name), plants_for(cond, plants, spread, seed), delay=d,
+                            noise_deg=noise_deg, seed=seed, compensate=True, process_std=q)
+                out.append({"policy": name, "condition": cond, "process_std": q, **r})
     return out
 
 
@@ -151,10 +151,10 @@ def main(argv=None) -> int:
                          indent=2))
         return 0
     if args.tune:
-        print(f"| policy | process std | success (k/n, 95 % CI) | worst plant |")
-        print("|---|---|---|---|")
+        print("| policy | condition | process std | success (k/n, 95 % CI) | worst plant |")
+        print("|---|---|---|---|---|")
         for r in rows:
-            print(f"| {r['policy']} | {r['process_std']:g} | "
+            print(f"| {r['policy']} | {r['condition']} | {r['process_std']:g} | "
                   f"{format_rate(r['successes'], r['n'])} | {100 * r['worst_plant_rate']:.0f} % |")
         return 0
     print(f"seed {args.seed}; combined: {args.plants} plants, +-{100 * args.spread:g} % joint, "

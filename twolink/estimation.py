@@ -143,22 +143,33 @@ class StateEstimator:
         self._fresh = np.ones(rows, dtype=bool)   # no reading yet
         self._x = np.zeros((rows, 4))             # estimate of the measured state
         self._y = np.full((rows, 4), np.nan)      # the previous reading
-        self._pending = False                     # a reading awaits its command
-        self.prediction = None                    # the last x^_{k+d} (rows, 4)
+        self._pending = np.zeros(rows, dtype=bool)  # a reading awaits its command
+        self.prediction = np.full((rows, 4), np.nan)  # the last x^_{k+d} of every row
+
+    def _index(self, rows) -> np.ndarray:
+        if rows is None:
+            return np.arange(self._rows)
+        try:
+            idx = np.arange(self._rows)[rows]
+        except (IndexError, TypeError, ValueError):
+            raise ValueError(f"rows must index a batch of {self._rows} rows (indices or a "
+                             f"bool mask), got {rows!r}") from None
+        return np.atleast_1d(idx)
 
     def restart(self, rows=None) -> None:
         """Rows ``rows`` (indices or a bool mask; all when None) begin a new episode: their
         readings, estimates and commands are forgotten."""
         if self._rows is None:
             return
-        idx = np.arange(self._rows)[slice(None) if rows is None else rows]
+        idx = self._index(rows)
         self._u[:, idx] = 0.0
         self._k[idx] = 0
         self._fresh[idx] = True
         self._x[idx] = 0.0
         self._y[idx] = np.nan
+        self._pending[idx] = False
 
-    def _check(self, y) -> np.ndarray:
+    def _check(self, y, rows) -> tuple[np.ndarray, np.ndarray]:
         y = np.asarray(y)
         if y.dtype.kind not in "iuf":
             raise ValueError(f"readings must hold real numbers, got dtype {y.dtype}")
@@ -168,69 +179,82 @@ class StateEstimator:
             raise ValueError("readings contain NaN or infinite values")
         flat = y.astype(float).reshape(-1, 4)
         if self._rows is None:
+            if rows is not None:
+                raise ValueError("the first readings must be of every row (no rows=)")
             self._allocate(len(flat))
             self._single = y.ndim == 1
-        elif len(flat) != self._rows or (y.ndim == 1) != self._single:
-            raise ValueError(f"readings of shape {y.shape} after a batch of {self._rows} rows; "
-                             f"make a new compensator for another batch")
-        return flat
+        idx = self._index(rows)
+        if len(flat) != len(idx) or (rows is None and (y.ndim == 1) != self._single):
+            raise ValueError(f"readings of shape {y.shape} for {len(idx)} of a batch of "
+                             f"{self._rows} rows; make a new compensator for another batch")
+        return flat, idx
 
     def _step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         return sample_step(self._accel, self.params, x, u)
 
     # ----------------------------------------------------------------- update
-    def update(self, y) -> np.ndarray:
-        """The predicted state x^_{k+d} (same shape as y) the command issued now acts on."""
-        if self._rows is not None and self._pending:
-            raise ValueError("update() twice without record(): pass the command issued for "
-                             "the previous reading first")
-        flat = self._check(y)
+    def update(self, y, rows=None) -> np.ndarray:
+        """The predicted state x^_{k+d} (same shape as y) the command issued now acts on.
+
+        ``rows`` (indices or a bool mask): y holds the readings of these rows only.
+        """
+        flat, idx = self._check(y, rows)
+        if self._pending[idx].any():
+            raise ValueError("update() twice without record(): pass the commands issued for "
+                             "the previous readings first")
         o, d = self.observation_delay, self.delay
+        k, u = self._k[idx], self._u[:, idx]
         if self.observer:
-            new_time = self._k >= o           # the reading is of a later time than the last
-            repeated = np.all(flat == self._y, axis=-1)
-            prior = self._x.copy()
+            x = self._x[idx]
+            new_time = k > o                  # the reading is of a later time than the last
             if new_time.any():                # x^-_m = f(x_{m-1}, u_{m-1-d})
-                prior[new_time] = self._step(self._x[new_time], self._u[0][new_time])
-            innovation = flat - prior
+                x[new_time] = self._step(x[new_time], u[0][new_time])
+            innovation = flat - x
             innovation[:, :2] = wrap_angle(innovation[:, :2])
-            for j in (0, 1):                  # joint j: components (j, 2 + j)
-                e = innovation[:, [j, 2 + j]]
-                prior[:, [j, 2 + j]] += np.where(repeated[:, None], 0.0, e @ self.gain.T)
-            prior[:, :2] = wrap_angle(prior[:, :2])
-            self._x = np.where(self._fresh[:, None], flat, prior)
+            innovation[np.all(flat == self._y[idx], axis=-1)] = 0.0    # a repeated reading
+            (la, lb), (lc, ld) = self.gain    # joint j: angle j, speed 2 + j
+            ea, es = innovation[:, :2], innovation[:, 2:]
+            x[:, :2] += la * ea + lb * es     # elementwise: a row's value never depends
+            x[:, 2:] += lc * ea + ld * es     # on the rows beside it
+            x[:, :2] = wrap_angle(x[:, :2])
+            x = np.where(self._fresh[idx][:, None], flat, x)
         else:
-            self._x = flat.copy()
-        self._y = flat.copy()
-        self._fresh[:] = False
+            x = flat.copy()
+        self._x[idx] = x
+        self._y[idx] = flat
+        self._fresh[idx] = False
         # Roll from x_{k-o} over u_{k-o-d}, ..., u_{k-1} (rows in their first o samples
         # read x_0 and roll over the first k + d steps only).
-        z = self._x
-        skip = np.maximum(o - self._k, 0)
+        z = x
+        skip = np.maximum(o - k, 0)
         for s in range(o + d):
             active = s >= skip
             if active.all():
-                z = self._step(z, self._u[1 + s])
+                z = self._step(z, u[1 + s])
             elif active.any():
                 z = z.copy()
-                z[active] = self._step(z[active], self._u[1 + s][active])
-        self.prediction = z.copy()
-        self._pending = True
-        return z[0].copy() if self._single else z.copy()
+                z[active] = self._step(z[active], u[1 + s][active])
+        self.prediction[idx] = z
+        self._pending[idx] = True
+        return z[0].copy() if self._single and rows is None else z.copy()
 
-    def record(self, u) -> None:
-        """The commands (B, 2) (or one (2,)) issued for the last readings."""
-        if self._rows is None or not self._pending:
+    def record(self, u, rows=None) -> None:
+        """The commands (B, 2) (or one (2,)) issued for the last readings (of ``rows``)."""
+        if self._rows is None:
             raise ValueError("record() before update(): pass a reading first")
-        u = np.asarray(u, dtype=float)
-        if u.shape != ((2,) if self._single else (self._rows, 2)):
-            raise ValueError(f"commands must have shape {(2,) if self._single else (self._rows, 2)}, "
-                             f"got {u.shape}")
+        idx = self._index(rows)
+        if not self._pending[idx].all():
+            raise ValueError("record() before update(): pass the readings first")
+        u = np.asarray(u)
+        want = (2,) if self._single and rows is None else (len(idx), 2)
+        if u.dtype.kind not in "iuf" or u.shape != want:
+            raise ValueError(f"commands must be real numbers of shape {want}, got dtype "
+                             f"{u.dtype} and shape {u.shape}")
         if not np.all(np.isfinite(u)):
             raise ValueError("commands contain NaN or infinite values")
-        self._u = np.concatenate([self._u[1:], u.reshape(1, -1, 2)])
-        self._k += 1
-        self._pending = False
+        self._u[:, idx] = np.concatenate([self._u[1:, idx], u.reshape(1, -1, 2)])
+        self._k[idx] += 1
+        self._pending[idx] = False
 
     @property
     def estimate(self) -> np.ndarray:
