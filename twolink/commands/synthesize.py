@@ -4,9 +4,14 @@ By default the policy goes to a new file in the current directory, named after w
 synthesised (``./<kind>[_<model>][_<context>][_serial][_refine<K>].npz``), and an existing
 file is kept unless ``--force``. ``--sweeps`` picks Alg. 1's sweeps (synchronous as printed,
 or serial, in place, as ApproxRL's ``fuzzyqi.m``), ``--refine K`` subdivides every bin of
-the paper's grid K times; both are recorded in the policy's provenance. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
-:data:`twolink.registry.SHIPPED` into the source checkout's ``policies/``, with the kind,
-model and context of its registry entry.
+the paper's grid K times; both are recorded in the policy's provenance.
+``--robust worst|mean --draws K --spread P --seed S`` solves every agent over K models (the
+centre and K - 1 joint draws of the physical parameters within +-P): the worst case or the
+mean (:func:`twolink.synthesis.synthesize`). ``--params FILE`` takes the centre from a
+parameter file (:mod:`twolink.parameter_file`); ``--model identified`` is the full model (6)
+with them. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
+:data:`twolink.registry.SHIPPED` into the source checkout's ``policies/``, with everything
+its registry entry records.
 """
 from __future__ import annotations
 
@@ -19,14 +24,23 @@ from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.policy import MAX_Q_BYTES        # what Policy.load accepts per Q-table
-from twolink.synthesis import (CONTEXTS, KINDS, SWEEPS, SYNTHESIS_MODELS, synthesize,
+from twolink.fqi import ROBUST_MODES
+from twolink.synthesis import (CONTEXTS, IDENTIFIED_MODELS, KINDS, MAX_SPREAD, SWEEPS,
+                               SYNTHESIS_MODELS, check_robust, check_robust_size, synthesize,
                                table_sizes)
+
+#: Defaults of a robust synthesis (those of the shipped robust policies).
+DEFAULT_DRAWS = 8
+DEFAULT_SPREAD = 0.2
+DEFAULT_SEED = 0
 
 
 def default_file_name(kind: str, model: str = "simplified", context: str = "frozen",
-                      sweeps: str = "synchronous", refine: int = 1) -> str:
-    """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>].npz``, each part only when not
-    the default (so the five shipped combinations get their registry names)."""
+                      sweeps: str = "synchronous", refine: int = 1,
+                      robust: str | None = None) -> str:
+    """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>][_robust|_mean].npz``, each part
+    only when not the default (so the five shipped nominal combinations get their registry
+    names)."""
     name = kind + ("" if model == "simplified" else f"_{model}")
     if kind == "decentralized" and context != "frozen":
         name += f"_{context}"
@@ -34,6 +48,8 @@ def default_file_name(kind: str, model: str = "simplified", context: str = "froz
         name += f"_{sweeps}"
     if refine != 1:
         name += f"_refine{refine}"
+    if robust is not None:
+        name += "_robust" if robust == "worst" else f"_{robust}"
     return f"{name}.npz"
 
 
@@ -56,8 +72,9 @@ def add_parser(sub):
                     "file is kept unless --force); --ship NAME rewrites a shipped policy "
                     "under policies/ of a source checkout.")
     p.add_argument("kind", nargs="?", choices=KINDS, help="policy kind (not with --ship)")
-    p.add_argument("--model", choices=SYNTHESIS_MODELS, default=None,
-                   help="model used for the transitions (default: simplified, the paper's (11))")
+    p.add_argument("--model", choices=SYNTHESIS_MODELS + tuple(IDENTIFIED_MODELS), default=None,
+                   help="model used for the transitions (default: simplified, the paper's (11)); "
+                        "identified: the full model (6) with the parameters of --params")
     p.add_argument("--context", choices=CONTEXTS, default=None,
                    help="agent 1's reading of link 2 over a transition (decentralized only; "
                         "default: frozen)")
@@ -68,6 +85,22 @@ def add_parser(sub):
     p.add_argument("--refine", type=_refine, default=None, metavar="K",
                    help="subdivide every bin of the paper's grid K times (default 1: the "
                         "paper's grid; see the README's 'Finer grids')")
+    p.add_argument("--robust", choices=ROBUST_MODES, default=None,
+                   help="robust synthesis over --draws models: worst (Q = min over the "
+                        "models of rho_k + gamma T_k V) or mean (their average)")
+    p.add_argument("--draws", default=None, metavar="K",
+                   help=f"models of a robust synthesis: the centre and K - 1 random draws "
+                        f"(default {DEFAULT_DRAWS}; memory is estimated and capped first)")
+    p.add_argument("--spread", default=None, metavar="P",
+                   help=f"relative spread of the draws: every physical parameter (l, m, I, "
+                        f"c, b of both links) uniform in +-P jointly, 0 <= P < {MAX_SPREAD} "
+                        f"(default {DEFAULT_SPREAD})")
+    p.add_argument("--seed", default=None, metavar="S",
+                   help=f"seed of the draws (default {DEFAULT_SEED}); recorded in the file")
+    p.add_argument("--params", type=Path, default=None, metavar="FILE",
+                   help="take the model's parameters (the centre of the draws) from a "
+                        "parameter file (twolink.parameter_file, e.g. identified ones) "
+                        "instead of Table I")
     p.add_argument("--gamma", type=float, default=GAMMA, help=f"discount factor (default {GAMMA})")
     p.add_argument("--delta", type=float, default=DELTA,
                    help=f"stop when max |Q_l - Q_(l-1)| <= delta (default {DELTA})")
@@ -81,20 +114,74 @@ def add_parser(sub):
     return p
 
 
+def _number(text, option: str, kind: type):
+    """``text`` as a ``kind`` (int or float), or a ValueError naming ``option``."""
+    try:
+        value = kind(text)
+    except (TypeError, ValueError):
+        value = None
+    if value is None or (kind is float and not value == value):
+        what = "a whole number" if kind is int else "a number"
+        raise ValueError(f"{option} must be {what}, got {text!r}")
+    return value
+
+
+def _robust_options(args) -> dict:
+    """synthesize()'s robust keywords from --robust/--draws/--spread/--seed, checked."""
+    given = [o for o, v in (("--draws", args.draws), ("--spread", args.spread),
+                            ("--seed", args.seed)) if v is not None]
+    if args.robust is None:
+        if given:
+            verb = "applies" if len(given) == 1 else "apply"
+            raise ValueError(f"{', '.join(given)} {verb} to a robust synthesis only: give "
+                             f"--robust worst or --robust mean")
+        return {}
+    draws = DEFAULT_DRAWS if args.draws is None else _number(args.draws, "--draws", int)
+    spread = DEFAULT_SPREAD if args.spread is None else _number(args.spread, "--spread", float)
+    seed = DEFAULT_SEED if args.seed is None else _number(args.seed, "--seed", int)
+    if draws < 1:
+        raise ValueError(f"--draws must be at least 1, got {draws}")
+    if not 0.0 <= spread < MAX_SPREAD:
+        raise ValueError(f"--spread must lie in [0, {MAX_SPREAD}), got {spread}")
+    if seed < 0:
+        raise ValueError(f"--seed must be a non-negative whole number, got {seed}")
+    robust, draws, spread, seed = check_robust(args.robust, draws, spread, seed)
+    if (args.sweeps or "synchronous") != "synchronous":
+        raise ValueError("--robust runs synchronous sweeps only; give no --sweeps serial")
+    return {"robust": robust, "draws": draws, "spread": spread, "seed": seed}
+
+
+def _parameters(args) -> tuple:
+    """(ArmParameters, provenance of their file or None) from --params, or Table I."""
+    if args.params is None:
+        if args.model in IDENTIFIED_MODELS:
+            raise ValueError(f"--model {args.model} needs --params FILE (the identified "
+                             f"parameters)")
+        return TABLE_I, None
+    from twolink import parameter_file
+    content = parameter_file.read(args.params)
+    digest = json.loads(Path(args.params).read_bytes()).get("sha256")
+    return content.params, {"path": str(args.params), "sha256": digest,
+                            "provenance": content.provenance}
+
+
 def _jobs(args) -> list[tuple[str, dict, Path]]:
     """(kind, synthesize() options, output path) for every policy to write; checks first."""
     if args.ship:
         if args.kind or args.model or args.context or args.output or args.force \
-                or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA:
+                or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA \
+                or args.robust or args.draws is not None or args.spread is not None \
+                or args.seed is not None or args.params is not None:
             raise ValueError("--ship takes everything from the registry: give no kind, "
-                             "--model, --context, --sweeps, --refine, --gamma, --delta, -o "
-                             "or --force with it")
+                             "--model, --context, --sweeps, --refine, --robust, --draws, "
+                             "--spread, --seed, --params, --gamma, --delta, -o or --force "
+                             "with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
             raise RuntimeError("--ship writes into policies/ of a source checkout, and this "
                                "twolink is an installed package; use -o FILE instead")
-        return [(e.kind, e.synthesis_options(), e.file) for e in entries]
+        return [(e.kind, {"p": TABLE_I, **e.synthesis_options()}, e.file) for e in entries]
     if args.kind is None:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
     model = args.model or "simplified"
@@ -103,17 +190,23 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         raise ValueError("--context applies to the decentralized policy only")
     sweeps = args.sweeps or "synchronous"
     refine = args.refine or 1
+    robust = _robust_options(args)
     biggest = max(table_sizes(args.kind, refine).values())
     if biggest * 8 > MAX_Q_BYTES:
         raise ValueError(f"--refine {refine}: a {args.kind} Q-table of {biggest} values "
                          f"({biggest * 8 / 2**20:.0f} MiB) is over the {MAX_Q_BYTES >> 20} "
                          f"MiB a policy file may hold")
-    out = args.output or Path(default_file_name(args.kind, model, context, sweeps, refine))
+    if robust:
+        check_robust_size(args.kind, refine, robust["draws"])
+    p, source = _parameters(args)
+    out = args.output or Path(default_file_name(args.kind, model, context, sweeps, refine,
+                                                robust.get("robust")))
     check_outputs({"-o": out})
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
-    opts = {"model": model, "context": context, "gamma": args.gamma, "delta": args.delta,
-            "sweeps": sweeps, "refine": refine}
+    opts = {"p": p, "model": model, "context": context, "gamma": args.gamma,
+            "delta": args.delta, "sweeps": sweeps, "refine": refine, "source": source,
+            **robust}
     return [(args.kind, opts, out)]
 
 
@@ -121,15 +214,16 @@ def run(args) -> int:
     jobs = _jobs(args)
     summary = []
     for kind, opts, out in jobs:
-        policy = synthesize(kind, TABLE_I, progress=not args.json, **opts)
+        policy = synthesize(kind, progress=not args.json, **opts)
         policy.save(out)
         info = {a.name: a.info for a in policy.agents}
         summary.append({"path": str(out), "kind": policy.kind, "agents": info})
         if not args.json:
             for name, i in info.items():
-                print(f"{name}: Q size {i['q_size']}, {i['iterations']} {i['sweeps']} sweeps, "
-                      f"{i['seconds']:.3f} s ({i['transition_seconds']:.3f} s transitions, "
-                      f"{i['sweep_seconds']:.3f} s sweeps)")
+                over = f" ({i['robust']} case over {i['draws']} models)" if "robust" in i else ""
+                print(f"{name}: Q size {i['q_size']}, {i['iterations']} {i['sweeps']} "
+                      f"sweeps{over}, {i['seconds']:.3f} s ({i['transition_seconds']:.3f} s "
+                      f"transitions, {i['sweep_seconds']:.3f} s sweeps)")
             print(f"wrote {out}")
     if args.json:
         print(json.dumps(summary[0] if len(summary) == 1 and not args.ship else summary,
