@@ -206,5 +206,5 @@ def test_bad_faults_and_delays_refused():
     for bad in (1.5, -1, np.nan):
         with pytest.raises(ValueError, match="observation delay"):
             ObservationDelay(bad)
-    with pytest.raises(ValueError, match="every row"):
+    with pytest.raises(ValueError, match="unknown size"):
         ObservationDelay(1)(np.zeros((1, 4)), rows=[0])

@@ -45,12 +45,16 @@ except ImportError as _exc:           # Python 3.13: dm-control is installed wit
 from twolink import mjcf
 from twolink.parameters import (HORIZON, REWARD_GOAL, REWARD_OTHER, STATE_NAMES,
                                 TABLE_I, TS, ArmParameters)
-from twolink.perturbations import ObservationNoise
+from twolink.perturbations import ActuationDelay, Sensors
 from twolink.plants import finish_data, set_data
 from twolink.reward import agent_reward, centralized_reward
-from twolink.tasks import (OBSERVATION_NAMES, TASKS, check_action, check_task, check_x0,  # noqa: F401
-                           initial_state, perturbed_params)
+from twolink.tasks import (OBSERVATION_NAMES, TASKS, check_action, check_challenge,  # noqa: F401
+                           check_task, check_x0, initial_state, perturbed_params)
 
+
+
+def _hold(u):
+    return np.array(u, dtype=np.float64)     # a copy: the delay keeps it
 
 
 class Physics(mujoco.Physics):
@@ -77,25 +81,39 @@ class ArmTask(base.Task):
     """Drive the arm to the origin of the state space; subclasses choose observations and reward."""
 
     def __init__(self, params: ArmParameters, *, x0="paper", angle_noise: float = 0.0,
-                 speed_noise: float = 0.0, random=None):
+                 speed_noise: float = 0.0, random=None, challenge=None, nominal=None):
         super().__init__(random=random)
         self.params = params
+        # The controller's torque bounds (the action spec): the nominal arm's under a
+        # challenge, whose changed limits only the plant (MuJoCo's ctrlrange) applies.
+        self._tau_max = (params if nominal is None else nominal).tau_max
         self._x0 = check_x0(x0)
-        self._noise = ObservationNoise(angle_noise, speed_noise, rngs=[self.random])  # one row
+        # One row of the perturbations of twolink.perturbations, drawing from the task's
+        # random state: a challenge's noise, faults and delays, or the noise given.
+        if challenge is not None:
+            self._sensors = challenge.sensors(rngs=[self.random])
+            self._delay = ActuationDelay(_hold, challenge.action_delay)
+        else:
+            self._sensors = Sensors(angle_noise, speed_noise, rngs=[self.random])
+            self._delay = ActuationDelay(_hold, 0)
 
     def initialize_episode(self, physics):
-        """Set x0: the paper's, random angles at rest, or the given one."""
+        """Set x0: the paper's, random angles at rest, or the given one; the delays and
+        reading faults start afresh."""
         set_data(physics.data, initial_state(self._x0, self.random))
         physics.data.ctrl[:] = 0.0
+        self._sensors.restart([0])
+        self._delay.restart([0])
         # base.Task.initialize_episode only recolours the suite's materials: not delegated.
 
     def action_spec(self, physics):
-        tmax = self.params.tau_max
+        tmax = self._tau_max
         return specs.BoundedArray((2,), np.float64, -tmax, tmax, name="tau")
 
     def before_step(self, action, physics):
-        """Hold the clipped torques [tau1, tau2] over the sample period."""
-        physics.set_control(check_action(action, self.params.tau_max))
+        """Hold the clipped torques [tau1, tau2] over the sample period (those of
+        ``action_delay`` samples ago under a challenge; zero until they arrive)."""
+        physics.set_control(self._delay(check_action(action, self._tau_max)[None])[0])
 
     def after_step(self, physics):
         """End the sample period as every plant does: wrap angles, saturate speeds."""
@@ -106,7 +124,7 @@ class ArmTask(base.Task):
         return None
 
     def _measured(self, physics) -> np.ndarray:
-        return self._noise(physics.state())
+        return self._sensors(physics.state())
 
 
 class Centralized(ArmTask):
@@ -156,7 +174,7 @@ class Environment(control.Environment):
 def load(task_name: str, *, seed=None, time_limit: float = HORIZON,
          params: ArmParameters = TABLE_I, x0="paper", speed_max=None,
          angle_noise: float = 0.0, speed_noise: float = 0.0,
-         perturbation=None) -> Environment:
+         perturbation=None, challenge=None) -> Environment:
     """The ``task_name`` environment (one of :data:`TASKS`).
 
     ``x0``: ``'paper'`` ([-1, -3, 0, 0]), ``'random'`` (angles uniform in [-pi, pi), at rest,
@@ -167,18 +185,27 @@ def load(task_name: str, *, seed=None, time_limit: float = HORIZON,
     ``perturbation``: relative parameter changes, a dict such as ``{'m2': 0.2}``
     (:func:`twolink.perturbations.perturbed`), or a size s in [0, 1) for one random joint
     perturbation drawn from ``seed`` (:func:`twolink.perturbations.random_perturbation`).
+    ``challenge``: a level of :data:`twolink.challenges.LEVELS` (``'easy'``, ``'medium'``,
+    ``'hard'``) or a :class:`twolink.challenges.Challenge`, instead of ``perturbation`` and
+    the noise: one plant drawn from ``seed`` (every PHYSICAL parameter within +-spread,
+    the torque limits changed), the torque reaching the arm ``action_delay`` samples late,
+    and the observations noisy, dropped, stuck and ``observation_delay`` samples late.
     """
     check_task(task_name)
+    challenge = check_challenge(challenge, perturbation=perturbation,
+                                angle_noise=angle_noise, speed_noise=speed_noise)
     if not (isinstance(time_limit, (int, float)) and np.isfinite(time_limit) and time_limit > 0):
         raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
     random = np.random.RandomState(seed)
-    p = perturbed_params(params, perturbation, random)
+    p = (challenge.plant(random, params) if challenge is not None
+         else perturbed_params(params, perturbation, random))
     if speed_max is not None:
         v = np.broadcast_to(np.asarray(speed_max, dtype=float), (2,))
         p = dataclasses.replace(p, dtheta1_max=float(v[0]), dtheta2_max=float(v[1]))
     physics = Physics.from_model(wrapper.MjModel(mjcf.build_model(p)))
     cls = Centralized if task_name == "centralized" else Decentralized
-    task = cls(p, x0=x0, angle_noise=angle_noise, speed_noise=speed_noise, random=random)
+    task = cls(p, x0=x0, angle_noise=angle_noise, speed_noise=speed_noise, random=random,
+               challenge=challenge, nominal=params if challenge is not None else None)
     return Environment(physics, task, time_limit=time_limit, control_timestep=TS)
 
 

@@ -33,12 +33,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
-from twolink.perturbations import ActuationDelay, ObservationNoise
+from twolink.perturbations import ActuationDelay, Sensors
 from twolink.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
 from twolink.reward import centralized_reward
 from twolink.synthesis import centralized_actions
-from twolink.tasks import (check_action, check_reset_options, check_x0, initial_state, observe,
-                           perturbed_params)
+from twolink.tasks import (check_action, check_challenge, check_reset_options, check_x0,
+                           initial_state, observe, perturbed_params)
 
 ENV_ID = "twolink/TwoLink-v0"
 #: Most arms one vector environment steps (a batch of this size is a few hundred MB of
@@ -112,13 +112,14 @@ class _Arms:
     per-arm generators, step counts, and the challenges of :mod:`twolink.perturbations`.
 
     Each arm draws from its own generator, in the order: random plant (a perturbation
-    size), x0 (``'random'``), observation noise; so an arm's episode never depends on
-    the arms beside it.
+    size or a challenge's spread), x0 (``'random'``), then at every observation its noise
+    and its reading faults (:class:`twolink.perturbations.Sensors`); so an arm's episode
+    never depends on the arms beside it.
     """
 
     def __init__(self, rows: int, *, params: ArmParameters, observation: str, actions: str,
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
-                 nthread):
+                 nthread, challenge=None):
         if not isinstance(params, ArmParameters):
             raise ValueError(f"params must be an ArmParameters, got {type(params).__name__}")
         self.rows = rows
@@ -130,14 +131,24 @@ class _Arms:
         size = perturbation is not None and not isinstance(perturbation, dict)
         # Checks a dict or a size now (a size is drawn anew every episode).
         fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
-        self._size = perturbation if size else None
         for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
                             ("delay", delay)):
             if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
                 raise ValueError(f"{name} must be one number, got {value!r}")
-        self._noise = (float(angle_noise), float(speed_noise))
-        ObservationNoise(*self._noise, rngs=[None])                    # checks the levels
-        self._noisy = max(self._noise) > 0
+        self.challenge = check_challenge(challenge, perturbation=perturbation,
+                                          angle_noise=angle_noise, speed_noise=speed_noise,
+                                          delay=delay)
+        if self.challenge is not None:
+            ch = self.challenge
+            size = ch.perturbs_plant()          # a new plant every episode
+            self._draw = lambda rng: ch.plant(rng, params)
+            self.sensors = ch.sensors(rngs=[None] * rows)
+            delay = ch.action_delay
+        else:
+            self._draw = lambda rng: perturbed_params(params, perturbation, rng)
+            self.sensors = Sensors(float(angle_noise), float(speed_noise), rngs=[None] * rows)
+        self._size = size
+        self._noisy = self.sensors.noisy
         self._delay = ActuationDelay(_hold, delay)                     # checks the delay
         self.table = centralized_actions(params)      # the controller's levels, not the plant's
         self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
@@ -201,18 +212,18 @@ class _Arms:
         (all checked)."""
         for i, rng, x0 in zip(rows, rngs, x0s):
             self.rngs[i] = rng
-            if self._size is not None:
-                self.plant.set_row_params(i, perturbed_params(self.params, self._size, rng))
+            self.sensors.set_generator(i, rng)
+            if self._size:
+                self.plant.set_row_params(i, self._draw(rng))
             self.x[i] = initial_state(x0, rng)
             self.k[i] = 0
         self._delay.restart(rows)
+        self.sensors.restart(rows)
 
     def observe(self, rows) -> np.ndarray:
-        """Observations of ``rows`` (noise drawn from each row's generator, once)."""
-        x = self.x[rows]
-        if self._noisy:
-            x = ObservationNoise(*self._noise, rngs=[self.rngs[i] for i in rows])(x)
-        return features(x, self.observation)
+        """Observations of ``rows`` (noise and faults drawn from each row's generator,
+        once; then the observation delay)."""
+        return features(self.sensors(self.x[rows], rows=rows), self.observation)
 
     def step(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One sample period of every arm under checked torques ``tau``: the next states
@@ -235,7 +246,10 @@ class TwoLinkEnv(gymnasium.Env):
     random joint change of every Table I constant within +-s each episode;
     ``angle_noise``, ``speed_noise`` (std of Gaussian observation noise; rewards use the
     true state); ``delay`` (sample periods before a torque reaches the arm; zero torque
-    until then); ``render_mode`` ``'rgb_array'`` (frames of :class:`twolink.render.Renderer`).
+    until then); ``challenge`` a level of :data:`twolink.challenges.LEVELS` (``'easy'``,
+    ``'medium'``, ``'hard'``) or a :class:`twolink.challenges.Challenge`: a new plant
+    every episode, its delays, noise and dropped/stuck readings, instead of
+    ``perturbation``, the noise and ``delay``; ``render_mode`` ``'rgb_array'`` (frames of :class:`twolink.render.Renderer`).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": round(1 / TS)}
@@ -244,7 +258,7 @@ class TwoLinkEnv(gymnasium.Env):
                  actions: str = "box", x0="paper", time_limit: float = HORIZON,
                  params: ArmParameters = TABLE_I, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
-                 render_mode: str | None = None, render_size=(320, 240)):
+                 challenge=None, render_mode: str | None = None, render_size=(320, 240)):
         _check_task(task)
         if render_mode is not None:
             _check_choice(render_mode, self.metadata["render_modes"], "render_mode")
@@ -252,7 +266,7 @@ class TwoLinkEnv(gymnasium.Env):
         self._arms = _Arms(1, params=params, observation=observation, actions=actions, x0=x0,
                            time_limit=time_limit, perturbation=perturbation,
                            angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
-                           nthread=1)
+                           nthread=1, challenge=challenge)
         self.render_mode = render_mode
         self.action_space = self._arms.action_space()
         self.observation_space = self._arms.observation_space()
@@ -336,7 +350,8 @@ class TwoLinkVectorEnv(VectorEnv):
                  observation: str = "state", actions: str = "box", x0="paper",
                  time_limit: float = HORIZON, params: ArmParameters = TABLE_I,
                  perturbation=None, angle_noise: float = 0.0, speed_noise: float = 0.0,
-                 delay: int = 0, nthread: int | None = None, render_mode: str | None = None):
+                 delay: int = 0, challenge=None, nthread: int | None = None,
+                 render_mode: str | None = None):
         _check_task(task)
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) \
                 or not 1 <= num_envs <= MAX_ENVS:
@@ -349,7 +364,8 @@ class TwoLinkVectorEnv(VectorEnv):
         self._arms = _Arms(self.num_envs, params=params, observation=observation,
                            actions=actions, x0=x0, time_limit=time_limit,
                            perturbation=perturbation, angle_noise=angle_noise,
-                           speed_noise=speed_noise, delay=delay, nthread=nthread)
+                           speed_noise=speed_noise, delay=delay, nthread=nthread,
+                           challenge=challenge)
         self.single_action_space = self._arms.action_space()
         self.single_observation_space = self._arms.observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)

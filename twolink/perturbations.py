@@ -190,8 +190,9 @@ class ObservationDelay:
     state lives in the object, so make one per rollout or call :meth:`restart`.
     """
 
-    def __init__(self, samples=1):
+    def __init__(self, samples=1, *, size: int | None = None):
         self.samples = _whole(samples, "observation delay")
+        self.size = size                  # rows of the batch (default: the first call's)
         self._buffer = None               # (batch, D + 1, d): row i's reading k at k % (D + 1)
         self._age = None                  # readings each row has had since its restart
 
@@ -201,15 +202,17 @@ class ObservationDelay:
             return x
         flat = x.reshape(-1, x.shape[-1])
         if self._buffer is None:
-            if rows is not None:
-                raise ValueError("the first call of an observation delay holds every row")
+            if rows is not None and self.size is None:
+                raise ValueError("the first call of an observation delay of unknown size "
+                                 "holds every row")
+            n = len(flat) if self.size is None else int(self.size)
             depth = int(self.samples.max()) + 1
-            self._buffer = np.zeros((len(flat), depth, flat.shape[-1]))
-            self._age = np.zeros(len(flat), dtype=int)
+            self._buffer = np.zeros((n, depth, flat.shape[-1]))
+            self._age = np.zeros(n, dtype=int)
             try:
-                self._samples = np.broadcast_to(self.samples, (len(flat),))
+                self._samples = np.broadcast_to(self.samples, (n,))
             except ValueError:
-                raise ValueError(f"{self.samples.size} delays for a batch of {len(flat)} "
+                raise ValueError(f"{self.samples.size} delays for a batch of {n} "
                                  f"readings") from None
         size, depth = self._buffer.shape[:2]
         idx = np.arange(size) if rows is None else _row_indices(rows, len(flat), size, 1)
@@ -334,7 +337,7 @@ class Sensors:
         self.noise = ObservationNoise(angle_std, speed_std, rngs=rngs, block=block)
         self.faults = ReadingFaults(dropout, stuck, rngs=rngs if fault_rngs is None
                                     else fault_rngs, block=block)
-        self.delay = ObservationDelay(delay)
+        self.delay = ObservationDelay(delay, size=len(self.noise.rngs))
 
     @property
     def noisy(self) -> bool:

@@ -34,7 +34,11 @@ or a state (4,); also ``reset(options={'x0': ...})`` for one episode), ``params`
 ``perturbation`` (a dict of relative changes, or a size s: one random joint change of every
 Table I constant within +-s, drawn anew each episode), ``angle_noise``/``speed_noise``
 (observation noise; rewards read the true state) and ``delay`` (actuation delay in sample
-periods). All randomness comes from ``reset(seed=...)``.
+periods), or instead of these ``challenge`` (a level of :data:`twolink.challenges.LEVELS`,
+``'easy'``, ``'medium'``, ``'hard'``, or a :class:`twolink.challenges.Challenge`): a new
+plant every episode, its delays, noise and dropped/stuck readings. All randomness comes
+from ``reset(seed=...)``: per episode the plant, then x0, then at every observation the
+noise and the reading faults.
 """
 from __future__ import annotations
 
@@ -46,12 +50,13 @@ from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink import mjcf
 from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
-from twolink.perturbations import ActuationDelay, ObservationNoise
+from twolink.perturbations import ActuationDelay, Sensors
 from twolink.plants import MujocoPlant, check_states
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import steps_for
-from twolink.tasks import (OBSERVATION_NAMES, check_action, check_reset_options, check_x0,
-                           initial_state, observe, perturbed_params)
+from twolink.tasks import (OBSERVATION_NAMES, check_action, check_challenge,
+                           check_reset_options, check_x0, initial_state, observe,
+                           perturbed_params)
 
 #: The agents, one per joint; agent ``linkI`` is agent I of (17)-(18).
 AGENTS = tuple(f"link{i}" for i in range(1, len(mjcf.JOINTS) + 1))
@@ -104,7 +109,8 @@ class ParallelArm(pettingzoo.ParallelEnv):
     def __init__(self, *, x0="paper", params: ArmParameters = TABLE_I, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
                  reward: str = "individual", link1_tau2: str = "none",
-                 time_limit: float = HORIZON, render_mode: str | None = None):
+                 time_limit: float = HORIZON, render_mode: str | None = None,
+                 challenge=None):
         if not isinstance(params, ArmParameters):
             raise ValueError(f"params must be ArmParameters, got {params!r}")
         if link1_tau2 == "current":
@@ -126,11 +132,14 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._x0 = self._check_x0(x0, params)
         # Check the remaining options now (with a throw-away generator), not at reset.
         perturbed_params(params, perturbation, np.random.default_rng(0))
-        ObservationNoise(angle_noise, speed_noise, rngs=[None])
+        Sensors(angle_noise, speed_noise, rngs=[None])
         ActuationDelay(None, delay)
+        self._challenge = check_challenge(challenge, perturbation=perturbation,
+                                          angle_noise=angle_noise, speed_noise=speed_noise,
+                                          delay=delay)
         self._base, self._perturbation = params, perturbation
         self._noise_std = (float(angle_noise), float(speed_noise))
-        self._delay = delay
+        self._delay = delay if self._challenge is None else self._challenge.action_delay
         self.render_mode = render_mode
 
         self.possible_agents = list(AGENTS)
@@ -177,13 +186,16 @@ class ParallelArm(pettingzoo.ParallelEnv):
             raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)
-        params = perturbed_params(self._base, self._perturbation, self._rng)
+        ch = self._challenge
+        params = (ch.plant(self._rng, self._base) if ch is not None
+                  else perturbed_params(self._base, self._perturbation, self._rng))
         x = initial_state(x0, self._rng)
         if self._plant is None or params != self.params:
             self._close_plant()
             self._plant = MujocoPlant(params, nthread=1)
         self.params, self._x, self._k = params, x, 0
-        self._noise = ObservationNoise(*self._noise_std, rngs=[self._rng])
+        self._noise = (ch.sensors(rngs=[self._rng]) if ch is not None
+                       else Sensors(*self._noise_std, rngs=[self._rng]))
         self._delay_line = ActuationDelay(lambda u: u, self._delay)
         self._last = np.zeros(len(AGENTS))
         self._applied = np.zeros(len(AGENTS))

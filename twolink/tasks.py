@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from twolink.challenges import Challenge, challenge as challenge_named
 from twolink.parameters import PAPER_X0, STATE_NAMES, ArmParameters
 from twolink.perturbations import perturbed, random_perturbation
 from twolink.plants import check_states
@@ -80,6 +81,21 @@ def perturbed_params(params: ArmParameters, perturbation, random) -> ArmParamete
         return random_perturbation(random, float(perturbation), base=params)
     raise ValueError(f"perturbation must be a dict of relative changes or a size in [0, 1), "
                      f"got {perturbation!r}")
+
+
+def check_challenge(challenge, **separate) -> Challenge | None:
+    """The ``challenge`` option of an environment: None, or the
+    :class:`twolink.challenges.Challenge` it names (``'easy'``, ``'medium'``, ``'hard'``,
+    ...). A challenge sets the plant, delays and noise itself, so a ValueError when any of
+    the ``separate`` options (``perturbation``, noise levels, ``delay``) is also given."""
+    if challenge is None:
+        return None
+    given = [k for k, v in separate.items()
+             if (v is not None if k == "perturbation" else v != 0)]
+    if given:
+        raise ValueError(f"give either challenge or {', '.join(given)}: a challenge sets the "
+                         f"plant, delays and noise itself")
+    return challenge_named(challenge)
 
 
 def observe(x: np.ndarray, key: str) -> np.ndarray:
