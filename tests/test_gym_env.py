@@ -15,6 +15,7 @@ from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 from twolink import gym_env
+from twolink.challenges import LEVELS, Challenge
 from twolink.parameters import HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, TABLE_I, TS
 from twolink.perturbations import perturbed
 from twolink.plants import MujocoPlant
@@ -24,6 +25,9 @@ from twolink.synthesis import centralized_actions
 README = Path(__file__).resolve().parent.parent / "README.md"
 IDS = (gym_env.ENV_ID, gym_env.DISCRETE_ID)
 CHALLENGES = dict(x0="random", angle_noise=0.02, speed_noise=0.05, perturbation=0.2, delay=1)
+#: Every part of a challenge on, faults frequent enough to fire within a few steps.
+HARSH = Challenge("harsh", spread=0.3, torque_limit=-0.2, action_delay=1, observation_delay=2,
+                  angle_noise_deg=1.0, speed_noise=0.05, dropout=0.3, stuck=0.1)
 
 
 def _drive(env, policy, **reset):
@@ -289,12 +293,15 @@ def test_close_frees_the_renderer_and_the_plant():
         vec.step(np.zeros((2, 2)))
 
 
-@pytest.mark.parametrize("actions", gym_env.ACTIONS)
-def test_vector_env_equals_n_single_envs(actions):
+@pytest.mark.parametrize("actions, options", [
+    ("box", CHALLENGES), ("discrete", CHALLENGES), ("box", dict(x0="random", challenge=HARSH))],
+    ids=["box", "discrete", "challenge"])
+def test_vector_env_equals_n_single_envs(actions, options):
     """The batched vector environment against Gymnasium's SyncVectorEnv over single
     environments (one plant each), bit for bit, across next-step autoresets, with every
-    challenge on and a per-episode random plant."""
-    n, kwargs = 4, dict(actions=actions, time_limit=0.3, **CHALLENGES)
+    perturbation on and a per-episode random plant (also a challenge's: observation
+    delay, dropped and stuck readings)."""
+    n, kwargs = 4, dict(actions=actions, time_limit=0.3, **options)
     vec = gym_env.TwoLinkVectorEnv(n, nthread=2, **kwargs)
     ref = SyncVectorEnv([lambda: gym_env.TwoLinkEnv(**kwargs) for _ in range(n)])
     assert vec.single_action_space == ref.single_action_space
@@ -392,3 +399,71 @@ def test_vector_env_size_is_bounded_before_allocating(n):
     with pytest.raises(ValueError, match=f"num_envs must be a whole number from 1 to "
                                          f"{gym_env.MAX_ENVS}"):
         gym_env.TwoLinkVectorEnv(n)
+
+
+# --------------------------------------------------------------------------- challenges
+def test_a_noise_only_challenge_is_the_noise_options():
+    """One implementation: a challenge's noise is the angle_noise/speed_noise option's."""
+    ch = Challenge("noise", angle_noise_deg=2.0, speed_noise=0.03)
+    a = gym_env.TwoLinkEnv(challenge=ch, x0="random")
+    b = gym_env.TwoLinkEnv(angle_noise=np.deg2rad(2.0), speed_noise=0.03, x0="random")
+    oa, ob = a.reset(seed=3)[0], b.reset(seed=3)[0]
+    np.testing.assert_array_equal(oa, ob)
+    assert not np.array_equal(oa, a.unwrapped.state)
+    for _ in range(4):
+        np.testing.assert_array_equal(a.step(np.array([0.1, -0.05]))[0],
+                                      b.step(np.array([0.1, -0.05]))[0])
+    a.close(), b.close()
+
+
+def test_challenge_plant_delays_and_late_readings_against_a_reference(centralized):
+    """Under a challenge with no noise: the plant drawn from the episode's generator, the
+    torque one sample late, the observation the true state of two samples ago."""
+    ch = Challenge("late", spread=0.2, torque_limit=-0.3, action_delay=1, observation_delay=2)
+    env = gym_env.TwoLinkEnv(challenge=ch, time_limit=1.0)
+    obs, _ = env.reset(seed=5)
+    from gymnasium.utils import seeding
+    rng = seeding.np_random(5)[0]                       # the episode's generator
+    changes = rng.uniform(-0.2, 0.2, 10)
+    plant = TABLE_I.scaled(**{n: 1 + c for n, c in zip(
+        ("l1", "l2", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2"), changes)},
+        tau1_max=0.7, tau2_max=0.7)
+    assert env.unwrapped.plant.params[0] == plant
+    assert env.action_space.high.tolist() == TABLE_I.tau_max.tolist()   # the nominal levels
+    xs, seen, us = [env.unwrapped.state], [obs], []
+    for _ in range(20):
+        u = centralized(obs)
+        obs, *_ = env.step(u)
+        xs.append(env.unwrapped.state)
+        seen.append(obs)
+        us.append(u)
+    with MujocoPlant(plant, nthread=1) as mj:
+        x = xs[0]
+        for k in range(20):
+            x = mj.step(x, us[k - 1] if k else np.zeros(2))
+            np.testing.assert_array_equal(x, xs[k + 1], err_msg=k)
+    for k, o in enumerate(seen):
+        np.testing.assert_array_equal(o, xs[max(0, k - 2)], err_msg=k)
+    env.close()
+
+
+@pytest.mark.parametrize("level", list(LEVELS))
+def test_every_level_runs_and_is_deterministic(level):
+    def run():
+        env = gym_env.TwoLinkEnv(challenge=level, x0="random", time_limit=0.5)
+        out = [env.reset(seed=9)[0]] + [env.step(np.array([0.2, -0.1]))[0] for _ in range(10)]
+        env.close()
+        return np.array(out)
+    np.testing.assert_array_equal(run(), run())
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(challenge="medium", delay=1), "either challenge or delay"),
+    (dict(challenge="hard", perturbation=0.1), "either challenge or perturbation"),
+    (dict(challenge="hard", angle_noise=0.1, speed_noise=0.1), "angle_noise, speed_noise"),
+    (dict(challenge="brutal"), "unknown challenge 'brutal'; choose one of none, easy"),
+])
+def test_bad_challenge_options_refused(kwargs, message):
+    for make in (gym_env.TwoLinkEnv, lambda **kw: gym_env.TwoLinkVectorEnv(2, **kw)):
+        with pytest.raises(ValueError, match=re.escape(message)):
+            make(**kwargs)
