@@ -13,7 +13,8 @@ import pytest
 from twolink import cli
 from twolink import env as twolink_env
 from twolink.parameters import HORIZON, PAPER_X0, REWARD_GOAL, REWARD_OTHER, TABLE_I, TS
-from twolink.perturbations import perturbed
+from twolink.challenges import Challenge
+from twolink.perturbations import PHYSICAL, perturbed
 from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
 from twolink.reward import agent_reward
@@ -334,3 +335,58 @@ def _dm_env_contract(task):
 
 TestDmEnvContractCentralized = _dm_env_contract("centralized")
 TestDmEnvContractDecentralized = _dm_env_contract("decentralized")
+
+
+# --------------------------------------------------------------------------- challenges
+_LATE = Challenge("late", spread=0.2, torque_limit=-0.3, action_delay=2, observation_delay=1)
+
+
+def test_challenge_plant_delays_and_late_readings_against_a_reference():
+    """One plant drawn from the seed's RandomState (PHYSICAL order), the nominal action
+    spec, torques two samples late, the observation the state of one sample ago."""
+    env = twolink_env.load("centralized", seed=4, challenge=_LATE, time_limit=1.0)
+    changes = np.random.RandomState(4).uniform(-0.2, 0.2, 10)
+    plant = TABLE_I.scaled(**dict(zip(PHYSICAL, 1 + changes)), tau1_max=0.7, tau2_max=0.7)
+    assert env.task.params == plant
+    assert env.action_spec().maximum.tolist() == TABLE_I.tau_max.tolist()
+    rng = np.random.default_rng(0)
+    ts = env.reset()
+    xs, seen, us = [env.physics.state()], [ts.observation["state"]], []
+    while not ts.last():
+        us.append(rng.uniform(-TABLE_I.tau_max, TABLE_I.tau_max))
+        ts = env.step(us[-1])
+        xs.append(env.physics.state())
+        seen.append(ts.observation["state"])
+    with MujocoPlant(plant, nthread=1) as mj:     # the plant clips to its own limits
+        x = xs[0]
+        for k in range(len(us)):
+            x = mj.step(x, us[k - 2] if k >= 2 else np.zeros(2))
+            np.testing.assert_array_equal(x, xs[k + 1], err_msg=k)
+    for k, o in enumerate(seen):
+        np.testing.assert_array_equal(o, xs[max(0, k - 1)], err_msg=k)
+    # a second episode starts afresh: no torque of the first arrives
+    env.reset()
+    x0 = env.physics.state()
+    env.step(TABLE_I.tau_max)
+    with MujocoPlant(plant, nthread=1) as mj:
+        np.testing.assert_array_equal(env.physics.state(), mj.step(x0, np.zeros(2)))
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_challenge_levels_deterministic_under_a_seed(task):
+    def run(seed):
+        env = twolink_env.load(task, seed=seed, challenge="hard", x0="random", time_limit=1.0)
+        ts, _ = _episode(env, _random_actions(env, np.random.default_rng(1)))
+        return env.task.params, [np.concatenate(list(t.observation.values())) for t in ts]
+    (p1, o1), (p2, o2), (p3, _) = run(3), run(3), run(4)
+    assert p1 == p2 and p1 != p3
+    np.testing.assert_array_equal(np.array(o1), np.array(o2))
+
+
+def test_challenge_refused_beside_the_separate_options():
+    with pytest.raises(ValueError, match="either challenge or perturbation"):
+        twolink_env.load("centralized", challenge="easy", perturbation=0.1)
+    with pytest.raises(ValueError, match="either challenge or angle_noise"):
+        twolink_env.load("centralized", challenge="easy", angle_noise=0.1)
+    with pytest.raises(ValueError, match="unknown challenge"):
+        twolink_env.load("centralized", challenge="extreme")

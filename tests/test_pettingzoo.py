@@ -18,7 +18,8 @@ from twolink import env as twolink_env
 from twolink import mjcf
 from twolink import pettingzoo as tpz
 from twolink.parameters import PAPER_X0, REWARD_GOAL, TABLE_I
-from twolink.perturbations import ActuationDelay, perturbed
+from twolink.challenges import Challenge
+from twolink.perturbations import ActuationDelay, ObservationDelay, perturbed
 from twolink.plants import MujocoPlant
 from twolink.render import Renderer
 from twolink.reward import agent_reward, centralized_reward
@@ -424,3 +425,47 @@ def test_readme_example_runs():
     namespace = {}
     exec(compile(blocks[0], "README.md (PettingZoo example)", "exec"), namespace)
     assert all(namespace["truncations"].values())           # the episode ran to its end
+
+
+# --------------------------------------------------------------------------- challenges
+def test_challenge_deterministic_under_a_seed_and_a_new_plant_each_episode():
+    runs = []
+    for seed in (7, 7, 8):
+        env = tpz.parallel_env(x0="random", challenge="hard")
+        obs, _ = env.reset(seed=seed)
+        seen = [obs]
+        for _ in range(20):
+            obs, *_ = env.step({a: env.action_space(a).high * 0.5 for a in env.agents})
+            seen.append(obs)
+        first = env.params
+        env.reset()
+        runs.append((first, env.params, env.state(), seen))
+        env.close()
+    (p7, n7, x7, o7), (q7, _, y7, s7), (p8, _, _, _) = runs
+    assert p7 == q7 and p7 != p8 and p7 != n7
+    assert p7.tau2_max == pytest.approx(0.8 * TABLE_I.tau2_max)
+    np.testing.assert_array_equal(x7, y7)
+    for a, b in zip(o7, s7):
+        for agent in tpz.AGENTS:
+            np.testing.assert_array_equal(a[agent], b[agent])
+
+
+def test_challenge_delays_against_rollout(decentralized):
+    """Torque one sample late, readings two samples late: the env's states equal a rollout
+    with those delays on the episode's plant."""
+    ch = Challenge("late", spread=0.1, action_delay=1, observation_delay=2)
+    env = tpz.parallel_env(challenge=ch, time_limit=2.0)
+    xs, _, _ = _drive(env, decentralized)
+    late = ObservationDelay(2)
+    with MujocoPlant(env.params, nthread=1) as plant:
+        traj = rollout(ActuationDelay(decentralized, 1), plant, np.array(PAPER_X0),
+                       duration=2.0, observe=lambda k, x: late(x))
+    np.testing.assert_array_equal(xs, traj.x)
+    assert np.all(traj.u[0] == 0.0) and np.any(traj.u[1] != 0.0)
+
+
+def test_challenge_refused_beside_the_separate_options():
+    with pytest.raises(ValueError, match="either challenge or delay"):
+        tpz.parallel_env(challenge="medium", delay=1)
+    with pytest.raises(ValueError, match="unknown challenge"):
+        tpz.parallel_env(challenge=3)
