@@ -6,9 +6,11 @@ import time
 import numpy as np
 import pytest
 
+from twolink.challenges import LEVELS
 from twolink.cli import main
+from twolink.formatting import format_rate
 from twolink.metrics import evaluation_set, settle_time, success, wilson_interval
-from twolink.mismatch import THRESHOLD, margin, margins, robustness
+from twolink.mismatch import THRESHOLD, counts, margin, margins, robustness
 from twolink.mismatch_plan import CURVES, FAMILIES, PLANS, plan, report_order
 from twolink.mismatch_report import robustness_tables
 from twolink.registry import SHIPPED
@@ -16,7 +18,10 @@ from twolink.sweep_store import SweepFile, load_results
 from twolink.parameters import TABLE_I
 from twolink.plants import MujocoPlant, make_plant
 from twolink.policy import load_policy
+from twolink.robustness import evaluate
+from twolink.robustness_study import MODES, summarize
 from twolink.rollout import rollout
+from twolink.sweeps import states_of
 
 pytestmark = pytest.mark.robustness
 
@@ -61,6 +66,23 @@ def test_margin_definition():
     m = margins({"p": {"nominal": 1.0, "parameter:m1": {0.0: 1.0, 0.5: 1.0},
                        "parameter:m2": {0.0: 1.0, 0.5: 0.2}, "noise": {0.0: 1.0, 1.0: 1.0}}})
     assert m["p"]["every_parameter_alone"] == 0.0 and m["p"]["noise"] == 1.0
+    assert "joint_lower_bound" not in m["p"]
+
+
+def test_joint_margin_by_wilson_lower_bound_tells_neighbouring_sizes_apart():
+    """At 96.5 % success, 4 plants x 65 states cannot show the size clears 95 %;
+    32 plants x 65 states can. The rate rule says 0.2 either way."""
+    rates = {0.0: 1.0, 0.1: 0.985, 0.2: 0.965, 0.3: 0.9}
+
+    def margins_for(n):
+        kn = {s: [round(r * n), n] for s, r in rates.items()}
+        curves = {"p": {"nominal": 1.0, "joint": {s: k / n for s, (k, n) in kn.items()}}}
+        return margins(curves, counted={"p": {"joint": kn}})["p"]
+
+    few, many = margins_for(4 * 65), margins_for(32 * 65)
+    assert few["joint"] == many["joint"] == 0.2
+    assert wilson_interval(251, 260)[0] < THRESHOLD < wilson_interval(2007, 2080)[0]
+    assert few["joint_lower_bound"] == 0.1 and many["joint_lower_bound"] == 0.2
 
 
 def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
@@ -85,8 +107,12 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     assert len(records) == report["robustness"]["cells"] == len(PLANS["quick"].cells(
         ["centralized", "centralized_full"]))
     curves = robustness(records, ["centralized", "centralized_full"])
+    counted = counts(records, ["centralized", "centralized_full"])
     assert report["robustness"]["curves"] == json.loads(json.dumps(curves))
-    assert printed["margins"] == json.loads(json.dumps(margins(curves)))
+    assert printed["margins"] == json.loads(json.dumps(margins(curves, counted=counted)))
+    joint = counted["centralized_full"]["joint"]
+    assert joint[0.2][1] == PLANS["quick"].joint_draws * PLANS["quick"].sweep_states()
+    assert joint[0.2][0] / joint[0.2][1] == curves["centralized_full"]["joint"][0.2]
     for pol, m in printed["margins"].items():
         nominal = curves[pol]["nominal"]
         assert (m["joint"] is None) == (nominal < THRESHOLD), pol
@@ -114,10 +140,29 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
         assert 0 <= w["successes"] <= w["states"] and w["plants"] >= 1
         assert w["successes"] / w["states"] <= \
             report["robustness"]["curves"]["centralized_full"]["joint"][size] + 1e-12
+        assert w["worst_return"] <= w["mean_return"] + 1e-12
     assert f"{100 * g['success_mujoco_full_model_policy']:.1f} %" in md
     # every table lists the policies in registry order
     tables = [t for t in md.split("\n\n") if t.startswith(("| policy", "| paper policy"))]
-    assert len(tables) == 5   # closed loop, gap closure, two margin tables, worst plants
+    assert len(tables) == 6   # closed loop, gap closure, two margins, joint sizes, robust
+    # the robust section: every policy x level x mode, each one evaluate() call
+    rs = report["robust"]
+    assert sorted(rs["results"]) == ["centralized", "centralized_full"]   # json sorts keys
+    assert all(sorted(d) == sorted(LEVELS) and all(sorted(m) == sorted(MODES)
+                                                   for m in d.values())
+               for d in rs["results"].values())
+    direct = evaluate("centralized_full", x0=states_of("quick"), seed=quick.robust_seed,
+                      count=quick.robust_plants, challenge="medium", compensate=True)
+    mine = rs["results"]["centralized_full"]["medium"]["compensated"]
+    assert mine == json.loads(json.dumps(summarize(direct)))
+    assert (mine["successes"], mine["runs"]) == (direct.count, 4 * 5)
+    assert printed["robust"]["centralized_full"]["medium"]["compensated"] == [direct.count, 20]
+    plain = evaluate("centralized_full", x0=states_of("quick"), seed=quick.robust_seed,
+                     count=quick.robust_plants, challenge="medium", compensate=False)
+    assert rs["results"]["centralized_full"]["medium"]["plain"]["successes"] == plain.count
+    assert plain.count < direct.count          # one sample of delay undone by the predictor
+    assert rs["results"]["centralized"]["none"]["plain"]["plants"] == 1   # deterministic
+    assert f"| centralized_full | medium | compensated | {format_rate(direct.count, 20)} |" in md
     for table in tables:
         names = [line.split("|")[1].strip() for line in table.splitlines()[2:]]
         ranks = [list(SHIPPED).index(n) for n in names]

@@ -6,8 +6,11 @@
    settle-time distribution, return, trajectory gap to MuJoCo;
 3. closing the gap - the policies synthesised on (6) against the paper's, on MuJoCo;
 4. robustness - the sweep of a :mod:`twolink.mismatch_plan` plan (:mod:`twolink.sweeps`)
-   and a margin per policy and family;
-5. throughput of the batched closed loop (:mod:`twolink.throughput`).
+   and a margin per policy and family (with its counts, Wilson intervals, the worst of
+   the random plants and the worst-case return of each joint size);
+5. the robust section - every policy under every challenge level, with and without
+   run-time compensation (:mod:`twolink.robustness_study`);
+6. throughput of the batched closed loop (:mod:`twolink.throughput`).
 
 Everything here returns data (plain dicts, JSON-ready, in a fixed order: policies in
 registry order, families and parameters in :data:`twolink.mismatch_plan.CURVES` order,
@@ -27,13 +30,14 @@ from twolink import dynamics
 from twolink.artifacts import provenance
 from twolink.integrate import integration_error
 from twolink.metrics import (discounted_return, evaluation_set, settle_time, success,
-                             trajectory_gap)
+                             trajectory_gap, wilson_interval)
 from twolink.mismatch_plan import CURVES, UNITS, Plan, report_order
 from twolink.model_error import one_step_error
 from twolink.parameters import HORIZON, TABLE_I
 from twolink.plants import PLANTS, MujocoPlant, make_plant
 from twolink.policy import load_policy
 from twolink.registry import COUNTERPART
+from twolink.robustness_study import study
 from twolink.rollout import rollout
 from twolink.sweep_store import SweepFile
 from twolink.sweeps import policy_digest, run_sweep
@@ -143,12 +147,42 @@ def robustness(results: dict, policies) -> dict:
     return curves
 
 
+def counts(results: dict, policies) -> dict:
+    """``[successes, rows]`` per policy, curve and size, in the order of :func:`robustness`
+    (a joint size counts every state of every one of its random plants)."""
+    points: dict = {}
+    for rec in results.values():
+        c = rec["cell"]
+        if c["policy"] not in policies:
+            continue
+        key = f"parameter:{c['name']}" if c["family"] == "parameter" else c["family"]
+        ok = rec["successes"]
+        points.setdefault(c["policy"], {}).setdefault(key, {})[float(c["size"])] = \
+            [int(sum(ok)), len(ok)]
+    out = {}
+    for pol in report_order(points):
+        fams = points[pol]
+        nominal = fams.get("nominal", {}).get(0.0)
+        out[pol] = {}
+        for key in CURVES:
+            if key in fams:
+                pts = dict(fams[key])
+                if nominal is not None:
+                    pts.setdefault(0.0, nominal)
+                out[pol][key] = {s: pts[s] for s in sorted(pts)}
+        out[pol]["nominal"] = nominal
+    return out
+
+
 def worst_plants(results: dict, policies) -> dict:
     """Joint-perturbation cells: the worst of their random plants, per policy and size.
 
     A joint cell's rows are its plants (outer) by its initial states (inner); each plant's
     success is counted over its own states, and the plant with the fewest successes is
-    reported as ``{"plant": index, "successes": k, "states": n, "plants": draws}``.
+    reported as ``{"plant": index, "successes": k, "states": n, "plants": draws}``, beside
+    the worst-case return (the lowest discounted return of any row, as
+    :attr:`twolink.robustness.Evaluation.worst_return`) and the mean return over every
+    row (robust-RL benchmarks report both).
     """
     out: dict = {}
     for rec in results.values():
@@ -160,7 +194,8 @@ def worst_plants(results: dict, policies) -> dict:
         worst = int(np.argmin(k))
         out.setdefault(c["policy"], {})[float(c["size"])] = {
             "plant": worst, "successes": int(k[worst]), "states": int(ok.shape[1]),
-            "plants": int(c["draws"])}
+            "plants": int(c["draws"]), "worst_return": float(min(rec["returns"])),
+            "mean_return": float(rec["mean_return"])}
     return {pol: {s: out[pol][s] for s in sorted(out[pol])} for pol in report_order(out)}
 
 
@@ -177,25 +212,37 @@ def margin(curve: dict, threshold: float = THRESHOLD):
     return best
 
 
-def margins(curves: dict, threshold: float = THRESHOLD) -> dict:
+def margins(curves: dict, threshold: float = THRESHOLD, counted: Optional[dict] = None) -> dict:
     """Margin per policy and curve, and ``every_parameter_alone`` (the smallest of those
-    of single parameters; None if any is None)."""
+    of single parameters; None if any is None).
+
+    With ``counted`` (:func:`counts`), also ``joint_lower_bound``: the joint margin by the
+    rule applied to the lower end of each size's 95 % Wilson interval instead of its rate,
+    so a size counts only when its success is known to clear the threshold.
+    """
     out = {}
     for pol, fams in curves.items():
         m = {key: margin(pts, threshold) for key, pts in fams.items() if key != "nominal"}
         params = [m[k] for k in m if k.startswith("parameter:")]
         m["every_parameter_alone"] = (None if any(v is None for v in params) else
                                       min(params)) if params else None
+        joint = (counted or {}).get(pol, {}).get("joint")
+        if joint:
+            m["joint_lower_bound"] = margin(
+                {s: wilson_interval(*kn)[0] for s, kn in joint.items()}, threshold)
         out[pol] = m
     return out
 
 
 # --------------------------------------------------------------------------- the report
 def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="local",
-          workers=None, address=None, nthread=None, log=None,
-          progress: bool = False) -> tuple[dict, dict]:
-    """Measure 1-5 under ``plan``; returns the JSON-ready report and the plot data
-    (one-step errors, settle times). Sweep results go to ``store`` when given."""
+          workers=None, address=None, nthread=None, log=None, progress: bool = False,
+          robust: bool = True, levels=None, seed: Optional[int] = None
+          ) -> tuple[dict, dict]:
+    """Measure 1-5 and the robust section under ``plan``; returns the JSON-ready report
+    and the plot data (one-step errors, settle times). Sweep results go to ``store`` when
+    given. The robust section (:mod:`twolink.robustness_study`) runs every challenge
+    level, or ``levels``, from the plan's seed, or ``seed``; ``robust=False`` leaves it out."""
     policies = report_order(policies)
     loaded = {name: load_policy(name) for name in policies}      # bad names fail first
     digests = {name: policy_digest(p) for name, p in loaded.items()}
@@ -216,6 +263,13 @@ def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="
     results = run_sweep(cells, store=store, executor=executor, workers=workers,
                         address=address, progress=progress, digests=digests)
     curves = robustness(results, policies)
+    counted = counts(results, policies)
+    if robust:
+        stage("robust")
+        section, robust_settle = study(policies, plants=plan.robust_plants,
+                                       states=plan.robust_states,
+                                       seed=plan.robust_seed if seed is None else seed,
+                                       levels=levels, progress=progress)
     stage("throughput")
     x0 = np.tile(evaluation_set(), (math.ceil(plan.throughput_rows / 65), 1))
     tp = measure(load_policy(plan.throughput_policy), x0[:plan.throughput_rows],
@@ -231,9 +285,13 @@ def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="
         "open_loop": ol, "closed_loop": cl, "gap_closure": gap_closure(cl),
         "robustness": {"threshold": THRESHOLD, "sizes": dict(plan.sizes), "units": UNITS,
                        "joint_draws": plan.joint_draws, "cells": len(cells), "curves": curves,
-                       "margins": margins(curves),
+                       "counts": counted, "margins": margins(curves, counted=counted),
                        "joint_worst_plant": worst_plants(results, policies)},
         "throughput": tp.as_dict(), "policy_digests": digests,
+        **({"robust": section} if robust else {}),
         "seconds": time.perf_counter() - t_start, "stage_seconds": stage_seconds,
         "provenance": provenance()}
-    return report, {"error": err, "settle": settle}
+    data = {"error": err, "settle": settle}
+    if robust:
+        data["robust_settle"] = robust_settle
+    return report, data

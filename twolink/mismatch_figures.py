@@ -117,3 +117,47 @@ def robustness_figure(report: dict, keys, path: Path, title: str) -> str:
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def robust_figure(section: dict, settle: dict, path: Path) -> str:
+    """The robust section: success with its 95 % Wilson interval per policy, level and
+    mode (top row), and the settle-time distribution under each level (bottom row; solid
+    with compensation, dashed without)."""
+    res, levels = section["results"], list(section["levels"])
+    pols, modes = list(res), section["modes"]
+    fig, axes = plt.subplots(2, len(levels), figsize=(3.9 * len(levels), 7.2), squeeze=False)
+    w = 0.8 / len(modes)
+    for col, level in enumerate(levels):
+        a, b = axes[0, col], axes[1, col]
+        for j, mode in enumerate(modes):
+            rates = [res[p][level][mode]["rate"] for p in pols]
+            lo = [r - res[p][level][mode]["wilson95"][0] for p, r in zip(pols, rates)]
+            hi = [res[p][level][mode]["wilson95"][1] - r for p, r in zip(pols, rates)]
+            a.bar(np.arange(len(pols)) + (j - (len(modes) - 1) / 2) * w, rates, w,
+                  yerr=[lo, hi], capsize=2, color=[policy_color(p) for p in pols],
+                  alpha=1.0 if mode == "compensated" else 0.45,
+                  hatch="" if mode == "compensated" else "//", label=mode)
+        a.set_xticks(range(len(pols)), pols, rotation=35, ha="right", fontsize=7)
+        a.set_ylim(0, 1.05)
+        a.set_title(f"{level}: success [95 % Wilson]", fontsize=9)
+        for p in pols:
+            for mode in modes:
+                st = np.sort(settle[(p, level, mode)])
+                frac = np.arange(1, len(st) + 1) / len(st)
+                fin = np.isfinite(st)
+                b.step(np.append(st[fin], HORIZON),
+                       np.append(frac[fin], frac[fin][-1] if fin.any() else 0.0),
+                       "-" if mode == "compensated" else "--", color=policy_color(p),
+                       where="post", lw=1.0, label=f"{p} ({mode})")
+        b.set_xlim(0, HORIZON)
+        b.set_ylim(0, 1.02)
+        b.set_xlabel("settle time [s]")
+        b.set_title(f"{level}: settle-time distribution", fontsize=9)
+    axes[0, 0].set_ylabel("success rate (hatched: plain)")
+    axes[1, 0].set_ylabel("fraction of rows settled")
+    axes[1, -1].legend(fontsize=5, ncol=1, loc="lower right")
+    fig.suptitle(f"robust section: {section['plants']} plants per random level x "
+                 f"{section['states']} states, seed {section['seed']}; solid/opaque: "
+                 "compensated", fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -1,8 +1,11 @@
 """What the model-mismatch report measures: named plans, each one row of :data:`PLANS`.
 
 A plan names the sweep's perturbation sizes per family, the evaluation states of every
-sweep cell, the random plants per joint size and the throughput batch. ``full`` is the
-committed report; ``quick`` is the CI form (5 states per cell, fewer sizes).
+sweep cell, the random plants per joint size, the robust section (random plants per
+challenge level, its evaluation set and the seed its plants and noise are drawn from) and
+the throughput batch. ``full`` is the committed report (32 random plants per joint size
+and per challenge level, all 65 states); ``quick`` is the CI form (5 states per cell,
+fewer sizes, 4 plants per joint size and per level: its margins are coarse).
 """
 from __future__ import annotations
 
@@ -18,6 +21,9 @@ FAMILIES = ("parameter", "joint", "noise", "delay", "torque_limit")
 #: What a family's size measures.
 UNITS = {"parameter": "relative change", "joint": "relative change (each parameter)",
          "noise": "angle noise std [deg]", "delay": "samples", "torque_limit": "relative change"}
+#: Seed of the robust section's plants and noise. Chosen once for the report and used for
+#: nothing else: no policy, compensator or challenge level was tuned on it.
+ROBUST_SEED = 9_061_127
 #: Curves of the robustness analysis, in report order: one per parameter, then the rest.
 CURVES = tuple(f"parameter:{n}" for n in PERTURBABLE) + FAMILIES[1:]
 
@@ -31,6 +37,9 @@ class Plan:
     states: str                        # a twolink.sweeps.STATE_SETS name
     sizes: Mapping[str, tuple]         # perturbation sizes per family of FAMILIES
     joint_draws: int                   # random plants per joint size
+    robust_plants: int                 # random plants per challenge level (robust section)
+    robust_states: str                 # its evaluation set (a STATE_SETS name)
+    robust_seed: int                   # its plants' and noise seed: never tuned on
     throughput_rows: int               # closed-loop rollouts timed against open-loop MuJoCo
     throughput_samples: int
     throughput_repeats: int
@@ -59,11 +68,13 @@ PLANS = {p.name: p for p in (
          {"parameter": (-0.5, -0.2, -0.1, 0.1, 0.2, 0.5), "joint": (0.1, 0.2, 0.3, 0.5),
           "noise": (0.25, 0.5, 1.0, 2.0, 5.0), "delay": (1.0, 2.0),
           "torque_limit": (-0.5, -0.3, -0.2, -0.1, 0.2)},
-         joint_draws=4, throughput_rows=520, throughput_samples=100, throughput_repeats=3),
+         joint_draws=32, robust_plants=32, robust_states="full", robust_seed=ROBUST_SEED,
+         throughput_rows=520, throughput_samples=100, throughput_repeats=3),
     Plan("quick", "mismatch-quick", "quick",
          {"parameter": (-0.5, 0.5), "joint": (0.2,), "noise": (2.0,), "delay": (1.0,),
           "torque_limit": (-0.5,)},
-         joint_draws=2, throughput_rows=130, throughput_samples=20, throughput_repeats=2),
+         joint_draws=4, robust_plants=4, robust_states="quick", robust_seed=ROBUST_SEED,
+         throughput_rows=130, throughput_samples=20, throughput_repeats=2),
 )}
 
 

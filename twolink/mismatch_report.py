@@ -8,7 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from twolink.artifacts import write_json, write_text
-from twolink.mismatch_figures import closed_loop_figure, heatmap_figure, robustness_figure
+from twolink.mismatch_figures import (closed_loop_figure, heatmap_figure, robust_figure,
+                                      robustness_figure)
 from twolink.mismatch_plan import CURVES, FAMILIES
 from twolink.formatting import format_rate
 from twolink.perturbations import PERTURBABLE
@@ -24,6 +25,11 @@ def summary(report: dict) -> dict:
             "integration_error_full": report["open_loop"]["integration_error_full"],
             "gap_closure": report["gap_closure"],
             "margins": report["robustness"]["margins"],
+            "robust": ({p: {lv: {m: [r["successes"], r["runs"]] for m, r in d.items()}
+                            for lv, d in by.items()}
+                        for p, by in report["robust"]["results"].items()}
+                       if "robust" in report else None),
+            "targets": report["robust"]["targets"] if "robust" in report else None,
             "throughput": report["throughput"], "plan": report["plan"],
             "seconds": report["seconds"], "stage_seconds": report["stage_seconds"]}
 
@@ -43,29 +49,73 @@ def _table(header, rows) -> str:
 
 
 def robustness_tables(rb: dict) -> str:
-    """The margin tables: per family, then per parameter (policies as ``rb`` orders them)."""
-    fams = ("every_parameter_alone",) + FAMILIES[1:]
+    """The margin tables: per family, then per parameter, then every joint size with its
+    count, interval, worst plant and worst-case return (policies as ``rb`` orders them)."""
+    fams = ("every_parameter_alone",) + FAMILIES[1:2] + ("joint_lower_bound",) + FAMILIES[2:]
     rows = []
     for p, m in rb["margins"].items():
         rows.append([p, _pct(rb["curves"][p]["nominal"])] +
                     [_num(m.get(f), "{:g}", none="none") for f in fams])
     per_family = _table(("policy", "nominal success", "each parameter alone", "joint",
-                         "noise [deg]", "delay [samples]", "torque limit"), rows)
+                         "joint, Wilson lower bound", "noise [deg]", "delay [samples]",
+                         "torque limit"), rows)
     rows = []
     for p, m in rb["margins"].items():
         rows.append([p] + [_num(m.get(f"parameter:{n}"), "{:g}", none="none")
                            for n in PERTURBABLE])
     per_parameter = _table(["policy"] + list(PERTURBABLE), rows)
-    sizes = sorted({s for d in rb.get("joint_worst_plant", {}).values() for s in d})
-    rows = [[p] + [format_rate(w[s]["successes"], w[s]["states"]) if s in w else "-"
-                   for s in sizes]
-            for p, w in rb.get("joint_worst_plant", {}).items()]
-    worst = _table(["policy"] + [f"joint +-{s:g}" for s in sizes], rows)
-    return "\n".join([per_family, "", "Margin per parameter (relative change):", "",
-                      per_parameter, "",
-                      "Joint perturbations: success of the worst random plant of each size "
-                      "(k of its states, 95 % Wilson interval):", "",
-                      worst])
+    out = [per_family, "", "Margin per parameter (relative change):", "", per_parameter]
+    worst, counted = rb.get("joint_worst_plant", {}), rb.get("counts", {})
+    rows = []
+    for p, w in worst.items():
+        for size, v in w.items():
+            kn = counted.get(p, {}).get("joint", {}).get(size)
+            rows.append([p, f"+-{size:g}", format_rate(*kn) if kn else "-",
+                         format_rate(v["successes"], v["states"]),
+                         f"{v['mean_return']:.2f}", f"{v['worst_return']:.2f}"])
+    if rows:
+        out += ["", f"Joint perturbations, {rb.get('joint_draws', '?')} random plants per "
+                    "size: success over every state of every plant, the worst plant (k of its "
+                    "states), the mean return and the worst-case return (the lowest of any "
+                    "run):", "",
+                _table(("policy", "joint size", "success k/n [95 % Wilson]",
+                        "worst plant [95 % Wilson]", "mean return", "worst-case return"),
+                       rows)]
+    return "\n".join(out)
+
+
+def _challenge_row(name: str, ch: dict) -> list:
+    return [name, f"+-{100 * ch['spread']:g} %", f"{100 * ch['torque_limit']:+g} %",
+            ch["action_delay"], ch["observation_delay"], f"{ch['angle_noise_deg']:g}",
+            f"{ch['speed_noise']:g}", f"{100 * ch['dropout']:g} %", f"{100 * ch['stuck']:g} %"]
+
+
+def robust_tables(section: dict) -> str:
+    """The robust section's tables: the levels, every policy x level x mode, the targets."""
+    levels = _table(("level", "parameters (jointly)", "torque limits", "actuation delay",
+                     "observation delay", "angle noise [deg]", "speed noise [rad/s]",
+                     "dropped readings", "stuck readings"),
+                    [_challenge_row(n, ch) for n, ch in section["levels"].items()])
+    rows = []
+    for p, by_level in section["results"].items():
+        for level, by_mode in by_level.items():
+            for mode, r in by_mode.items():
+                worst = min(r["plant_successes"])
+                rows.append([p, level, mode, format_rate(r["successes"], r["runs"]),
+                             r["plants"], format_rate(worst, r["states"]),
+                             f"{r['mean_return']:.2f}", f"{r['worst_return']:.2f}",
+                             _num(r["median_settle"], "{:.2f}"),
+                             _num(r["p90_settle"], "{:.2f}")])
+    results = _table(("policy", "level", "run", "success k/n [95 % Wilson]", "plants",
+                      "worst plant [95 % Wilson]", "mean return", "worst-case return",
+                      "median settle [s]", "p90 settle [s]"), rows)
+    rows = [[t["target"], _num(t["value"], "{:.3f}", none="never"),
+             format_rate(t["successes"], t["runs"]), t["plants"],
+             "met" if t["met"] else "**missed**"] for t in section["targets"]]
+    checks = _table(("target", "measured", "success k/n [95 % Wilson]", "plants", "verdict"),
+                    rows) if rows else "No target policy was measured."
+    return "\n".join(["Challenge levels (twolink.challenges.LEVELS):", "", levels, "",
+                      results, "", "Targets of the issue, measured here:", "", checks])
 
 
 def markdown(report: dict, figures: dict, command: str) -> str:
@@ -136,11 +186,28 @@ def markdown(report: dict, figures: dict, command: str) -> str:
             f"such that every tested size up to it (both signs) keeps success >= "
             f"{100 * rb['threshold']:.0f} %; `none` = the policy falls short of that "
             "already on the nominal plant. Joint: all parameters at once, uniform in "
-            f"[-size, size], {rb['joint_draws']} random plants per size. Noise: angle std in "
+            f"[-size, size], {rb['joint_draws']} random plants per size; the column `joint, "
+            "Wilson lower bound` applies the same rule to the lower end of each size's 95 % "
+            "Wilson interval (a size counts only when its success is known to be >= "
+            f"{100 * rb['threshold']:.0f} %), so two neighbouring sizes count as different "
+            "only when the data tell them apart. Noise: angle std in "
             "degrees, speed std scaled so that 5 deg <-> 0.1 rad/s.", ""]
     out += [robustness_tables(rb), "",
             f"![robustness, parameters]({figures['robustness_parameters']})", "",
             f"![robustness, other]({figures['robustness_other']})", ""]
+    if "robust" in report:
+        rs = report["robust"]
+        out += ["## 5. Robust section: every policy under every challenge level", "",
+                f"Each policy on MuJoCo under each challenge level, {rs['plants']} random "
+                f"plants per level (one for a level that draws nothing) x {rs['states']} "
+                f"initial states, plants and noise drawn from seed {rs['seed']} (fixed in the "
+                "plan, used for nothing else, never tuned on); `plain` runs the policy as it "
+                "is, `compensated` behind the run-time delay predictor and state observer "
+                "(twolink.estimation). Every row is one call of twolink.robustness.evaluate. "
+                "Worst plant: the plant with the fewest successes (k of its states); "
+                "worst-case return: the lowest discounted return of any run; settle times "
+                f"over every row (`never` when fewer settle). {rs['seconds']:.0f} s.", "",
+                robust_tables(rs), "", f"![robust section]({figures['robust']})", ""]
     tp = report["throughput"]
     out += ["## Sweep throughput", "",
             f"{tp['rows']} rollouts x {tp['samples']} samples = {tp['mujoco_steps']} MuJoCo "
@@ -164,6 +231,9 @@ def write(report: dict, data: dict, outdir: Path, command: str) -> dict:
             outdir / "robustness_other.png",
             "success vs joint random parameters, state noise, actuation delay, torque limits"),
     }
+    if "robust" in report:
+        figures["robust"] = robust_figure(report["robust"], data["robust_settle"],
+                                          outdir / "robust.png")
     report = dict(report, figures=figures, command=command)
     write_json(outdir / "report.json", report)
     write_text(outdir / "report.md", markdown(report, figures, command) + "\n")

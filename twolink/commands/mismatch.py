@@ -1,15 +1,18 @@
 """``twolink mismatch``: measure the model mismatch, its closure and robustness; write a report.
 
 Open-loop error of (11) and (6) against MuJoCo, the closed-loop gap of every policy on
-every plant, the policies synthesised on (6), and robustness sweeps on MuJoCo, written
-as Markdown + JSON + figures under renders/mismatch/ (renders/mismatch-quick/ with --quick).
+every plant, the policies synthesised on (6), robustness sweeps on MuJoCo, and every policy
+under every challenge level with and without run-time compensation, written as Markdown +
+JSON + figures under renders/mismatch/ (renders/mismatch-quick/ with --quick).
 """
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
+from twolink.challenges import LEVELS, challenge
 from twolink.mismatch import build
 from twolink.formatting import format_rate
 from twolink.mismatch_plan import PLANS, plan
@@ -43,9 +46,27 @@ def add_parser(sub):
                    help="Ray cluster address (with --executor ray; default: a local Ray)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: one per CPU)")
+    p.add_argument("--challenge", nargs="+", metavar="LEVEL", default=None,
+                   help=f"challenge levels of the robust section ({', '.join(LEVELS)}; "
+                        "default: all); each is run with and without compensation")
+    p.add_argument("--seed", type=int, default=None,
+                   help="seed of the robust section's plants and noise (default: the "
+                        "plan's, never tuned on)")
+    p.add_argument("--robust", action=argparse.BooleanOptionalAction, default=True,
+                   help="measure the robust section (default on)")
     p.add_argument("--json", action="store_true",
                    help="print success rates, open-loop errors and margins as JSON")
     return p
+
+
+def _robust_args(args) -> list:
+    """The robust-section options of the command line, as the report names them."""
+    out = [] if args.robust else ["--no-robust"]
+    if args.challenge is not None:
+        out.append("--challenge " + " ".join(args.challenge))
+    if args.seed is not None:
+        out.append(f"--seed {args.seed}")
+    return out
 
 
 def run(args) -> int:
@@ -56,6 +77,10 @@ def run(args) -> int:
         raise ValueError("--address needs --executor ray")
     for name in args.policies:                       # fail before anything is written
         load_policy(name)
+    levels = None if args.challenge is None else [challenge(n).name for n in args.challenge]
+    if not args.robust and (args.challenge is not None or args.seed is not None):
+        raise ValueError("--challenge and --seed choose what the robust section measures; "
+                         "drop --no-robust or them")
     out = args.out or output_dir() / chosen.folder
     if not out.parent.is_dir():
         raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
@@ -67,13 +92,17 @@ def run(args) -> int:
         report, data = build(chosen, args.policies, store=store, executor=args.executor,
                              workers=args.workers, address=args.address,
                              log=(lambda m: print(m, file=sys.stderr, flush=True))
-                             if progress else None, progress=progress)
+                             if progress else None, progress=progress,
+                             robust=args.robust, levels=levels, seed=args.seed)
         command = "twolink mismatch" + ("" if chosen.name == "full" else f" --plan {chosen.name}")
+        command += "".join(f" {a}" for a in _robust_args(args))
         report = write(report, data, out, command)
     if args.json:
         print(json.dumps(summary(report), indent=2))
     else:
         for p, d in summary(report)["successes"].items():
             print(f"{p:26s} " + "  ".join(f"{pl} {format_rate(*kn):<24s}" for pl, kn in d.items()))
+        for t in (report.get("robust") or {}).get("targets", []):
+            print(f"target {'met   ' if t['met'] else 'MISSED'} {t['target']}: {t['value']}")
         print(f"wrote {out / 'report.md'}")
     return 0
