@@ -14,10 +14,14 @@ from twolink.synthesis import table_sizes
 
 def test_default_names_are_the_registry_names():
     for name, entry in SHIPPED.items():
-        assert default_file_name(entry.kind, entry.model, entry.context or "frozen") \
-            == f"{name}.npz"
+        if entry.robust is None:
+            assert default_file_name(entry.kind, entry.model, entry.context or "frozen") \
+                == f"{name}.npz"
     assert default_file_name("decentralized", "full", "propagated") \
         == "decentralized_full_propagated.npz"
+    # robust files say so (the shipped robust ones keep their short registry names)
+    assert default_file_name("centralized", "full", robust="worst") == "centralized_full_robust.npz"
+    assert default_file_name("decentralized", robust="mean") == "decentralized_mean.npz"
 
 
 def test_default_output_is_a_new_file_in_the_cwd_and_shipped_files_stay(tmp_path, monkeypatch,

@@ -18,8 +18,9 @@ mean over k). Draw 0 is the centre model itself (so the nominal plant is always 
 K, and K = 1 is the ordinary synthesis, bit for bit); draws 1..K-1 change every parameter of
 :data:`twolink.perturbations.PHYSICAL` jointly, each uniform in +-spread
 (:func:`parameter_draws`). The K models' transitions use the compiled RK4
-(:func:`twolink.integrate.sample_step_compiled`, bit-equal to the numpy path, which the
-non-robust synthesis keeps).
+(:func:`twolink.integrate.sample_step_compiled`) over one theta1 slice of the grid, shifted
+to the others (the horizontal arm's dynamics do not depend on theta1): equal to the numpy
+path, which the non-robust synthesis keeps, up to round-off (tests hold it to 1e-12).
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ from tqdm import tqdm
 
 from twolink import __version__, dynamics, fuzzy
 from twolink.fqi import ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust, transition_table
-from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled
+from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled, wrap_angle
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters
 from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import Agent, Policy
@@ -84,17 +85,42 @@ def _accel(model: str):
 
 
 def _step(model: str, p: ArmParameters, x: np.ndarray, tau: np.ndarray, *,
-          compiled: bool, freeze_link2: bool = False) -> np.ndarray:
-    """One sample period of ``model`` from every x under every tau: the numpy RK4
-    (``sample_step``, the shipped non-robust policies) or the compiled one."""
-    if compiled:
-        return sample_step_compiled(dynamics_of(model), p, x, tau, freeze_link2=freeze_link2)
-    accel = _accel(model)
-    if freeze_link2:
-        def link1_only(pp, s, t):
-            return accel(pp, s, t) * np.array([1.0, 0.0])
-        return sample_step(link1_only, p, x, tau)
-    return sample_step(accel, p, x, tau)
+          compiled: bool, freeze_link2: bool = False, theta1_bins: int = 1) -> np.ndarray:
+    """One sample period of ``model`` from every x (N, 1, 4) under every tau: the numpy RK4
+    (``sample_step``, the shipped non-robust policies) or the compiled one.
+
+    ``theta1_bins`` > 1 (compiled only): the N rows of x, and of tau when it has N rows,
+    are that many equal blocks differing only in theta1 (the grid's first axis). The
+    horizontal arm's (6) and (11) do not depend on theta1, so one block is integrated from
+    theta1 = 0 and every block's theta1 added to it and wrapped: the same transitions up to
+    round-off (the sum is rounded in another order), at 1/theta1_bins of the work.
+    """
+    if not compiled:
+        accel = _accel(model)
+        if freeze_link2:
+            def link1_only(pp, s, t):
+                return accel(pp, s, t) * np.array([1.0, 0.0])
+            return sample_step(link1_only, p, x, tau)
+        return sample_step(accel, p, x, tau)
+    name = dynamics_of(model)
+    if theta1_bins == 1:
+        return sample_step_compiled(name, p, x, tau, freeze_link2=freeze_link2)
+    n = len(x) // theta1_bins
+    blocks = x.reshape((theta1_bins, n) + x.shape[1:])
+    per_row = tau.shape[0] == len(x) and len(x) > 1
+    tau0 = tau[:n] if per_row else tau
+    if n * theta1_bins != len(x) or not np.array_equal(
+            blocks[..., 1:], np.broadcast_to(blocks[:1, ..., 1:], blocks[..., 1:].shape)) \
+            or (per_row and not np.array_equal(
+                tau.reshape((theta1_bins, n) + tau.shape[1:]),
+                np.broadcast_to(tau0, (theta1_bins,) + tau0.shape))):
+        raise RuntimeError("theta1_bins: the rows are not blocks differing in theta1 only")
+    x0 = np.array(blocks[0])
+    x0[..., 0] = 0.0
+    moved = sample_step_compiled(name, p, x0, tau0, freeze_link2=freeze_link2)
+    out = np.tile(moved, (theta1_bins,) + (1,) * (moved.ndim - 1))
+    out[..., 0] = wrap_angle(x[..., 0] + out[..., 0])
+    return out
 
 
 def _levels(tmax: float) -> np.ndarray:
@@ -117,7 +143,8 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
     """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2].
 
     ``refine`` > 1 subdivides every bin (for scaling studies; see :meth:`fuzzy.Axis.refined`);
-    ``compiled`` samples the model with the compiled RK4.
+    ``compiled`` samples the model with the compiled RK4 over one theta1 slice
+    (see :func:`_step`; equal to the numpy path up to round-off).
     """
     start = time.perf_counter()
     dynamics_of(model)
@@ -125,7 +152,8 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
                  fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"), refine=refine)
     actions = centralized_actions(p)
     centers = grid.centers()
-    nxt = _step(model, p, centers[:, None, :], actions[None, :, :], compiled=compiled)
+    nxt = _step(model, p, centers[:, None, :], actions[None, :, :], compiled=compiled,
+                theta1_bins=grid.axes[0].size if compiled else 1)
     return Problem("centralized", grid, actions, ("tau1", "tau2"), nxt,
                    centralized_reward(nxt), time.perf_counter() - start)
 
@@ -182,11 +210,12 @@ def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
     tau = np.zeros((len(c), len(actions), 2))
     tau[:, :, 0] = actions[None, :, 0]
     tau[:, :, 1] = c[:, 3:4]
+    slices = {"compiled": compiled, "theta1_bins": grid.axes[0].size if compiled else 1}
     if context == "frozen":
-        nxt = _step(model, p, x[:, None, :], tau, compiled=compiled, freeze_link2=True)
+        nxt = _step(model, p, x[:, None, :], tau, freeze_link2=True, **slices)
         tau2_next = np.broadcast_to(c[:, None, 3], nxt.shape[:-1])
     else:
-        nxt = _step(model, p, x[:, None, :], tau, compiled=compiled)
+        nxt = _step(model, p, x[:, None, :], tau, **slices)
         tau2_next = agent2.act(nxt[..., [1, 3]])[..., 0]
     points = np.stack([nxt[..., 0], nxt[..., 2], nxt[..., 1], tau2_next], -1)
     return Problem("agent1", grid, actions, ("tau1",), points, agent_reward(nxt, 1),
