@@ -1,0 +1,165 @@
+"""``twolink learn``: online fuzzy Q-learning on the MuJoCo arm (:mod:`twolink.learning`).
+
+Many arms learn one shared theta; every evaluation writes the current policy, with its
+provenance and everything needed to resume, atomically to the checkpoint (a policy file
+that ``twolink rollout --policy`` reads). Ctrl-C or SIGTERM keeps the last complete
+checkpoint; ``--resume FILE`` continues from it exactly as if never interrupted.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from twolink.artifacts import check_outputs
+from twolink.formatting import format_rate
+from twolink.learning import (LEARNERS, MAX_ARMS, MAX_STEPS, UPDATES, LearnConfig, Learner,
+                              evaluate, policy_kind, stays_above, steps_to_reach)
+from twolink.learning_curves import learning_curves
+from twolink.policy import Policy, load_policy
+
+_DEFAULTS = LearnConfig()
+
+
+def _count(text: str) -> int:
+    """A whole number written as 1000000, 1_000_000 or 1e6; else a ValueError."""
+    try:
+        value = float(text.replace("_", ""))
+    except ValueError:
+        raise ValueError(f"expected a whole number, got {text!r}") from None
+    if not math.isfinite(value) or value != int(value):
+        raise ValueError(f"expected a whole number, got {text!r}")
+    return int(value)
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "learn", help="online fuzzy Q-learning on the MuJoCo arm (many arms, one theta)",
+        description="Learn a fuzzy Q-function online on the MuJoCo arm: --arms arms step "
+                    "together and update one shared theta (Q(x,u) = sum_m mu_m(x) theta[m,u], "
+                    "the approximator of fuzzy Q-iteration). Every evaluation (the 65-state "
+                    "evaluation set) writes a checkpoint policy file; a learning-curve PNG "
+                    "is written at the end.")
+    p.add_argument("--task", choices=("centralized", "decentralized"),
+                   help="centralized: one agent, joint reward (15); decentralized: the "
+                        "paper's ordered agents (agent 2 first, agent 1 sees tau2), rewards "
+                        "(17) (required unless --resume)")
+    p.add_argument("--independent", action="store_true",
+                   help="decentralized only: fully independent learners (agent 1 does not "
+                        "see tau2)")
+    p.add_argument("--steps", default=None, metavar="N",
+                   help=f"control steps summed over all arms, e.g. 1e6 (default "
+                        f"{_DEFAULTS.steps:.0e}, at most {MAX_STEPS:.0e}); with --resume the "
+                        f"new total")
+    p.add_argument("--arms", default=str(_DEFAULTS.arms), metavar="M",
+                   help=f"arms learning in parallel (default {_DEFAULTS.arms}, at most "
+                        f"{MAX_ARMS})")
+    p.add_argument("--init", metavar="NAME|FILE",
+                   help="warm-start theta from a policy of the same task and grid, e.g. the "
+                        "shipped 'decentralized' (synthesised on model (11))")
+    p.add_argument("--update", choices=UPDATES, default=_DEFAULTS.update,
+                   help="fuzzy: act and update as policy (14) (each active bin its own "
+                        "action, target sum mu max theta); discrete: plain Q-learning (4) "
+                        f"(default {_DEFAULTS.update})")
+    p.add_argument("--seed", default="0", metavar="S", help="seed of every random draw (default 0)")
+    p.add_argument("--alpha", type=float, default=_DEFAULTS.alpha,
+                   help=f"learning rate per unit of membership weight, in (0, 1] (default "
+                        f"{_DEFAULTS.alpha:g})")
+    p.add_argument("--alpha-halflife", type=float, default=_DEFAULTS.alpha_halflife,
+                   metavar="STEPS",
+                   help="alpha_t = alpha * H / (H + t) after t control steps (default 0: "
+                        "constant)")
+    p.add_argument("--epsilon", type=float, default=_DEFAULTS.epsilon,
+                   help=f"exploration probability per arm and step at the start (default "
+                        f"{_DEFAULTS.epsilon:g})")
+    p.add_argument("--epsilon-final", type=float, default=None,
+                   help="exploration probability at the end, reached linearly (default: "
+                        "--epsilon)")
+    p.add_argument("--episode", default=str(_DEFAULTS.episode), metavar="K",
+                   help=f"sample periods per episode before an arm restarts from a random "
+                        f"pose (default {_DEFAULTS.episode})")
+    p.add_argument("--eval-every", default="0", metavar="N",
+                   help="control steps between evaluations and checkpoints (default: "
+                        "steps / 20)")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
+                   help="checkpoint policy file (default ./learned_<learner>.npz; with "
+                        "--resume, the resumed file)")
+    p.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                   help="learning-curve figure (default: the checkpoint's name with "
+                        "_curve.png)")
+    p.add_argument("--resume", type=Path, default=None, metavar="FILE",
+                   help="continue a run from its checkpoint (its settings are kept; --steps "
+                        "may raise the total)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing checkpoint")
+    p.add_argument("--threads", default="1", metavar="T",
+                   help="MuJoCo threads stepping the arms (default 1)")
+    p.add_argument("--json", action="store_true", help="print the run's summary as JSON")
+    return p
+
+
+def _config(args) -> LearnConfig:
+    if args.task is None:
+        raise ValueError("--task is required (centralized or decentralized) unless --resume")
+    if args.independent and args.task != "decentralized":
+        raise ValueError("--independent applies to --task decentralized only")
+    learner = "independent" if args.independent else args.task
+    return LearnConfig(
+        learner=learner, steps=_count(args.steps) if args.steps else _DEFAULTS.steps,
+        arms=_count(args.arms), seed=_count(args.seed), update=args.update,
+        alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
+        epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
+        episode=_count(args.episode), eval_every=_count(args.eval_every)).check()
+
+
+def run(args) -> int:
+    threads = _count(args.threads)
+    if not 1 <= threads <= 64:
+        raise ValueError(f"--threads must be in [1, 64], got {threads}")
+    if args.resume is not None:
+        checkpoint = Policy.load(args.resume)
+        output = args.output or args.resume
+        learner = Learner.resume(checkpoint, steps=_count(args.steps) if args.steps else None,
+                                 nthread=threads)
+    else:
+        config = _config(args)
+        init = load_policy(args.init) if args.init else None
+        output = args.output or Path(f"learned_{config.learner}.npz")
+        if output.exists() and not args.force:
+            raise ValueError(f"{output} exists; give --force to overwrite it or --resume it")
+        learner = Learner(config, init=init, nthread=threads)
+    plot = args.plot or output.with_name(output.stem + "_curve.png")
+    try:
+        check_outputs({"--output": output, "--plot": plot})
+        with learner:
+            curve = learner.run(checkpoint=output, progress=not args.json)
+            kind = policy_kind(learner.config.learner)
+            baseline = evaluate(load_policy(kind), learner.plant)
+    except BaseException:
+        learner.close()
+        raise
+    c = learner.config
+    label = c.learner + (f" from {learner.init_label}" if learner.init_label else "") + \
+        f" ({c.update})"
+    learning_curves({f"{c.learner}, {c.arms} arms, seed {c.seed}": {label: curve}}, plot,
+                    baselines={f"{kind} (11)": baseline.rate})
+    final = curve[-1]
+    summary = {"config": c.as_dict(), "init": learner.init_label, "checkpoint": str(output),
+               "plot": str(plot), "curve": [e.as_dict() for e in curve],
+               "final": final.as_dict(), "steps_to_90": steps_to_reach(curve),
+               "stays_above_90": stays_above(curve),
+               "model_based": {"policy": kind, **baseline.as_dict()},
+               "learn_seconds": learner.learn_seconds,
+               "steps_per_second": learner.steps_done / max(learner.learn_seconds, 1e-9)}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    settle = "never" if final.median_settle is None else f"{final.median_settle:.2f} s"
+    reach = steps_to_reach(curve)
+    print(f"{label}: {final.steps} steps in {learner.learn_seconds:.1f} s "
+          f"({summary['steps_per_second']:.0f} steps/s)")
+    print(f"  final success {format_rate(final.successes, final.n)}, median settle {settle}, "
+          f"mean return {final.mean_return:.3f}")
+    print(f"  90 % reached: {'never' if reach is None else f'at {reach} steps'}; model-based "
+          f"{kind}: {format_rate(baseline.successes, baseline.n)}")
+    print(f"  wrote {output} and {plot}")
+    return 0

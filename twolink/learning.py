@@ -1,0 +1,501 @@
+"""Online fuzzy Q-learning (4)/(5) on the MuJoCo arm: many arms, one shared theta.
+
+The approximator is the one of fuzzy Q-iteration: Q(x, u_j) = sum_m mu_m(x) theta[m, j]
+(12) over the same grids, actions and rewards as :mod:`twolink.synthesis`. Three learners:
+
+* ``centralized`` - one agent over x with the joint actions (16) and reward (15);
+* ``decentralized`` - the paper's ordered agents (18): agent 2 acts first on
+  (theta2, dtheta2), agent 1 sees (theta1, dtheta1, theta2, tau2); each learns from its own
+  reward (17), the agents' updates (5);
+* ``independent`` - the same two agents, but agent 1 does not see tau2 (fully
+  independent learners, for comparison).
+
+Two ways of acting and updating (``update``):
+
+* ``fuzzy`` (default) - the learner acts as policy (14): every active bin m of x picks its
+  own epsilon-greedy action j_m, the arm gets the membership-weighted torque
+  sum_m mu_m u_{j_m}, and each (m, j_m) moves towards the target of Alg. 1,
+  r + gamma * sum_m' mu_m'(x') max_j theta[m', j], with weight mu_m. theta[m, j] is then a
+  weighted average of targets, so it stays within the range of possible values.
+* ``discrete`` - plain Q-learning (4): one epsilon-greedy discrete action per arm from the
+  interpolated Q(x, .), target r + gamma * max_j Q(x', j), and theta moved along the
+  gradient mu_m of the temporal difference r + gamma max Q(x', .) - Q(x, u).
+
+Batched, synchronous: all arms step together on :class:`twolink.plants.MujocoPlant`, then
+one update sums every arm's contribution per entry (m, j): theta[m, j] moves by
+min(1, alpha * W) times the membership-weighted mean (over arms) of its targets' error,
+W being the entry's total membership weight in this step. At a bin centre (mu_m = 1) both
+updates are theta[m, j] += alpha (r + gamma V(x') - theta[m, j]), so given the
+transitions f(c_m, u_j) of Alg. 1 the learner converges to fuzzy Q-iteration's fixed
+point. The learning rate follows alpha_t = alpha * h / (h + t) (t: control steps so far,
+h: ``alpha_halflife``, 0 keeps alpha constant); exploration is epsilon-greedy with
+epsilon_t decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
+
+Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
+at rest), staggered so that resets spread over time. Every random draw comes from one
+seeded generator, so the same seed gives the same theta bit for bit; checkpoints (policy
+files, :func:`save_checkpoint`) hold theta, the generator, the arms and the learning
+curve, so a resumed run continues exactly as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Callable, Optional
+
+import numpy as np
+
+from twolink import __version__, fuzzy
+from twolink.metrics import discounted_return, evaluation_set, settle_time, success
+from twolink.parameters import GAMMA, HORIZON, TABLE_I, TS
+from twolink.plants import MujocoPlant
+from twolink.policy import Agent, Policy
+from twolink.reward import agent_reward, centralized_reward
+from twolink.rollout import rollout
+from twolink.synthesis import centralized_actions
+
+LEARNERS = ("centralized", "decentralized", "independent")
+UPDATES = ("fuzzy", "discrete")
+#: Most arms a run may drive (the checkpoint stores every arm's state in its header).
+MAX_ARMS = 4096
+#: Most control steps (summed over arms) a run may take: some hours on one core.
+MAX_STEPS = 10**8
+#: Most evaluations a run may hold (each is a 65-state rollout on MuJoCo).
+MAX_EVALUATIONS = 1000
+#: Key of the learning provenance in a policy's ``meta``.
+META_KEY = "learning"
+
+
+@dataclasses.dataclass(frozen=True)
+class LearnConfig:
+    """Everything that defines a learning run (stored in every checkpoint)."""
+
+    learner: str = "decentralized"
+    steps: int = 1_000_000            # control steps, summed over arms
+    arms: int = 256
+    seed: int = 0
+    update: str = "fuzzy"
+    alpha: float = 0.2
+    alpha_halflife: float = 0.0       # control steps; 0: constant alpha
+    epsilon: float = 0.1
+    epsilon_final: float = 0.1
+    episode: int = 100                # sample periods per episode
+    eval_every: int = 0               # control steps; 0: steps / 20
+    gamma: float = GAMMA
+
+    def check(self) -> "LearnConfig":
+        """This configuration, or a ValueError naming the first bad field."""
+        if self.learner not in LEARNERS:
+            raise ValueError(f"unknown learner {self.learner!r}; choose one of "
+                             f"{', '.join(LEARNERS)}")
+        if self.update not in UPDATES:
+            raise ValueError(f"unknown update {self.update!r}; choose one of {', '.join(UPDATES)}")
+        _whole(self.arms, "arms", 1, MAX_ARMS)
+        _whole(self.steps, "steps", 1, MAX_STEPS)
+        if self.steps < self.arms:
+            raise ValueError(f"steps ({self.steps}) must be at least the number of arms "
+                             f"({self.arms}): every arm takes one step per iteration")
+        _whole(self.seed, "seed", 0, 2**63 - 1)
+        _whole(self.episode, "episode", 1, 100_000)
+        _whole(self.eval_every, "eval every", 0, MAX_STEPS)
+        if self.eval_every and math.ceil(self.steps / self.eval_every) > MAX_EVALUATIONS:
+            raise ValueError(f"{self.steps} steps evaluated every {self.eval_every} would "
+                             f"take more than {MAX_EVALUATIONS} evaluations")
+        _real(self.alpha, "learning rate alpha", 0.0, 1.0, open_low=True)
+        _real(self.alpha_halflife, "alpha half-life", 0.0, float(MAX_STEPS) * 100)
+        _real(self.epsilon, "epsilon", 0.0, 1.0)
+        _real(self.epsilon_final, "final epsilon", 0.0, 1.0)
+        _real(self.gamma, "gamma", 0.0, 1.0, open_high=True)
+        return self
+
+    @property
+    def iterations(self) -> int:
+        """Batched steps of all arms: ceil(steps / arms)."""
+        return -(-self.steps // self.arms)
+
+    @property
+    def eval_iterations(self) -> int:
+        """Batched steps between evaluations (at least one)."""
+        every = self.eval_every or max(1, self.steps // 20)
+        return max(1, round(every / self.arms))
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "LearnConfig":
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown learning setting(s) {unknown}")
+        return cls(**data).check()
+
+
+def _whole(v, what: str, lo: int, hi: int) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+        raise ValueError(f"{what} must be a whole number in [{lo}, {hi:,}], got {v!r}")
+
+
+def _real(v, what: str, lo: float, hi: float, *, open_low=False, open_high=False) -> None:
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    ok = ok and (lo < v if open_low else lo <= v) and (v < hi if open_high else v <= hi)
+    if not ok:
+        raise ValueError(f"{what} must be a number in {'(' if open_low else '['}{lo:g}, "
+                         f"{hi:g}{')' if open_high else ']'}, got {v!r}")
+
+
+# --------------------------------------------------------------------------- agents
+@dataclasses.dataclass
+class LearningAgent:
+    """One fuzzy Q-table being learned: its grid (inputs named like policy signals), its
+    discrete actions (N_U, len(outputs)), theta (N_X, N_U) and its reward: (15) when
+    ``link`` is None, else link ``link``'s reward (17)."""
+
+    name: str
+    grid: fuzzy.Grid
+    actions: np.ndarray
+    outputs: tuple
+    link: Optional[int]
+    theta: np.ndarray
+
+    def reward(self, x: np.ndarray) -> np.ndarray:
+        return centralized_reward(x) if self.link is None else agent_reward(x, self.link)
+
+
+def make_agents(learner: str, p=TABLE_I) -> list:
+    """The agents of ``learner`` (:data:`LEARNERS`) in acting order, theta = 0, on the
+    paper's grids (the same grids and actions as :mod:`twolink.synthesis`)."""
+    ang, spd = fuzzy.angle_axis, fuzzy.speed_axis
+    lv1 = np.array([[-p.tau1_max], [0.0], [p.tau1_max]])
+    lv2 = np.array([[-p.tau2_max], [0.0], [p.tau2_max]])
+    if learner == "centralized":
+        grid = fuzzy.Grid((ang("theta1"), ang("theta2"), spd("dtheta1"), spd("dtheta2")))
+        acts = centralized_actions(p)
+        return [LearningAgent("centralized", grid, acts, ("tau1", "tau2"), None,
+                              np.zeros((grid.size, len(acts))))]
+    if learner not in ("decentralized", "independent"):
+        raise ValueError(f"unknown learner {learner!r}; choose one of {', '.join(LEARNERS)}")
+    g2 = fuzzy.Grid((ang("theta2"), spd("dtheta2")))
+    axes1 = (ang("theta1"), spd("dtheta1"), ang("theta2"))
+    if learner == "decentralized":
+        axes1 += (fuzzy.torque_axis("tau2", p.tau2_max),)
+    g1 = fuzzy.Grid(axes1)
+    return [LearningAgent("agent2", g2, lv2, ("tau2",), 2, np.zeros((g2.size, 3))),
+            LearningAgent("agent1", g1, lv1, ("tau1",), 1, np.zeros((g1.size, 3)))]
+
+
+def policy_kind(learner: str) -> str:
+    """The policy kind a learner produces: ``centralized`` or ``decentralized``."""
+    return "centralized" if learner == "centralized" else "decentralized"
+
+
+def _warm_start(agents: list, init: Policy, learner: str) -> None:
+    """Copy the Q-tables of ``init`` into ``agents``, or a ValueError saying what differs."""
+    kind = policy_kind(learner)
+    if init.kind != kind:
+        raise ValueError(f"--init policy is a {init.kind} policy; the {learner} learner "
+                         f"needs a {kind} one")
+    theirs = {a.name: a for a in init.agents}
+    if sorted(theirs) != sorted(a.name for a in agents):
+        raise ValueError(f"--init policy has agents {sorted(theirs)}; the {learner} learner "
+                         f"has {sorted(a.name for a in agents)}")
+    for a in agents:
+        b = theirs[a.name]
+        if b.grid != a.grid:
+            raise ValueError(f"--init policy: agent {a.name} reads a grid over {b.grid.names} "
+                             f"of shape {b.grid.shape}; the {learner} learner's is over "
+                             f"{a.grid.names} of shape {a.grid.shape} (same bins needed)")
+        if b.actions.shape != a.actions.shape or not np.allclose(b.actions, a.actions):
+            raise ValueError(f"--init policy: agent {a.name} has actions "
+                             f"{b.actions.ravel().tolist()}, the learner "
+                             f"{a.actions.ravel().tolist()}")
+    for a in agents:
+        a.theta = np.array(theirs[a.name].q, dtype=float)
+
+
+# --------------------------------------------------------------------------- curve
+@dataclasses.dataclass(frozen=True)
+class Evaluation:
+    """Greedy policy (14) of the current theta on the evaluation set, on MuJoCo."""
+
+    steps: int                 # control steps learned so far (all arms)
+    successes: int
+    n: int
+    median_settle: Optional[float]   # seconds, over all states (None: more than half fail)
+    mean_return: float         # discounted return of (15), mean over the states
+    seconds: float             # wall time of learning so far (evaluations excluded)
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.n
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def evaluate(policy: Policy, plant, x0: Optional[np.ndarray] = None, *, steps: int = 0,
+             seconds: float = 0.0) -> Evaluation:
+    """Success, median settle time and mean return of ``policy`` from ``x0`` (default the
+    65-state evaluation set) over the metrics' horizon."""
+    x0 = evaluation_set() if x0 is None else x0
+    traj = rollout(policy, plant, x0, duration=HORIZON)
+    ok = success(traj)
+    st = np.median(settle_time(traj))
+    return Evaluation(int(steps), int(ok.sum()), int(len(ok)),
+                      float(st) if math.isfinite(st) else None,
+                      float(np.mean(discounted_return(traj))), float(seconds))
+
+
+# --------------------------------------------------------------------------- learner
+class Learner:
+    """The batched online learner: ``config.arms`` MuJoCo arms and one shared theta.
+
+    Call :meth:`step` for one synchronous control step of all arms and one update;
+    :meth:`run` steps to ``config.steps`` with periodic evaluations and checkpoints.
+    """
+
+    def __init__(self, config: LearnConfig, *, init: Optional[Policy] = None,
+                 plant=None, nthread: int = 1):
+        self.config = config.check()
+        self.agents = make_agents(config.learner)
+        self.init_label = None
+        if init is not None:
+            _warm_start(self.agents, init, config.learner)
+            self.init_label = str(init.meta.get("source", init.kind))
+        self.rng = np.random.default_rng(config.seed)
+        n = config.arms
+        self.x = self._random_poses(n)
+        self.clock = self.rng.integers(0, config.episode, n)     # staggered episodes
+        self.iteration = 0
+        self.curve: list = []
+        self.learn_seconds = 0.0
+        self._own_plant = plant is None
+        self.plant = MujocoPlant(TABLE_I, nthread=nthread) if plant is None else plant
+
+    # -- resources
+    def close(self) -> None:
+        if self._own_plant:
+            self.plant.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- schedules
+    @property
+    def steps_done(self) -> int:
+        return self.iteration * self.config.arms
+
+    def alpha(self) -> float:
+        """alpha_t = alpha * h / (h + t), t the control steps so far (constant if h = 0)."""
+        c = self.config
+        t = self.steps_done
+        return c.alpha if c.alpha_halflife == 0 else c.alpha * c.alpha_halflife / \
+            (c.alpha_halflife + t)
+
+    def epsilon(self) -> float:
+        """epsilon decays linearly from ``epsilon`` to ``epsilon_final`` over the run."""
+        c = self.config
+        frac = min(1.0, self.steps_done / c.steps)
+        return c.epsilon + (c.epsilon_final - c.epsilon) * frac
+
+    def _random_poses(self, n: int) -> np.ndarray:
+        x = np.zeros((n, 4))
+        x[:, :2] = self.rng.uniform(-math.pi, math.pi, (n, 2))
+        return x
+
+    # -- acting and learning
+    def _signals(self, x: np.ndarray) -> dict:
+        return {"theta1": x[:, 0], "theta2": x[:, 1], "dtheta1": x[:, 2], "dtheta2": x[:, 3]}
+
+    def _act(self, x: np.ndarray, eps: float):
+        """Exploratory torques (n, 2) and, per agent, (bins, weights, chosen actions)."""
+        sig = self._signals(x)
+        fuzzy_update = self.config.update == "fuzzy"
+        chosen = []
+        for a in self.agents:
+            idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
+            nu = len(a.actions)
+            if fuzzy_update:                          # each active bin its own action
+                j = _greedy(a.theta)[idx]
+                explore = (self.rng.random(len(x)) < eps)[:, None]
+                j = np.where(explore, self.rng.integers(0, nu, idx.shape), j)
+                out = np.einsum("nk,nko->no", w, a.actions[j])
+            else:                                     # one action per arm, from Q(x, .)
+                q = np.einsum("nk,nku->nu", w, a.theta[idx])
+                j1 = _greedy(q)
+                explore = self.rng.random(len(x)) < eps
+                j1 = np.where(explore, self.rng.integers(0, nu, len(x)), j1)
+                out = a.actions[j1]
+                j = np.broadcast_to(j1[:, None], idx.shape)
+            for k, name in enumerate(a.outputs):
+                sig[name] = out[:, k]
+            chosen.append((idx, w, j))
+        return np.stack([sig["tau1"], sig["tau2"]], -1), chosen
+
+    def _values(self, x: np.ndarray) -> list:
+        """V_i(x') of every agent: sum_m mu_m max_j theta (fuzzy) or max_j Q(x', j)
+        (discrete); earlier agents' outputs at x' are their greedy actions."""
+        sig = self._signals(x)
+        values = []
+        for a in self.agents:
+            idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
+            if self.config.update == "fuzzy":
+                values.append(np.einsum("nk,nk->n", w, a.theta.max(axis=1)[idx]))
+                out = np.einsum("nk,nko->no", w, a.actions[_greedy(a.theta)[idx]])
+            else:
+                q = np.einsum("nk,nku->nu", w, a.theta[idx])
+                values.append(q.max(axis=1))
+                out = a.actions[_greedy(q)]
+            for k, name in enumerate(a.outputs):
+                sig[name] = out[:, k]
+        return values
+
+    def update(self, chosen: list, rewards: list, values: list, alpha: float) -> None:
+        """One synchronous update of every agent from a batch of transitions."""
+        gamma = self.config.gamma
+        for a, (idx, w, j), r, v in zip(self.agents, chosen, rewards, values):
+            target = r + gamma * v                                        # (n,)
+            nu = a.theta.shape[1]
+            entry = (idx * nu + j).ravel()
+            flat = a.theta.reshape(-1)
+            weight = np.bincount(entry, w.ravel(), minlength=flat.size)
+            if self.config.update == "fuzzy":
+                err = target[:, None] - flat[idx * nu + j]               # per bin
+            else:
+                q = np.einsum("nk,nk->n", w, flat[idx * nu + j])
+                err = np.broadcast_to((target - q)[:, None], w.shape)
+            total = np.bincount(entry, (w * err).ravel(), minlength=flat.size)
+            hit = weight > 0
+            flat[hit] += np.minimum(1.0, alpha * weight[hit]) * total[hit] / weight[hit]
+
+    def step(self) -> None:
+        """One control step of every arm, then one update of theta; resets finished
+        episodes to new random poses."""
+        t0 = time.perf_counter()
+        tau, chosen = self._act(self.x, self.epsilon())
+        nxt = self.plant.step(self.x, tau)
+        rewards = [a.reward(nxt) for a in self.agents]
+        self.update(chosen, rewards, self._values(nxt), self.alpha())
+        self.clock += 1
+        done = self.clock >= self.config.episode
+        self.x = nxt
+        if done.any():
+            self.x[done] = self._random_poses(int(done.sum()))
+            self.clock[done] = 0
+        self.iteration += 1
+        self.learn_seconds += time.perf_counter() - t0
+
+    # -- results
+    def policy(self, *, resume: bool = False) -> Policy:
+        """The greedy policy (14) of the current theta, with its provenance; ``resume``
+        adds what :meth:`resume` needs (the generator, the arms, the curve)."""
+        kind = policy_kind(self.config.learner)
+        agents = [Agent(a.name, a.grid, a.actions, a.theta.copy(), a.outputs,
+                        {"learned": True, "link_reward": a.link}) for a in self.agents]
+        info = {"config": self.config.as_dict(), "steps": self.steps_done,
+                "iterations": self.iteration, "init": self.init_label,
+                "exploration": f"epsilon-greedy ({self.config.update}), epsilon "
+                               f"{self.config.epsilon:g} -> {self.config.epsilon_final:g}",
+                "learn_seconds": self.learn_seconds,
+                "curve": [e.as_dict() for e in self.curve]}
+        if resume:
+            info["resume"] = {"rng": self.rng.bit_generator.state,
+                              "x": self.x.tolist(), "clock": self.clock.tolist()}
+        meta = {"model": "mujoco (online learning)", "gamma": self.config.gamma, "ts": TS,
+                "parameters": TABLE_I.as_dict(), "source": f"learned {self.config.learner}",
+                "twolink_version": __version__, META_KEY: info}
+        return Policy(kind, agents, meta)
+
+    def evaluate(self, x0: Optional[np.ndarray] = None) -> Evaluation:
+        return evaluate(self.policy(), self.plant, x0, steps=self.steps_done,
+                        seconds=self.learn_seconds)
+
+    def run(self, *, checkpoint=None, progress: bool = False,
+            on_eval: Optional[Callable[[Evaluation], None]] = None) -> list:
+        """Step to ``config.steps``, evaluating (and checkpointing to ``checkpoint``) every
+        ``eval_iterations`` and at the end; returns the learning curve."""
+        from tqdm import tqdm
+
+        c = self.config
+        if not self.curve:
+            self._record(checkpoint, on_eval)
+        with tqdm(total=c.iterations * c.arms, initial=self.steps_done, unit=" steps",
+                  unit_scale=True, desc=f"learn {c.learner}", disable=None if progress else True,
+                  mininterval=0.5) as bar:
+            while self.iteration < c.iterations:
+                self.step()
+                bar.update(c.arms)
+                if self.iteration % c.eval_iterations == 0 or self.iteration == c.iterations:
+                    e = self._record(checkpoint, on_eval)
+                    bar.set_postfix(success=f"{e.successes}/{e.n}")
+        return self.curve
+
+    def _record(self, checkpoint, on_eval) -> Evaluation:
+        e = self.evaluate()
+        self.curve.append(e)
+        if checkpoint is not None:
+            self.policy(resume=True).save(checkpoint)
+        if on_eval is not None:
+            on_eval(e)
+        return e
+
+    @classmethod
+    def resume(cls, policy: Policy, *, steps: Optional[int] = None, plant=None,
+               nthread: int = 1) -> "Learner":
+        """A learner continuing from a checkpoint (a policy saved with ``resume=True``);
+        ``steps`` may extend the run's total."""
+        info = policy.meta.get(META_KEY)
+        if not isinstance(info, dict) or "resume" not in info:
+            raise ValueError("not a learning checkpoint (the policy carries no resume state; "
+                             "checkpoints are written by `twolink learn`)")
+        try:
+            data = dict(info["config"])
+            if steps is not None:
+                data["steps"] = steps
+            config = LearnConfig.from_dict(data)
+            self = cls(config, plant=plant, nthread=nthread)
+            theirs = {a.name: a for a in policy.agents}
+            for a in self.agents:
+                q = theirs[a.name].q
+                if q.shape != a.theta.shape:
+                    raise ValueError(f"agent {a.name}: Q of shape {q.shape}, expected "
+                                     f"{a.theta.shape}")
+                a.theta = np.array(q, dtype=float)
+            state = info["resume"]
+            self.rng.bit_generator.state = state["rng"]
+            self.x = np.array(state["x"], dtype=float).reshape(config.arms, 4)
+            self.clock = np.array(state["clock"], dtype=np.int64).reshape(config.arms)
+            self.iteration = int(info["iterations"])
+            self.learn_seconds = float(info["learn_seconds"])
+            self.init_label = info.get("init")
+            self.curve = [Evaluation(**e) for e in info["curve"]]
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"malformed learning checkpoint ({exc})") from None
+        if self.iteration * config.arms > config.steps:
+            raise ValueError(f"the checkpoint is at {self.steps_done} steps, beyond the "
+                             f"{config.steps} asked for")
+        return self
+
+
+def _greedy(q: np.ndarray) -> np.ndarray:
+    """argmax over the last axis, ties to the first action (as policy (14))."""
+    from twolink.policy import TIE_TOLERANCE
+    return np.argmax(q >= q.max(axis=-1, keepdims=True) - TIE_TOLERANCE, axis=-1)
+
+
+def steps_to_reach(curve: list, rate: float = 0.9) -> Optional[int]:
+    """Control steps at the first evaluation with success >= ``rate`` (None: never)."""
+    for e in curve:
+        if e.rate >= rate:
+            return e.steps
+    return None
+
+
+def stays_above(curve: list, rate: float = 0.9) -> bool:
+    """Whether every evaluation from the first one reaching ``rate`` on stays >= ``rate``."""
+    first = steps_to_reach(curve, rate)
+    return first is not None and all(e.rate >= rate for e in curve if e.steps >= first)
