@@ -356,21 +356,9 @@ class Learner:
 
     def update(self, chosen: list, rewards: list, values: list, alpha: float) -> None:
         """One synchronous update of every agent from a batch of transitions."""
-        gamma = self.config.gamma
-        for a, (idx, w, j), r, v in zip(self.agents, chosen, rewards, values):
-            target = r + gamma * v                                        # (n,)
-            nu = a.theta.shape[1]
-            entry = (idx * nu + j).ravel()
-            flat = a.theta.reshape(-1)
-            weight = np.bincount(entry, w.ravel(), minlength=flat.size)
-            if self.config.update == "fuzzy":
-                err = target[:, None] - flat[idx * nu + j]               # per bin
-            else:
-                q = np.einsum("nk,nk->n", w, flat[idx * nu + j])
-                err = np.broadcast_to((target - q)[:, None], w.shape)
-            total = np.bincount(entry, (w * err).ravel(), minlength=flat.size)
-            hit = weight > 0
-            flat[hit] += np.minimum(1.0, alpha * weight[hit]) * total[hit] / weight[hit]
+        for a, (idx, w, j), r, v in zip(self.agents, chosen, rewards, values, strict=True):
+            update_theta(a.theta, idx, w, j, r + self.config.gamma * v, alpha,
+                         rule=self.config.update)
 
     def step(self) -> None:
         """One control step of every arm, then one update of theta; resets finished
@@ -479,6 +467,33 @@ class Learner:
             raise ValueError(f"the checkpoint is at {self.steps_done} steps, beyond the "
                              f"{config.steps} asked for")
         return self
+
+
+def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarray,
+                 target: np.ndarray, alpha: float, *, rule: str = "fuzzy") -> np.ndarray:
+    """Update theta (N_X, N_U) in place from n transitions and return it.
+
+    ``idx``, ``w`` (n, K): the active bins of x_k and their memberships; ``j`` (n, K) the
+    action each bin took (one per row for ``discrete``); ``target`` (n,) r + gamma V(x').
+    Every entry e = (m, j) hit by weight W_e = sum mu moves by min(1, alpha W_e) times the
+    weighted mean error sum mu err / W_e, where err is target - theta[m, j] (``fuzzy``)
+    or target - Q(x_k, u_k) = target - sum_m mu_m theta[m, j] (``discrete``, (4)).
+    """
+    nu = theta.shape[1]
+    flat = theta.reshape(-1)
+    entry = idx * nu + j
+    if rule == "fuzzy":
+        err = target[:, None] - flat[entry]
+    elif rule == "discrete":
+        err = np.broadcast_to((target - np.einsum("nk,nk->n", w, flat[entry]))[:, None],
+                              w.shape)
+    else:
+        raise ValueError(f"unknown update {rule!r}; choose one of {', '.join(UPDATES)}")
+    weight = np.bincount(entry.ravel(), w.ravel(), minlength=flat.size)
+    total = np.bincount(entry.ravel(), (w * err).ravel(), minlength=flat.size)
+    hit = weight > 0
+    flat[hit] += np.minimum(1.0, alpha * weight[hit]) * total[hit] / weight[hit]
+    return theta
 
 
 def _greedy(q: np.ndarray) -> np.ndarray:

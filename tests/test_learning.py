@@ -1,0 +1,176 @@
+"""Online fuzzy Q-learning (twolink.learning): the update against a reference loop, the
+fixed point of fuzzy Q-iteration, determinism, checkpoints and resume, bad input."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twolink.learning import (LEARNERS, MAX_ARMS, LearnConfig, Learner, make_agents,
+                              stays_above, steps_to_reach, update_theta)
+from twolink.plants import ModelPlant
+from twolink.policy import Policy, load_policy
+from twolink.synthesis import agent2_problem, solve
+
+
+def reference_update(theta, idx, w, j, target, alpha, rule):
+    """The batched update written as loops: per entry, gather every (arm, bin) that hit
+    it, average their membership-weighted errors, and step min(1, alpha * weight)."""
+    theta = theta.copy()
+    old = theta.copy()
+    n, k = idx.shape
+    hits: dict = {}
+    for a in range(n):
+        q_xu = sum(w[a, b] * old[idx[a, b], j[a, b]] for b in range(k))
+        for b in range(k):
+            m, u = int(idx[a, b]), int(j[a, b])
+            err = target[a] - (old[m, u] if rule == "fuzzy" else q_xu)
+            s, wsum = hits.get((m, u), (0.0, 0.0))
+            hits[(m, u)] = (s + w[a, b] * err, wsum + w[a, b])
+    for (m, u), (s, wsum) in hits.items():
+        if wsum > 0:
+            theta[m, u] = old[m, u] + min(1.0, alpha * wsum) * s / wsum
+    return theta
+
+
+@pytest.mark.parametrize("rule", ["fuzzy", "discrete"])
+def test_update_matches_reference_loop(rule):
+    rng = np.random.default_rng(3)
+    agent = make_agents("decentralized")[1]                 # agent 1, 4-D grid, 16 bins
+    theta = rng.uniform(-25, 0, agent.theta.shape)
+    x = np.column_stack([rng.uniform(-3, 3, 40), rng.uniform(-6, 6, 40),
+                         rng.uniform(-3, 3, 40), rng.uniform(-0.1, 0.1, 40)])
+    x[:5] = x[0]                                             # shared bins across arms
+    idx, w = agent.grid.memberships(x)
+    if rule == "fuzzy":
+        j = rng.integers(0, 3, idx.shape)
+    else:
+        j = np.broadcast_to(rng.integers(0, 3, len(x))[:, None], idx.shape)
+    target = rng.uniform(-25, 0, len(x))
+    for alpha in (0.05, 0.9):
+        fast = update_theta(theta.copy(), idx, w, j, target, alpha, rule=rule)
+        ref = reference_update(theta, idx, w, j, target, alpha, rule)
+        np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12)
+        assert np.count_nonzero(fast != theta) > 20
+
+
+def test_learner_converges_to_fuzzy_q_iteration_on_the_simplified_plant():
+    """Given Alg. 1's transitions (every bin centre, every action, on the simplified
+    plant), the learner's update reaches fuzzy Q-iteration's fixed point."""
+    problem = agent2_problem()                         # 84 bins x 3 actions
+    fqi = solve(problem, delta=1e-10).q
+    agent = make_agents("decentralized")[0]
+    assert agent.grid == problem.grid
+    centres = problem.grid.centers()
+    n, nu = len(centres), len(agent.actions)
+    x = np.zeros((n * nu, 4))
+    x[:, 1], x[:, 3] = np.repeat(centres[:, 0], nu), np.repeat(centres[:, 1], nu)
+    tau = np.zeros((n * nu, 2))
+    tau[:, 1] = np.tile(agent.actions[:, 0], n)
+    with ModelPlant("simplified") as plant:
+        nxt = plant.step(x, tau)
+    idx, w = agent.grid.memberships(x[:, [1, 3]])
+    assert np.allclose(w.max(axis=1), 1.0)            # each centre: one bin, weight 1
+    j = np.broadcast_to(np.tile(np.arange(nu), n)[:, None], idx.shape)
+    r = agent.reward(nxt)
+    nidx, nw = agent.grid.memberships(nxt[:, [1, 3]])
+    theta = np.zeros_like(fqi)
+    for _ in range(2000):
+        v = np.einsum("nk,nk->n", nw, theta.max(axis=1)[nidx])
+        update_theta(theta, idx, w, j, r + 0.98 * v, 0.5, rule="fuzzy")
+    assert np.abs(theta - fqi).max() < 1e-6
+    assert fqi.min() < -5                              # not trivially zero
+
+
+def _short(**kw) -> LearnConfig:
+    base = dict(learner="decentralized", steps=8 * 12, arms=8, seed=5, eval_every=8 * 4,
+                episode=7)
+    base.update(kw)
+    return LearnConfig(**base)
+
+
+def _plain_run(config, **kw):
+    with ModelPlant("full") as plant, Learner(config, plant=plant, **kw) as learner:
+        learner.run()
+        return [a.theta.copy() for a in learner.agents], learner.curve
+
+
+@pytest.mark.parametrize("learner", LEARNERS)
+def test_same_seed_same_theta_bit_for_bit(learner):
+    cfg = _short(learner=learner, update="discrete" if learner == "independent" else "fuzzy")
+    a, curve = _plain_run(cfg)
+    b, _ = _plain_run(cfg)
+    c, _ = _plain_run(_short(learner=learner, seed=6))
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert not all(np.array_equal(x, y) for x, y in zip(a, c))
+    assert any(np.count_nonzero(x) > 0 for x in a)
+    assert [e.steps for e in curve] == [0, 32, 64, 96]
+
+
+def test_interrupted_then_resumed_equals_uninterrupted(tmp_path):
+    cfg = _short()
+    full, full_curve = _plain_run(cfg)
+    ckpt = tmp_path / "ckpt.npz"
+
+    def stop(e):
+        if e.steps == 64:
+            raise KeyboardInterrupt
+    with ModelPlant("full") as plant, Learner(cfg, plant=plant) as learner:
+        with pytest.raises(KeyboardInterrupt):
+            learner.run(checkpoint=ckpt, on_eval=stop)
+    saved = Policy.load(ckpt)
+    assert saved.meta["learning"]["steps"] == 64
+    with ModelPlant("full") as plant, Learner.resume(saved, plant=plant) as learner:
+        learner.run(checkpoint=ckpt)
+        resumed = [a.theta.copy() for a in learner.agents]
+        curve = learner.curve
+    assert all(np.array_equal(x, y) for x, y in zip(full, resumed))
+    strip = [(e.steps, e.successes, e.median_settle, e.mean_return) for e in curve]
+    assert strip == [(e.steps, e.successes, e.median_settle, e.mean_return) for e in full_curve]
+    final = load_policy(str(ckpt))
+    assert final.meta["learning"]["steps"] == 96
+    assert np.array_equal(final.agents[1].q, resumed[1])
+
+
+def test_warm_start_copies_theta_and_refuses_other_tasks_and_grids():
+    init = load_policy("decentralized")
+    with ModelPlant("simplified") as plant:
+        with Learner(_short(), init=init, plant=plant) as learner:
+            assert np.array_equal(learner.agents[1].theta, init.agents[1].q)
+            assert learner.init_label == "decentralized"
+        with pytest.raises(ValueError, match="is a decentralized policy; the centralized"):
+            Learner(_short(learner="centralized"), init=init, plant=plant)
+        with pytest.raises(ValueError, match="agent agent1 reads a grid over"):
+            Learner(_short(learner="independent"), init=init, plant=plant)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"steps": 0}, "steps must be a whole number"),
+    ({"steps": -5}, "steps must be a whole number"),
+    ({"arms": 0}, "arms must be a whole number"),
+    ({"arms": MAX_ARMS + 1}, "arms must be a whole number"),
+    ({"steps": 4, "arms": 8}, "at least the number of arms"),
+    ({"alpha": 0.0}, r"learning rate alpha must be a number in \(0, 1\]"),
+    ({"alpha": 1.5}, "learning rate alpha"),
+    ({"alpha": float("nan")}, "learning rate alpha"),
+    ({"epsilon": -0.1}, "epsilon must be"),
+    ({"learner": "joint"}, "unknown learner 'joint'"),
+    ({"update": "sarsa"}, "unknown update 'sarsa'"),
+    ({"steps": 10**6, "eval_every": 10}, "more than 1000 evaluations"),
+])
+def test_bad_settings_are_refused(change, message):
+    with pytest.raises(ValueError, match=message):
+        _short(**change).check()
+
+
+def test_resume_refuses_a_policy_without_resume_state():
+    with pytest.raises(ValueError, match="not a learning checkpoint"):
+        Learner.resume(load_policy("decentralized"))
+
+
+def test_curve_summaries():
+    from twolink.learning import Evaluation
+    curve = [Evaluation(s, k, 10, None, -20.0, 0.0) for s, k in
+             [(0, 0), (100, 9), (200, 8), (300, 10)]]
+    assert steps_to_reach(curve) == 100
+    assert not stays_above(curve)
+    assert stays_above(curve[:2]) and steps_to_reach(curve[:1]) is None
