@@ -213,6 +213,15 @@ def test_identified_model_takes_the_file_and_records_it(tmp_path, monkeypatch, c
 
 
 def test_robust_memory_is_estimated_before_any_work():
+    import tracemalloc
+    synthesize("centralized", model="full", robust="worst", draws=1)     # warm the kernels
+    tracemalloc.start()
+    try:
+        synthesize("centralized", model="full", robust="worst", draws=3, spread=0.2)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert 0.8 * robust_bytes("centralized", 1, 3) < peak <= robust_bytes("centralized", 1, 3)
     assert robust_bytes("centralized", 1, 8) < MAX_ROBUST_BYTES
     assert robust_bytes("centralized", 1, 16) == 2 * robust_bytes("centralized", 1, 8)
     assert robust_bytes("centralized", 1, 1000) > MAX_ROBUST_BYTES
