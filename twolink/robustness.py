@@ -200,6 +200,25 @@ def controller(policy, ch: Challenge, *, compensate: bool = True):
                        observation_delay=ch.observation_delay, noise=noise)
 
 
+def closed_loop(policy, ch: Challenge, *, keys, seed: int, steps: int,
+                compensate: bool = True):
+    """The closed loop :func:`evaluate` runs, for the runs ``keys`` ((plant, state) index
+    pairs, one per batch row): ``(act, observe)`` for
+    ``rollout(act, plant, x0, duration=steps * Ts, observe=observe)``. ``observe(k, x)``
+    hands on the challenge's readings of the true states x (noise and faults drawn from
+    each run's own generators, then the reading delay); ``act`` is the controller
+    (:func:`controller`) behind the actuation delay. Make a new pair per rollout."""
+    rows = len(keys)
+    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
+    faulty = ch.dropout > 0 or ch.stuck > 0
+    sensors = ch.sensors(
+        rngs=keyed_generators([int(seed), NOISE_STREAM], keys) if noisy else [None] * rows,
+        fault_rngs=keyed_generators([int(seed), FAULT_STREAM], keys) if faulty
+        else [None] * rows, block=steps)
+    act = ActuationDelay(controller(policy, ch, compensate=compensate), ch.action_delay)
+    return act, lambda k, x: sensors(x)
+
+
 def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
              horizon: float = HORIZON, compensate: bool = True, challenge=None, *,
              count: int | None = None, nthread: int | None = None, label: str | None = None,
@@ -241,19 +260,14 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
         label = str(getattr(policy, "meta", {}).get("name", getattr(policy, "kind", "")))
 
     keys = [(p, s) for p in range(len(plants)) for s in range(len(x0))]
-    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
-    faulty = ch.dropout > 0 or ch.stuck > 0
-    sensors = ch.sensors(
-        rngs=keyed_generators([int(seed), NOISE_STREAM], keys) if noisy else [None] * runs,
-        fault_rngs=keyed_generators([int(seed), FAULT_STREAM], keys) if faulty
-        else [None] * runs, block=steps)
-    act = ActuationDelay(controller(policy, ch, compensate=compensate), ch.action_delay)
+    act, sensed = closed_loop(policy, ch, keys=keys, seed=seed, steps=steps,
+                              compensate=compensate)
     bar = tqdm(total=steps, desc=f"evaluate {label}", unit=" Ts", leave=False,
                disable=None if progress else True)
 
     def observe(k, x):
         bar.update()
-        return sensors(x)
+        return sensed(k, x)
 
     try:
         with MujocoPlant([p for p in plants for _ in x0], nthread=nthread) as plant:
