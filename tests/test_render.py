@@ -200,6 +200,9 @@ def test_render_cli_gif_at_chosen_rate(tmp_path, capsys):
     (["--duration", "500", "--size", "2048x2048"], "pixels"),
     (["--duration", "1e12"], "duration must be at most 3600 s"),
     (["--x0", "0", "0", "1e9", "0"], "beyond the bound"),
+    (["--challenge", "nosuch"], "unknown challenge 'nosuch'"),
+    (["--delay", "4"], "a delay of 4 samples is not shorter than the horizon of 4 samples"),
+    (["--angle-noise", "-1"], "--angle-noise must be a non-negative number of degrees"),
 ])
 def test_render_bad_input_one_line_no_file(argv, message, tmp_path, capsys):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
@@ -209,6 +212,23 @@ def test_render_bad_input_one_line_no_file(argv, message, tmp_path, capsys):
     assert code == 2 and err.count("\n") == 1 and message in err
     assert err.startswith("twolink render: error: ")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_render_cli_under_a_challenge_with_compensation(tmp_path, capsys):
+    """The rendered run is the challenged, compensated one: its trajectory differs."""
+    out = tmp_path / "c.gif"
+    code, text, _ = _render(capsys, "--policy", "centralized_full", "--challenge", "medium",
+                            "--compensate", "--seed", "2", "--duration", 0.3, "--fps", 10,
+                            "--size", "80x60", "--no-ghost", "--json", "-o", out)
+    assert code == 0
+    rep = json.loads(text)
+    assert rep["challenge"]["name"] == "medium" and rep["compensate"] and rep["seed"] == 2
+    plain = tmp_path / "p.gif"
+    assert _render(capsys, "--policy", "centralized_full", "--duration", 0.3, "--fps", 10,
+                   "--size", "80x60", "--no-ghost", "-o", plain)[0] == 0
+    a, b = read_video(out), read_video(plain)
+    assert a.shape == b.shape == (4, 60, 80, 3)
+    assert np.abs(a[-1].astype(int) - b[-1].astype(int)).sum() > 0   # another plant and loop
 
 
 def test_render_to_a_directory_is_refused(tmp_path, capsys):

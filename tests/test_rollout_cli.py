@@ -111,6 +111,15 @@ def test_rollout_x0_degrees_and_random_seed(tmp_path, capsys):
     (["--npz", "{tmp}/afile/../r.npz", "--csv", "{tmp}/r.npz"], "does not exist"),
     (["-o", "{tmp}/r", "--npz", "{tmp}/r.csv"], "--csv and --npz both write"),
     (["--policy", "centralized", "--policy", "{tmp}/centralized.npz"], "share the label"),
+    (["--challenge", "extreme"], "unknown challenge 'extreme'; choose one of none, easy, "
+                                 "medium, hard"),
+    (["--delay", "10"], "a delay of 10 samples is not shorter than the horizon of 10 samples"),
+    (["--challenge", "hard", "--duration", "0.1"], "a delay of 2 samples is not shorter"),
+    (["--delay", "-1"], "--delay must be a non-negative whole number"),
+    (["--angle-noise", "-0.5"], "--angle-noise must be a non-negative number of degrees"),
+    (["--angle-noise", "nan"], "--angle-noise must be a non-negative number of degrees"),
+    (["--challenge", "medium", "--delay", "1"], "give either --challenge or --delay"),
+    (["--challenge", "easy", "--seed", "-3"], "--seed must be a non-negative"),
 ])
 def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
@@ -204,3 +213,42 @@ def test_default_output_folder_is_made_only_for_a_run_that_writes(tmp_path, caps
     assert code == 0
     assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == [
         "rollout.csv", "rollout.npz", "rollout_fig3.png"]
+
+
+def _outcome(capsys, *argv):
+    code, out, _ = _run(capsys, "--policy", "centralized_full", "--no-save", "--json", *argv)
+    assert code == 0
+    run = json.loads(out)["runs"][0]
+    return run["success"], run["settle_time"], run["return"]
+
+
+def test_compensation_undoes_a_delay_the_policy_fails_under(capsys):
+    """From the paper's x0 on MuJoCo: one sample of actuation delay breaks
+    centralized_full; the delay predictor restores its nominal settle time."""
+    nominal = _outcome(capsys)
+    delayed = _outcome(capsys, "--delay", "1")
+    fixed = _outcome(capsys, "--delay", "1", "--compensate")
+    assert nominal[0] and nominal[1] < 1.5
+    assert not delayed[0] and delayed[1] is None and delayed[2] < nominal[2] - 5
+    assert fixed[0] and abs(fixed[1] - nominal[1]) <= 0.1 and fixed[2] > delayed[2] + 5
+    assert _outcome(capsys, "--compensate") == nominal    # nothing to compensate: the policy
+
+
+def test_a_challenged_rollout_is_the_evaluation_of_its_first_plant(capsys):
+    """--challenge LEVEL --seed S runs evaluate()'s plant 0 from x0, with the same noise."""
+    from twolink.parameters import PAPER_X0
+    from twolink.robustness import evaluate
+
+    for comp in (False, True):
+        ok, st, ret = _outcome(capsys, "--challenge", "medium", "--seed", "3",
+                               *(["--compensate"] if comp else []))
+        ev = evaluate("centralized_full", x0=np.array([PAPER_X0]), count=1, seed=3,
+                      challenge="medium", compensate=comp)
+        assert ok == bool(ev.success[0, 0]) and ret == pytest.approx(ev.returns[0, 0], abs=1e-12)
+        assert (st is None) == (not np.isfinite(ev.settle[0, 0]))
+        assert st is None or st == pytest.approx(ev.settle[0, 0])
+    assert not _outcome(capsys, "--challenge", "medium", "--seed", "3")[0]
+    assert _outcome(capsys, "--challenge", "medium", "--seed", "3", "--compensate")[0]
+    again = _outcome(capsys, "--challenge", "hard", "--seed", "5")
+    assert again == _outcome(capsys, "--challenge", "hard", "--seed", "5")
+    assert again != _outcome(capsys, "--challenge", "hard", "--seed", "6")

@@ -11,6 +11,10 @@ deterministic, so it is run on one plant (repeating it would only inflate the co
 Returns data: a JSON-ready dict (success k/n with its 95 % Wilson interval, worst plant,
 worst-case and mean return, settle-time quantiles), the settle times for the figures,
 and :func:`targets`, the issue's acceptance checks, each with its measured number.
+
+For the commands ``rollout`` and ``render``: :func:`level` (the challenge a command line
+asks for) and :func:`challenged_rollouts` (single trajectories through the same closed
+loop as :func:`twolink.robustness.evaluate`).
 """
 from __future__ import annotations
 
@@ -22,8 +26,13 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.challenges import LEVELS, Challenge, challenge
+from twolink.parameters import HORIZON
+from twolink.perturbations import ActuationDelay, keyed_generators
+from twolink.plants import make_plant
 from twolink.policy import load_policy
-from twolink.robustness import evaluate
+from twolink.robustness import (FAULT_STREAM, NOISE_STREAM, SPEED_PER_DEG, controller,
+                                evaluate)
+from twolink.rollout import rollout, steps_for
 from twolink.sweeps import states_of
 
 #: The two ways every policy is run: as it is, and behind the run-time compensator.
@@ -126,3 +135,68 @@ def targets(section: dict) -> list[dict]:
                      "successes": res["successes"], "runs": res["runs"],
                      "plants": res["plants"], "met": bool(met)})
     return rows
+
+
+def level(name=None, *, delay: int = 0, angle_noise_deg: float = 0.0) -> Challenge:
+    """The challenge a command line asks for: the level ``name``, or (without one) a
+    ``custom`` challenge of ``delay`` actuation samples and ``angle_noise_deg`` of noise
+    (speed noise :data:`twolink.robustness.SPEED_PER_DEG` rad/s per degree), as
+    :func:`twolink.robustness.evaluate` builds it; None when nothing is asked for."""
+    if name is not None:
+        if delay or angle_noise_deg:
+            raise ValueError("give either --challenge or --delay/--angle-noise, not both "
+                             "(a challenge sets its own delays and noise)")
+        return challenge(name)
+    if not delay and not angle_noise_deg:
+        return None
+    if angle_noise_deg < 0 or not math.isfinite(angle_noise_deg):
+        raise ValueError(f"--angle-noise must be a non-negative number of degrees, "
+                         f"got {angle_noise_deg:g}")
+    if delay < 0:
+        raise ValueError(f"--delay must be a non-negative whole number of samples, got {delay}")
+    return Challenge("custom", action_delay=delay, angle_noise_deg=angle_noise_deg,
+                     speed_noise=angle_noise_deg * SPEED_PER_DEG,
+                     description=f"{delay}-sample delay, {angle_noise_deg:g} deg noise")
+
+
+def check_horizon(ch: Optional[Challenge], duration: float) -> None:
+    """A ValueError when the challenge's delays are not shorter than the horizon."""
+    steps = steps_for(duration)
+    latency = 0 if ch is None else ch.action_delay + ch.observation_delay
+    if latency >= steps:
+        raise ValueError(f"a delay of {latency} samples is not shorter than the horizon of "
+                         f"{steps} samples ({duration:g} s)")
+
+
+def challenged_rollouts(policies: dict, plants, x0, ch: Challenge, *, seed: int,
+                        compensate: bool, duration: float = HORIZON) -> dict:
+    """Single trajectories under a challenge: every policy (``{label: policy}``) on every
+    plant (names) from x0 (4,), ``{(label, plant): Trajectory}``.
+
+    The closed loop of :func:`twolink.robustness.evaluate` for its plant 0 and state 0:
+    the plant is the challenge's first plant drawn from ``seed``, the readings go through
+    the challenge's sensors with the generators evaluate gives run (0, 0), the torques
+    through :func:`twolink.robustness.controller` and the actuation delay. So a MuJoCo
+    trajectory here settles exactly as ``evaluate(policy, x0=[x0], count=1, seed=seed,
+    challenge=ch)`` says.
+    """
+    check_horizon(ch, duration)
+    params = ch.plants(1, seed)[0]
+    steps = steps_for(duration)
+    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
+    faulty = ch.dropout > 0 or ch.stuck > 0
+    runs = {}
+    for plant_name in dict.fromkeys(plants):
+        with make_plant(plant_name, params) as plant:
+            for label, policy in policies.items():
+                sensors = ch.sensors(
+                    rngs=keyed_generators([int(seed), NOISE_STREAM], [(0, 0)]) if noisy
+                    else [None], fault_rngs=keyed_generators([int(seed), FAULT_STREAM],
+                                                             [(0, 0)]) if faulty else [None],
+                    block=steps)
+                act = ActuationDelay(controller(policy, ch, compensate=compensate),
+                                     ch.action_delay)
+                runs[(label, plant_name)] = rollout(
+                    act, plant, np.asarray(x0, dtype=float)[None], duration=duration,
+                    observe=lambda k, x, s=sensors: s(x), label=label)[0]
+    return {(label, p): runs[(label, p)] for label in policies for p in dict.fromkeys(plants)}

@@ -3,7 +3,9 @@
 The arm is seen from the top camera with the goal region marked, a translucent ghost
 arm following the simplified-model (11) rollout of the same policy from the same x0,
 and a text overlay with time, torques and reward. Two ``--policy`` values render side
-by side. Rendering speed is measured by the benchmarks (``make bench``).
+by side; ``--challenge`` (or ``--delay`` / ``--angle-noise``) and ``--compensate`` run
+them as ``twolink rollout`` does. Rendering speed is measured by the benchmarks
+(``make bench``).
 """
 from __future__ import annotations
 
@@ -17,11 +19,14 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.artifacts import check_outputs
-from twolink.commands.rollout import _X0_HELP, _label, parse_x0
+from twolink.challenges import challenge
+from twolink.commands.rollout import (_X0_HELP, _label, add_challenge_options, challenge_of,
+                                      parse_x0)
 from twolink.parameters import HORIZON, TS
 from twolink.plants import PLANTS
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
+from twolink.robustness_study import challenged_rollouts
 from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
 from twolink.video import (MAX_FRAMES, check_budget, check_fps, check_size, video_format,
                            write_video)
@@ -38,7 +43,10 @@ def add_parser(sub):
     p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)
     p.add_argument("--degrees", action="store_true",
                    help="read --x0 angles in degrees and speeds in deg/s")
-    p.add_argument("--seed", type=int, default=0, help="seed for --x0 random (default 0)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of --x0 random and of the challenge's plant, noise and faults "
+                        "(default 0)")
+    add_challenge_options(p)
     p.add_argument("--duration", type=float, default=HORIZON,
                    help=f"simulated seconds (default {HORIZON:g}, at most {MAX_DURATION:g}; "
                         f"a video has at most {MAX_FRAMES} frames)")
@@ -78,6 +86,7 @@ def run(args) -> int:
     if len(names) > 2:
         raise ValueError(f"give one or two --policy values (side by side), got {len(names)}")
     steps_for(args.duration)
+    ch = challenge_of(args)
     check_fps(args.fps)
     if not np.isfinite(args.speed) or args.speed <= 0:
         raise ValueError(f"--speed must be a positive number, got {args.speed}")
@@ -92,9 +101,15 @@ def run(args) -> int:
     check_outputs({"--output": out}, creatable=[default])
 
     policies = {label: load_policy(n) for label, n in zip(labels, names)}
-    runs = rollout_grid(policies, [args.plant] + (["simplified"] if args.ghost else []), x0,
-                        duration=args.duration)
-    panels = [(f"{label} on {args.plant}" + (" (ghost: simplified)" if args.ghost else ""),
+    shown = [args.plant] + (["simplified"] if args.ghost else [])
+    if ch is None and not args.compensate:
+        runs = rollout_grid(policies, shown, x0, duration=args.duration)
+    else:
+        runs = challenged_rollouts(policies, shown, x0, ch or challenge("none"), seed=args.seed,
+                                   compensate=args.compensate, duration=args.duration)
+    under = ("" if ch is None else f", {ch.name}") + (", compensated" if args.compensate else "")
+    panels = [(f"{label} on {args.plant}{under}"
+               + (" (ghost: simplified)" if args.ghost else ""),
                runs[(label, args.plant)], runs.get((label, "simplified")) if args.ghost else None)
               for label in policies]
     if out.parent == default:
@@ -115,7 +130,9 @@ def run(args) -> int:
     result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(names),
               "height": height, "video_seconds": count / args.fps,
               "render_seconds": seconds, "policies": labels, "plant": args.plant,
-              "ghost": args.ghost, "x0": x0.tolist()}
+              "ghost": args.ghost, "x0": x0.tolist(),
+              "challenge": None if ch is None else ch.as_dict(), "compensate": args.compensate,
+              "seed": args.seed}
     if args.json:
         print(json.dumps(result, indent=2))
     else:

@@ -1,7 +1,9 @@
 """``twolink rollout``: run policies on plants from x0, summarise, save and plot.
 
 Several ``--policy`` or ``--plant`` values run every combination and overlay them in one
-Fig. 3-style figure (one column per policy, one line style per plant).
+Fig. 3-style figure (one column per policy, one line style per plant). ``--challenge``
+(or ``--delay`` / ``--angle-noise``) runs them under a challenge level, ``--compensate``
+behind the run-time compensator (:mod:`twolink.estimation`).
 """
 from __future__ import annotations
 
@@ -14,12 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from twolink.artifacts import check_outputs
+from twolink.challenges import LEVELS, challenge
 from twolink.metrics import compare
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import MAX_ANGLE, PLANTS, SPEED_BOUND, check_states
 from twolink.plots import fig3
 from twolink.policy import load_policy, shipped_policies
 from twolink.resources import output_dir
+from twolink.robustness_study import challenged_rollouts, check_horizon, level
 from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
 from twolink.trajectory_io import save_csv, save_npz
 
@@ -49,7 +53,9 @@ def add_parser(sub):
                    help=f"seconds to simulate (default {HORIZON:g}, at most "
                         f"{MAX_DURATION:g})")
     p.add_argument("--seed", type=int, default=0,
-                   help="seed of the random generator for --x0 random (default 0)")
+                   help="seed of --x0 random and of the challenge's plant, noise and faults "
+                        "(default 0)")
+    add_challenge_options(p)
     p.add_argument("-o", "--output", default=None, metavar="PREFIX",
                    help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png; a directory "
                         "writes DIR/rollout.* (default renders/rollout)")
@@ -59,6 +65,32 @@ def add_parser(sub):
     p.add_argument("--no-save", action="store_true", help="only print the summary")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     return p
+
+
+def add_challenge_options(p) -> None:
+    """--challenge, --delay, --angle-noise and --compensate (rollout and render)."""
+    p.add_argument("--challenge", metavar="LEVEL", default=None,
+                   help=f"run under a challenge level ({', '.join(LEVELS)}): the plant is "
+                        "its first random plant of --seed, with its delays, noise and "
+                        "faulty readings (twolink.challenges)")
+    p.add_argument("--delay", type=int, default=0, metavar="SAMPLES",
+                   help="without --challenge: torques reach the plant this many sample "
+                        "periods late (default 0)")
+    p.add_argument("--angle-noise", type=float, default=0.0, metavar="DEG",
+                   help="without --challenge: Gaussian noise on the measured angles, std in "
+                        "degrees, with speed noise 0.02 rad/s per degree (default 0)")
+    p.add_argument("--compensate", action="store_true",
+                   help="drive the policy through the run-time delay predictor and state "
+                        "observer (twolink.estimation) for the challenge's delays and noise")
+
+
+def challenge_of(args):
+    """The challenge ``args`` ask for (None: the plain plant), checked against the horizon."""
+    if args.seed < 0:
+        raise ValueError(f"--seed must be a non-negative whole number, got {args.seed}")
+    ch = level(args.challenge, delay=args.delay, angle_noise_deg=args.angle_noise)
+    check_horizon(ch, args.duration)
+    return ch
 
 
 def parse_x0(values, *, degrees: bool = False, seed: int = 0) -> np.ndarray:
@@ -114,17 +146,25 @@ def run(args) -> int:
     plants = list(dict.fromkeys(args.plant or ["mujoco"]))
     x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
     steps_for(args.duration)
+    ch = challenge_of(args)
     outputs = _outputs(args)
 
-    everything = rollout_grid(policies, plants + ["simplified"], x0, duration=args.duration)
+    if ch is None and not args.compensate:
+        everything = rollout_grid(policies, plants + ["simplified"], x0, duration=args.duration)
+    else:
+        everything = challenged_rollouts(policies, plants + ["simplified"], x0,
+                                         ch or challenge("none"), seed=args.seed,
+                                         compensate=args.compensate, duration=args.duration)
     runs = {k: tr for k, tr in everything.items() if k[1] in plants}
     report = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
-              "runs": compare(everything, plants)}
+              "challenge": None if ch is None else ch.as_dict(),
+              "compensate": args.compensate, "runs": compare(everything, plants)}
 
     if outputs:
         if any(p.parent == output_dir(create=False) for p in outputs.values()):
             output_dir()                         # the default folder, made on demand
         meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed,
+                "challenge": report["challenge"], "compensate": args.compensate,
                 "policies": {k: (v.kind, v.meta.get("context")) for k, v in policies.items()}}
         save_csv(outputs["csv"], runs)
         save_npz(outputs["npz"], runs, meta=meta)
@@ -132,13 +172,17 @@ def run(args) -> int:
                   for pname in policies}
         x0s = ", ".join(f"{v:.3g}" for v in x0)
         fig3(panels, outputs["figure"],
-             title=f"x0 = [{x0s}]; line styles: {', '.join(plants)}")
+             title=f"x0 = [{x0s}]; line styles: {', '.join(plants)}"
+                   + ("" if ch is None else f"; challenge {ch.name}, seed {args.seed}")
+                   + ("; compensated" if args.compensate else ""))
         report["outputs"] = {k: str(v) for k, v in outputs.items()}
 
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
-    print(f"x0 = [{', '.join(f'{v:+.4g}' for v in x0)}], {args.duration:g} s")
+    print(f"x0 = [{', '.join(f'{v:+.4g}' for v in x0)}], {args.duration:g} s"
+          + ("" if ch is None else f", challenge {ch.name} (seed {args.seed})")
+          + (", compensated" if args.compensate else ""))
     for e in report["runs"]:
         st = "never" if e["settle_time"] is None else f"{e['settle_time']:.2f} s"
         off = ", ".join(f"{v:+.2f}" for v in e["final_offsets_deg"])
