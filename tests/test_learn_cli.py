@@ -1,0 +1,76 @@
+"""``twolink learn``: a short run writes a loadable checkpoint, a figure and JSON; bad input
+is one line and exit 2 with nothing written; --resume continues a checkpoint."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from twolink.cli import main
+from twolink.policy import load_policy
+
+
+def _learn(tmp_path, *extra):
+    return main(["learn", "--task", "decentralized", "--steps", "32", "--arms", "8",
+                 "--eval-every", "16", "--episode", "5", "-o", str(tmp_path / "run.npz"),
+                 *extra])
+
+
+def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys):
+    assert _learn(tmp_path, "--json", "--seed", "3") == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [e["steps"] for e in out["curve"]] == [0, 16, 32]
+    assert out["config"]["seed"] == 3 and out["config"]["learner"] == "decentralized"
+    assert 0 <= out["final"]["successes"] <= out["final"]["n"] == 65
+    assert out["model_based"]["policy"] == "decentralized"
+    policy = load_policy(str(tmp_path / "run.npz"))
+    assert policy.kind == "decentralized"
+    info = policy.meta["learning"]
+    assert info["steps"] == 32 and info["config"]["seed"] == 3
+    assert "epsilon-greedy" in info["exploration"]
+    assert (tmp_path / "run_curve.png").read_bytes()[:4] == b"\x89PNG"
+    assert policy([[-1.0, -3.0, 0.0, 0.0]]).shape == (1, 2)
+
+
+def test_resume_continues_to_the_new_total(tmp_path, capsys):
+    assert _learn(tmp_path, "--json") == 0
+    capsys.readouterr()
+    assert main(["learn", "--resume", str(tmp_path / "run.npz"), "--steps", "48",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [e["steps"] for e in out["curve"]] == [0, 16, 32, 48]
+    assert load_policy(str(tmp_path / "run.npz")).meta["learning"]["steps"] == 48
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--steps", "0"], "steps must be a whole number in [1, 100,000,000], got 0"),
+    (["--steps", "-10"], "steps must be a whole number"),
+    (["--steps", "1.5"], "expected a whole number, got '1.5'"),
+    (["--arms", "0"], "arms must be a whole number"),
+    (["--arms", "100000"], "arms must be a whole number in [1, 4,096]"),
+    (["--alpha", "0"], "learning rate alpha must be a number in (0, 1]"),
+    (["--alpha", "3"], "learning rate alpha must be a number in (0, 1]"),
+    (["--init", "centralized"], "--init policy is a centralized policy; the decentralized"),
+    (["--independent", "--init", "decentralized"], "agent agent1 reads a grid over"),
+    (["--init", "nosuch"], "unknown policy 'nosuch'"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
+    assert _learn(tmp_path, *args) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("twolink learn: error: ") and message in err
+    assert len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_existing_checkpoint_is_kept_without_force(tmp_path, capsys):
+    (tmp_path / "run.npz").write_bytes(b"keep")
+    assert _learn(tmp_path) == 2
+    assert "exists; give --force" in capsys.readouterr().err
+    assert (tmp_path / "run.npz").read_bytes() == b"keep"
+
+
+def test_task_required_and_independent_only_decentralized(capsys):
+    assert main(["learn", "--steps", "32"]) == 2
+    assert "--task is required" in capsys.readouterr().err
+    assert main(["learn", "--task", "centralized", "--independent"]) == 2
+    assert "--independent applies to --task decentralized" in capsys.readouterr().err
