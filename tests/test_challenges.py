@@ -38,6 +38,8 @@ def test_challenge_by_name_and_unknown_names():
     with pytest.raises(ValueError, match="unknown challenge 'brutal'; choose one of none, easy, "
                                          "medium, hard"):
         challenge("brutal")
+    with pytest.raises(ValueError, match="challenge name must be a non-empty string"):
+        Challenge("")
 
 
 def _reference_plant(spread, seed, i):

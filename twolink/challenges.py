@@ -57,6 +57,8 @@ class Challenge:
     description: str = ""
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"challenge name must be a non-empty string, got {self.name!r}")
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if f.name not in ("name", "description") and (
