@@ -1,9 +1,13 @@
-"""Model mismatch and imperfect observation: perturbed parameters, state noise, delay.
+"""Model mismatch and imperfect observation: perturbed parameters, state noise, delays,
+dropped and stuck readings.
 
-One implementation of each perturbation, per batch row, shared by the dm_env tasks
-(:mod:`twolink.env`), rollouts and the robustness sweeps (:mod:`twolink.sweeps`), so the
-same perturbation means the same thing everywhere. Randomness only through injected
-generators, one per batch row: a row's noise never depends on which rows share its batch.
+One implementation of each perturbation, per batch row, shared by the environments
+(:mod:`twolink.env`, :mod:`twolink.gym_env`, :mod:`twolink.pettingzoo`), rollouts, the
+robustness sweeps (:mod:`twolink.sweeps`) and the evaluation call
+(:mod:`twolink.robustness`), so the same perturbation means the same thing everywhere;
+the named challenge levels that combine them live in :mod:`twolink.challenges`.
+Randomness only through injected generators, one per batch row: a row's noise never
+depends on which rows share its batch.
 """
 from __future__ import annotations
 
