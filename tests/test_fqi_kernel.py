@@ -7,6 +7,7 @@ import scipy.sparse as sp
 
 from reference_fqi import (fuzzy_q_iteration_robust_reference, fuzzy_q_iteration_scipy,
                            fuzzy_q_iteration_serial_reference)
+from twolink import fqi
 from twolink.fqi import (TransitionTable, fixed_width, fuzzy_q_iteration,
                          fuzzy_q_iteration_robust, transition_matrix, transition_table)
 from twolink.fuzzy import Axis, Grid
@@ -142,6 +143,38 @@ def test_robust_sweeps_equal_a_numpy_reference(mode):
     if mode == "worst":                                  # the worst case is below each model
         for t, r in zip(tables, rewards):
             assert np.all(res.q <= fuzzy_q_iteration(t, r, delta=1e-9).q + 0.02 / (1 - 0.98))
+
+
+def test_robust_table_is_the_per_model_tables_side_by_side():
+    """robust_table writes every model's memberships in place: model k's rows are
+    transition_table's bit for bit (padded to the widest model), and the robust sweeps
+    read it to the same Q as from the K tables."""
+    models = _perturbed_models(3)
+    grid = models[0].grid
+    both = fqi.robust_table(grid, [p.next_points for p in models])
+    tables = [transition_table(p.grid, p.next_points) for p in models]
+    assert both.index.shape == (tables[0].shape[0], 3, max(t.index.shape[1] for t in tables))
+    for k, t in enumerate(tables):
+        w = t.index.shape[1]
+        np.testing.assert_array_equal(both.index[:, k, :w], t.index)
+        np.testing.assert_array_equal(both.weight[:, k, :w], t.weight)
+        assert not both.weight[:, k, w:].any()
+        np.testing.assert_array_equal(both.table(k).tocsr().toarray(), t.tocsr().toarray())
+    assert both.nnz == sum(t.nnz for t in tables)
+    rewards = [p.rewards for p in models]
+    for mode in ("worst", "mean"):
+        a = fuzzy_q_iteration_robust(both, rewards, mode=mode)
+        b = fuzzy_q_iteration_robust(tables, rewards, mode=mode)
+        np.testing.assert_array_equal(a.q, b.q)
+        assert a.iterations == b.iterations
+    with pytest.raises(ValueError, match="at least one model"):
+        fqi.robust_table(grid, [])
+    with pytest.raises(ValueError, match="do not match a grid"):
+        fqi.robust_table(grid, [models[0].next_points, models[0].next_points[:5]])
+    with pytest.raises(ValueError, match="one reward table per transition"):
+        fuzzy_q_iteration_robust(both, rewards[:2])
+    with pytest.raises(ValueError, match=r"bin indices must lie in \[0, "):
+        fqi.RobustTable(both.index + grid.size, both.weight, grid.size)
 
 
 def test_bad_arguments_are_refused():

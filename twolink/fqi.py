@@ -5,7 +5,8 @@ Q_{l+1}(m, u) = rho(c_m, u) + gamma * sum_m~ mu_m~(f(c_m, u)) max_u~ Q_l(m~, u~)
 The transitions f(c_m, u_j) of every (bin centre, action) pair are computed once and
 stored as the membership matrix T of shape (N_X * N_U, N_X): as a scipy CSR matrix
 (:func:`transition_matrix`, for peers and references) or in the fixed-width layout the
-compiled sweeps read (:class:`TransitionTable`, at most 2**d memberships per row).
+compiled sweeps read (:class:`TransitionTable`, at most 2**d memberships per row; K models
+side by side for the robust sweeps: :class:`RobustTable`).
 Sweeps are synchronous (Q_{l+1} from Q_l, as printed) or serial (each Q(m, u) overwritten
 at once, bins in Matlab's column-major order, as ApproxRL's ``fuzzyqi.m`` can run them).
 ``tests/reference_fqi.py`` holds the plain loop of Alg. 1 and the scipy sweep this is
@@ -113,20 +114,81 @@ def transition_table(grid: Grid, next_points: np.ndarray) -> TransitionTable:
     compiled pass over the points (equal entry for entry, bit for bit, to
     ``fixed_width(transition_matrix(...))``)."""
     n_x, n_u, d = _check_points(grid, next_points)
+    index = np.empty((n_x * n_u, 2 ** d), dtype=np.int32)
+    weight = np.empty((n_x * n_u, 2 ** d))
+    width = _membership_rows(grid, next_points, index, weight)
+    if width < 2 ** d:
+        index = np.ascontiguousarray(index[:, :width])
+        weight = np.ascontiguousarray(weight[:, :width])
+    return TransitionTable(index, weight, grid.size, grid.shape)
+
+
+def _membership_rows(grid: Grid, next_points: np.ndarray, index: np.ndarray,
+                     weight: np.ndarray) -> int:
+    """Fill ``index``/``weight`` (rows, 2**d), views allowed, with the memberships of the
+    points (:func:`fqi_kernel.membership_rows`); returns the widest row's count."""
+    n_x, n_u, d = next_points.shape
     sizes = np.array(grid.shape, dtype=np.int64)
     centers = np.zeros((d, int(sizes.max())))
     for a, axis in enumerate(grid.axes):
         centers[a, :axis.size] = axis.centers
     circular = np.array([axis.circular for axis in grid.axes])
     points = np.ascontiguousarray(next_points, dtype=float).reshape(n_x * n_u, d)
-    index = np.empty((n_x * n_u, 2 ** d), dtype=np.int32)
-    weight = np.empty((n_x * n_u, 2 ** d))
     counts = fqi_kernel.membership_rows(points, centers, sizes, circular, index, weight)
-    width = max(1, int(counts.max(initial=0)))
+    return max(1, int(counts.max(initial=0)))
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustTable:
+    """The K models' T side by side, as the robust sweeps read them: row m * N_U + j of
+    model k is ``index[row, k]``/``weight[row, k]`` (rows, K, width), each model's row as
+    in :class:`TransitionTable` (increasing bins, zero-weight padding)."""
+
+    index: np.ndarray
+    weight: np.ndarray
+    n_states: int
+
+    def __post_init__(self):
+        index = np.ascontiguousarray(self.index, dtype=np.int32)
+        weight = np.ascontiguousarray(self.weight, dtype=float)
+        if index.ndim != 3 or index.shape != weight.shape:
+            raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
+                             f"(rows, models, width) shape")
+        if index.size and (index.min() < 0 or index.max() >= self.n_states):
+            raise ValueError(f"bin indices must lie in [0, {self.n_states})")
+        object.__setattr__(self, "index", index)
+        object.__setattr__(self, "weight", weight)
+
+    @property
+    def models(self) -> int:
+        return self.index.shape[1]
+
+    @property
+    def nnz(self) -> int:
+        return int(np.count_nonzero(self.weight))
+
+    def table(self, k: int) -> TransitionTable:
+        """Model k's :class:`TransitionTable` (a copy)."""
+        return TransitionTable(self.index[:, k], self.weight[:, k], self.n_states)
+
+
+def robust_table(grid: Grid, next_points: Sequence[np.ndarray]) -> RobustTable:
+    """The :class:`RobustTable` of K models' points (each (N_X, N_U, d) on ``grid``),
+    memberships written straight into place by the compiled pass (no per-model tables, no
+    copy): each model's rows equal :func:`transition_table`'s bit for bit."""
+    if len(next_points) == 0:
+        raise ValueError("need the points of at least one model")
+    shapes = {_check_points(grid, p) for p in next_points}
+    if len(shapes) != 1:
+        raise ValueError(f"the models' points differ in shape: {sorted(shapes)}")
+    n_x, n_u, d = shapes.pop()
+    index = np.empty((n_x * n_u, len(next_points), 2 ** d), dtype=np.int32)
+    weight = np.empty((n_x * n_u, len(next_points), 2 ** d))
+    width = max(_membership_rows(grid, p, index[:, k], weight[:, k])
+                for k, p in enumerate(next_points))
     if width < 2 ** d:
-        index = np.ascontiguousarray(index[:, :width])
-        weight = np.ascontiguousarray(weight[:, :width])
-    return TransitionTable(index, weight, grid.size, grid.shape)
+        index, weight = index[:, :, :width], weight[:, :, :width]
+    return RobustTable(index, weight, grid.size)
 
 
 def _check_points(grid: Grid, next_points: np.ndarray) -> tuple:
@@ -231,7 +293,8 @@ def _iterate(kernel, shape, *, in_place: bool, delta: float, max_iterations: int
                             time.perf_counter() - start)
 
 
-def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, TransitionTable]],
+def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
+                                                Sequence[Union[sp.spmatrix, TransitionTable]]],
                              rewards: Sequence[np.ndarray], *, mode: str = "worst",
                              gamma: float = GAMMA, delta: float = DELTA,
                              max_iterations: int = 10000, min_iterations: int = 0,
@@ -242,26 +305,35 @@ def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, Transition
     Q_{l+1}(m, u) = min_k (``mode="worst"``) or mean_k (``"mean"``) of
     rho_k(c_m, u) + gamma sum_m~ T_k[(m, u), m~] max_u~ Q_l(m~, u~),
 
-    one transition matrix and one reward table (N_X, N_U) per model k, all on one grid.
+    one transition matrix and one reward table (N_X, N_U) per model k, all on one grid;
+    ``transitions`` is the K matrices or tables, or a :class:`RobustTable` of all K.
     """
     if mode not in ROBUST_MODES:
         raise ValueError(f"unknown robust mode {mode!r}; choose one of {', '.join(ROBUST_MODES)}")
-    if len(transitions) == 0 or len(transitions) != len(rewards):
+    n_models = transitions.models if isinstance(transitions, RobustTable) else len(transitions)
+    if n_models == 0 or n_models != len(rewards):
         raise ValueError(f"need one reward table per transition matrix, got "
-                         f"{len(transitions)} matrices and {len(rewards)} reward tables")
-    checked = [_check(t, r, gamma, delta, None) for t, r in zip(transitions, rewards)]
-    shapes = {r.shape for _, r in checked}
+                         f"{n_models} matrices and {len(rewards)} reward tables")
+    if isinstance(transitions, RobustTable):
+        index, weight = transitions.index, transitions.weight
+        shape = (index.shape[0], transitions.n_states)
+        checked = [_check_rewards(shape, r, gamma, delta) for r in rewards]
+    else:
+        pairs = [_check(t, r, gamma, delta, None) for t, r in zip(transitions, rewards)]
+        checked = [r for _, r in pairs]
+    shapes = {r.shape for r in checked}
     if len(shapes) != 1:
         raise ValueError(f"the models' reward tables differ in shape: {sorted(shapes)}")
-    n_x, n_u = checked[0][1].shape
-    width = max(t.index.shape[1] for t, _ in checked)
-    index = np.empty((n_x * n_u, len(checked), width), dtype=np.int32)
-    weight = np.zeros((n_x * n_u, len(checked), width))
-    for k, (t, _) in enumerate(checked):
-        w = t.index.shape[1]
-        index[:, k, :w], weight[:, k, :w] = t.index, t.weight
-        index[:, k, w:] = t.index[:, :1]
-    r = np.stack([rr.reshape(-1) for _, rr in checked], axis=1)
+    n_x, n_u = checked[0].shape
+    if not isinstance(transitions, RobustTable):
+        width = max(t.index.shape[1] for t, _ in pairs)
+        index = np.empty((n_x * n_u, n_models, width), dtype=np.int32)
+        weight = np.zeros((n_x * n_u, n_models, width))
+        for k, (t, _) in enumerate(pairs):
+            w = t.index.shape[1]
+            index[:, k, :w], weight[:, k, :w] = t.index, t.weight
+            index[:, k, w:] = t.index[:, :1]
+    r = np.stack([rr.reshape(-1) for rr in checked], axis=1)
 
     def kernel(q, q_next, v, v_next, history, done, step):
         return fqi_kernel.robust_sweeps(index, weight, r, q, q_next, v, v_next, gamma, delta,
@@ -271,19 +343,27 @@ def fuzzy_q_iteration_robust(transitions: Sequence[Union[sp.spmatrix, Transition
                     callback=callback)
 
 
-def _check(transitions, rewards, gamma, delta, state_shape) -> tuple:
-    """(TransitionTable, rewards as float (N_X, N_U)), or a clear error."""
+def _check_rewards(shape: tuple, rewards, gamma, delta) -> np.ndarray:
+    """Rewards as float (N_X, N_U) matching a T of ``shape``, with gamma and delta in
+    range, or a clear error."""
     rewards = np.ascontiguousarray(rewards, dtype=float)
     if rewards.ndim != 2:
         raise ValueError(f"rewards must have shape (N_X, N_U), got {rewards.shape}")
     n_x, n_u = rewards.shape
-    if transitions.shape != (n_x * n_u, n_x):
-        raise ValueError(f"transition matrix of shape {transitions.shape} does not match "
+    if tuple(shape) != (n_x * n_u, n_x):
+        raise ValueError(f"transition matrix of shape {tuple(shape)} does not match "
                          f"rewards of shape {rewards.shape}")
     if not (0.0 < gamma < 1.0):
         raise ValueError(f"gamma must lie in (0, 1), got {gamma}")
     if not delta > 0.0:
         raise ValueError(f"delta must be positive, got {delta}")
+    return rewards
+
+
+def _check(transitions, rewards, gamma, delta, state_shape) -> tuple:
+    """(TransitionTable, rewards as float (N_X, N_U)), or a clear error."""
+    rewards = _check_rewards(transitions.shape, rewards, gamma, delta)
+    n_x = rewards.shape[0]
     if isinstance(transitions, TransitionTable):
         if state_shape is not None:
             transitions = dataclasses.replace(transitions,

@@ -33,7 +33,8 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink import __version__, dynamics, fuzzy
-from twolink.fqi import ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust, transition_table
+from twolink.fqi import (ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust,
+                         robust_table, transition_table)
 from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled, wrap_angle
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters
 from twolink.perturbations import PHYSICAL, random_perturbation
@@ -275,12 +276,12 @@ def parameter_draws(p: ArmParameters, draws: int, spread: float, seed: int
 def robust_bytes(kind: str, refine: int = 1, draws: int = 1) -> int:
     """Peak bytes the K = ``draws`` models' transitions of the largest agent of ``kind``
     take during a robust synthesis, known before any work: per model and (bin, action)
-    row, its reached point and RK4 state, its reward, and the fixed-width table (at most
-    2**d memberships of int32 index + float64 weight) twice (the K tables, then side by
-    side for the compiled sweeps)."""
+    row, its reached point and RK4 state, its reward, and its row of the side-by-side
+    table (at most 2**d memberships of int32 index + float64 weight,
+    :func:`twolink.fqi.robust_table`)."""
     sizes = table_sizes(kind, refine)
     dims = {"centralized": 4, "agent2": 2, "agent1": 4}
-    return max(draws * rows * (8 * dims[a] + 32 + 8 + 2 * 12 * 2 ** dims[a])
+    return max(draws * rows * (8 * dims[a] + 32 + 8 + 12 * 2 ** dims[a])
                for a, rows in sizes.items())
 
 
@@ -337,7 +338,7 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
             raise ValueError("the robust problems must share one grid and one action set")
     cpu0 = time.process_time()
     t0 = time.perf_counter()
-    tables = [transition_table(pr.grid, pr.next_points) for pr in problems]
+    table = robust_table(first.grid, [pr.next_points for pr in problems])
     table_seconds = time.perf_counter() - t0
     model_seconds = sum(pr.seconds for pr in problems)
     with tqdm(desc=f"robust Q-iteration {first.name}", unit=" sweeps",
@@ -345,7 +346,7 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
         def tick(ell, change):
             bar.update(1)
             bar.set_postfix(change=f"{change:.3g}")
-        result = fuzzy_q_iteration_robust(tables, [pr.rewards for pr in problems], mode=mode,
+        result = fuzzy_q_iteration_robust(table, [pr.rewards for pr in problems], mode=mode,
                                           gamma=gamma, delta=delta, callback=tick)
     if not result.converged:
         raise RuntimeError(f"robust Q-iteration for {first.name} did not converge")
@@ -358,7 +359,7 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
             "seconds": build + result.seconds,
             "cpu_seconds": time.process_time() - cpu0 + model_seconds,
             "q_size": int(result.q.size),
-            "transition_nnz": int(sum(t.nnz for t in tables))}
+            "transition_nnz": table.nnz}
     info.update(extra or {})
     return Agent(first.name, first.grid, first.actions, result.q, first.outputs, info)
 
