@@ -94,6 +94,8 @@ REFINE_PASSES = 2
 #: Refusal thresholds: condition number of the normalised design, relative standard error.
 MAX_CONDITION = 1e8
 MAX_RELATIVE_ERROR = 0.1
+#: A link whose smoothed angles span less than this many noise deviations did not move.
+_MIN_SPAN_NOISE = 10.0
 
 
 class IdentificationError(ValueError):
@@ -457,13 +459,19 @@ def fit(log: Log, *, bootstrap: int = 20, passes: int = REFINE_PASSES) -> Fit:
     if log.duration < MIN_DURATION - 1e-9:
         raise ValueError(f"a log of {log.duration:g} s is shorter than {MIN_DURATION:g} s")
     q = np.unwrap(log.angles, axis=0)
-    th, cond, residual = _solve(log, q, passes)
-    est = th[:5]
     # Noise level of the readings: what a smoothing leaves, corrected for its hat value.
     window = _odd(_SMOOTH_S / log.dt)
     smooth = savgol_filter(q, window, 3, axis=0)
     h0 = savgol_coeffs(window, 3)[window // 2]
     sigma = float(np.std(q - smooth) / math.sqrt(1.0 - h0))
+    span = np.ptp(smooth, axis=0)
+    if np.any(span <= _MIN_SPAN_NOISE * sigma) or np.any(span <= 1e-9):
+        raise IdentificationError(
+            f"the data cannot determine {', '.join(IDENTIFIABLE)}: the arm hardly moved "
+            f"(its angles span {np.degrees(span.min()):.3g} deg, noise "
+            f"{math.degrees(sigma):.3g} deg); excite it (e.g. --excitation bang-bang)")
+    th, cond, residual = _solve(log, q, passes)
+    est = th[:5]
     rng = _streams(log.seed or 0)[4]
     draws = np.array([_solve(log, smooth + sigma * rng.standard_normal(q.shape), passes)[0][:5]
                       for _ in range(int(bootstrap))])
