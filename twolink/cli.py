@@ -10,7 +10,8 @@ from twolink import __version__
 
 #: Subcommand modules, in the order ``--help`` lists them. Each defines
 #: ``add_parser(subparsers)`` (returning its parser) and ``run(args) -> int``.
-COMMANDS = ("reproduce", "synthesize", "mjcf", "rollout", "render", "mismatch", "learn")
+COMMANDS = ("reproduce", "synthesize", "mjcf", "rollout", "render", "mismatch", "learn",
+            "identify")
 
 
 def build_parser() -> argparse.ArgumentParser:
