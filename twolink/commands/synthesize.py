@@ -68,9 +68,10 @@ def add_parser(sub):
         "synthesize", help="synthesise a policy with fuzzy Q-iteration (Alg. 1)",
         description="Synthesise the centralized policy (16) or the decentralized agents (18) "
                     "with fuzzy Q-iteration and save them as a policy file: by default "
-                    "./<kind>[_<model>][_<context>].npz in the current directory (an existing "
-                    "file is kept unless --force); --ship NAME rewrites a shipped policy "
-                    "under policies/ of a source checkout.")
+                    "./<kind>[_<model>][_<context>][_robust|_mean].npz in the current "
+                    "directory (an existing file is kept unless --force); --robust solves "
+                    "every agent over --draws parameter draws (worst case or mean); --ship "
+                    "NAME rewrites a shipped policy under policies/ of a source checkout.")
     p.add_argument("kind", nargs="?", choices=KINDS, help="policy kind (not with --ship)")
     p.add_argument("--model", choices=SYNTHESIS_MODELS + tuple(IDENTIFIED_MODELS), default=None,
                    help="model used for the transitions (default: simplified, the paper's (11)); "
@@ -105,7 +106,8 @@ def add_parser(sub):
     p.add_argument("--delta", type=float, default=DELTA,
                    help=f"stop when max |Q_l - Q_(l-1)| <= delta (default {DELTA})")
     p.add_argument("-o", "--output", type=Path, default=None,
-                   help="policy file to write (default: ./<kind>[_<model>][_<context>].npz)")
+                   help="policy file to write (default: "
+                        "./<kind>[_<model>][_<context>][_robust|_mean].npz)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--ship", action="append", metavar="NAME", default=None,
                    help="re-synthesise the shipped policy NAME into policies/ of the source "
