@@ -320,7 +320,7 @@ class Learner:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
             nu = len(a.actions)
             if fuzzy_update:                          # each active bin its own action
-                j = _greedy(a.theta)[idx]
+                j = _greedy(a.theta[idx])
                 explore = (self.rng.random(len(x)) < eps)[:, None]
                 j = np.where(explore, self.rng.integers(0, nu, idx.shape), j)
                 out = np.einsum("nk,nko->no", w, a.actions[j])
@@ -344,8 +344,9 @@ class Learner:
         for a in self.agents:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
             if self.config.update == "fuzzy":
-                values.append(np.einsum("nk,nk->n", w, a.theta.max(axis=1)[idx]))
-                out = np.einsum("nk,nko->no", w, a.actions[_greedy(a.theta)[idx]])
+                rows = a.theta[idx]                                       # (n, K, N_U)
+                values.append(np.einsum("nk,nk->n", w, rows.max(axis=-1)))
+                out = np.einsum("nk,nko->no", w, a.actions[_greedy(rows)])
             else:
                 q = np.einsum("nk,nku->nu", w, a.theta[idx])
                 values.append(q.max(axis=1))
