@@ -452,6 +452,8 @@ def jit_compile_seconds() -> dict:
         "out[s] = time.perf_counter() - t0\n"
         "t0 = time.perf_counter(); fqi.fuzzy_q_iteration_robust([t, t], [r, r]); "
         "out['robust'] = time.perf_counter() - t0\n"
+        "t0 = time.perf_counter(); rt = fqi.robust_table(g, [nxt[..., [1, 3]]] * 2); "
+        "out['robust_table'] = time.perf_counter() - t0\n"
         "print(json.dumps(out))\n")
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
