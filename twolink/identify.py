@@ -446,16 +446,21 @@ def least_squares(Y: np.ndarray, tau: np.ndarray) -> np.ndarray:
     return _lstsq(A, b)
 
 
+def check_bootstrap(bootstrap: int) -> None:
+    """A ValueError unless ``bootstrap`` is a whole number in [2, MAX_BOOTSTRAP]."""
+    if isinstance(bootstrap, bool) or not isinstance(bootstrap, (int, np.integer)) or \
+            not 2 <= bootstrap <= MAX_BOOTSTRAP:
+        raise ValueError(f"bootstrap must be a whole number in [2, {MAX_BOOTSTRAP}], "
+                         f"got {bootstrap!r}")
+
+
 def fit(log: Log, *, bootstrap: int = 20, passes: int = REFINE_PASSES) -> Fit:
     """Fit theta = [P1, P2, P3, b1, b2] to a log (the module docstring says how), with
     ``bootstrap`` replicates for the standard errors; refuses data that cannot determine
     it (:class:`IdentificationError`, a ValueError)."""
     if not isinstance(log, Log):
         raise ValueError(f"fit needs a Log, got {type(log).__name__}")
-    if isinstance(bootstrap, bool) or not isinstance(bootstrap, (int, np.integer)) or \
-            not 2 <= bootstrap <= MAX_BOOTSTRAP:
-        raise ValueError(f"bootstrap must be a whole number in [2, {MAX_BOOTSTRAP}], "
-                         f"got {bootstrap!r}")
+    check_bootstrap(bootstrap)
     if log.duration < MIN_DURATION - 1e-9:
         raise ValueError(f"a log of {log.duration:g} s is shorter than {MIN_DURATION:g} s")
     q = np.unwrap(log.angles, axis=0)

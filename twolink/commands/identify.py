@@ -88,6 +88,7 @@ def run(args) -> int:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
     identify.check_experiment(duration=args.duration, angle_noise_deg=args.angle_noise_deg,
                               seed=args.seed, excitation=args.excitation, spread=args.spread)
+    identify.check_bootstrap(args.bootstrap)
     log = identify.experiment(args.seed, spread=args.spread, duration=args.duration,
                               angle_noise_deg=args.angle_noise_deg, excitation=args.excitation)
     fit = identify.fit(log, bootstrap=args.bootstrap)
