@@ -124,6 +124,16 @@ def test_identify_writes_a_file_synthesis_can_load(tmp_path, monkeypatch, capsys
     assert (tmp_path / "identified.json").read_bytes() == before
 
 
+def test_help_names_every_option_and_excitation(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["identify", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for word in ("--seed", "--spread", "--duration", "--angle-noise-deg", "--reveal", "--force",
+                 *identify.EXCITATIONS):
+        assert word in out
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--excitation", "zero"], "the arm hardly moved"),
     (["--duration", "1e9"], "duration must lie in"),

@@ -51,8 +51,8 @@ def add_parser(sub):
                    help="standard deviation of the angle readings' noise in degrees "
                         f"(default 1; at most {identify.MAX_NOISE_DEG:g})")
     p.add_argument("--excitation", choices=list(identify.EXCITATIONS), default="bang-bang",
-                   help="torque signal: " + "; ".join(f"{k}: {v}" for k, v in
-                                                       identify.EXCITATIONS.items()))
+                   help="torque signal: " + "; ".join(
+                       f"{k}: {v}" for k, v in identify.EXCITATIONS.items()).replace("%", "%%"))
     p.add_argument("--bootstrap", type=_number(int, "must be a whole number"), default=20,
                    help="bootstrap replicates for the standard errors (default 20; 2 to "
                         f"{identify.MAX_BOOTSTRAP})")
