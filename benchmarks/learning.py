@@ -27,6 +27,7 @@ from twolink.formatting import format_rate  # noqa: E402
 from twolink.learning import (LearnConfig, Learner, evaluate, stays_above,  # noqa: E402
                               steps_to_reach)
 from twolink.learning_curves import learning_curves  # noqa: E402
+from twolink.parameters import REWARD_OTHER  # noqa: E402
 from twolink.plants import MujocoPlant  # noqa: E402
 from twolink.policy import load_policy  # noqa: E402
 
@@ -84,12 +85,21 @@ def run_one(name: str, seed: int, steps: int, arms: int) -> dict:
                          seed=seed, eval_every=max(arms, steps // 16))
     with Learner(config, init=load_policy(init) if init else None) as learner:
         t0 = time.perf_counter()
-        curve = learner.run(progress=True)
+        curve = learner.run(on_eval=lambda e: print(
+            f"{name}, seed {seed}: {e.steps} steps, {e.successes}/{e.n}", file=sys.stderr,
+            flush=True))
         wall = time.perf_counter() - t0
         other = evaluate(learner.policy(), learner.plant, other_poses())
+        # Q of (15)/(17) lies in [REWARD_OTHER / (1 - gamma), 0] = [-25, 0]
+        low = REWARD_OTHER / (1 - config.gamma)
+        out_of_range = {a.name: {"entries": int(np.count_nonzero((a.theta < low - 1e-9) |
+                                                                 (a.theta > 1e-9))),
+                                 "min": float(a.theta.min()), "max": float(a.theta.max())}
+                        for a in learner.agents}
     return {"name": name, "seed": seed, "config": config.as_dict(), "init": init,
             "curve": [e.as_dict() for e in curve], "steps_to_90": steps_to_reach(curve),
             "stays_above_90": stays_above(curve), "other_poses": other.as_dict(),
+            "theta_out_of_range": out_of_range,
             "wall_seconds": wall, "learn_seconds": learner.learn_seconds}
 
 
