@@ -124,24 +124,27 @@ def robust_figure(section: dict, settle: dict, path: Path) -> str:
     mode (top row), and the settle-time distribution under each level (bottom row; solid
     with compensation, dashed without)."""
     res, levels = section["results"], list(section["levels"])
-    pols, modes = list(res), section["modes"]
+    pols = list(res)
+    modes = [m for m in ("plain", "compensated") if any(m in section["modes"][p] for p in pols)]
     fig, axes = plt.subplots(2, len(levels), figsize=(3.9 * len(levels), 7.2), squeeze=False)
     w = 0.8 / len(modes)
     for col, level in enumerate(levels):
         a, b = axes[0, col], axes[1, col]
         for j, mode in enumerate(modes):
-            rates = [res[p][level][mode]["rate"] for p in pols]
-            lo = [r - res[p][level][mode]["wilson95"][0] for p, r in zip(pols, rates)]
-            hi = [res[p][level][mode]["wilson95"][1] - r for p, r in zip(pols, rates)]
-            a.bar(np.arange(len(pols)) + (j - (len(modes) - 1) / 2) * w, rates, w,
-                  yerr=[lo, hi], capsize=2, color=[policy_color(p) for p in pols],
+            at = [i for i, p in enumerate(pols) if mode in res[p][level]]
+            got = [res[pols[i]][level][mode] for i in at]
+            rates = [r["rate"] for r in got]
+            lo = [r["rate"] - r["wilson95"][0] for r in got]
+            hi = [r["wilson95"][1] - r["rate"] for r in got]
+            a.bar(np.array(at) + (j - (len(modes) - 1) / 2) * w, rates, w,
+                  yerr=[lo, hi], capsize=2, color=[policy_color(pols[i]) for i in at],
                   alpha=1.0 if mode == "compensated" else 0.45,
                   hatch="" if mode == "compensated" else "//", label=mode)
         a.set_xticks(range(len(pols)), pols, rotation=35, ha="right", fontsize=7)
         a.set_ylim(0, 1.05)
         a.set_title(f"{level}: success [95 % Wilson]", fontsize=9)
         for p in pols:
-            for mode in modes:
+            for mode in res[p][level]:
                 st = np.sort(settle[(p, level, mode)])
                 frac = np.arange(1, len(st) + 1) / len(st)
                 fin = np.isfinite(st)
