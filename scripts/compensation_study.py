@@ -12,8 +12,9 @@ the 65 states of the evaluation set, 5 s rollouts on the MuJoCo plant:
 
 "with" wraps the policy in ``estimation.compensated(policy, delay=, noise=)``: the d-step
 predictor when there is delay, the observer when there is noise. Both columns see the
-same plants and the same noise (row i's noise from the i-th child of
-SeedSequence([seed, 1]); plants from default_rng(seed)).
+same plants and the same noise: every number is one call of
+:func:`twolink.robustness.evaluate` (noise keyed per (plant, state) from ``--seed``;
+plants from default_rng(seed)), the compensated policy handed to it already wrapped.
 
 ``--tune`` instead measures the noise and combined conditions (compensated) for each candidate observer process
 std (estimation.PROCESS_STD) on the given seed: run it on a development seed, never on
@@ -35,18 +36,14 @@ from tqdm import tqdm
 
 from twolink.estimation import PROCESS_STD, compensated
 from twolink.formatting import format_rate
-from twolink.metrics import evaluation_set, success, wilson_interval
-from twolink.parameters import HORIZON, TABLE_I
-from twolink.perturbations import (PHYSICAL, ActuationDelay, ObservationNoise,
-                                   random_perturbation, row_generators)
-from twolink.plants import MujocoPlant
+from twolink.parameters import TABLE_I
+from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import load_policy
-from twolink.rollout import rollout
-from twolink.sweeps import SPEED_PER_DEG
+from twolink.robustness import evaluate
 
 CONDITIONS = ("delay", "noise", "combined")
 #: Candidate observer process stds (rad/s per sample) of --tune.
-TUNE_PROCESS_STD = (0.01, 0.03, 0.1, 0.3, 1.0)
+TUNE_PROCESS_STD = (0.01, 0.02, 0.03, 0.05, 0.1, 0.3, 1.0)
 #: Most plants of the combined condition (65 rollouts each).
 MAX_PLANTS = 1000
 
@@ -61,26 +58,15 @@ def plants_for(condition: str, count: int, spread: float, seed: int) -> list:
 
 def measure(policy, params: list, *, delay: int, noise_deg: float, seed: int,
             compensate: bool, **design) -> dict:
-    """Success over the evaluation set on each plant of ``params``: counts and rate."""
-    x0 = np.tile(evaluation_set(), (len(params), 1))
-    rows = np.repeat(params, len(evaluation_set())).tolist()
+    """Success over the evaluation set on each plant of ``params``
+    (:func:`twolink.robustness.evaluate`, one batched MuJoCo run): counts and rates."""
     controller = compensated(policy, delay=delay, noise=noise_deg > 0, **design) \
         if compensate else policy
-    if delay:
-        controller = ActuationDelay(controller, delay)
-    observe = None
-    if noise_deg > 0:
-        noise = ObservationNoise(math.radians(noise_deg), noise_deg * SPEED_PER_DEG,
-                                 rngs=row_generators([seed, 1], len(x0)), block=20)
-        observe = lambda k, x: noise(x)            # noqa: E731
-    with MujocoPlant(rows if len(params) > 1 else params[0]) as plant:
-        traj = rollout(controller, plant, x0, duration=HORIZON, observe=observe)
-    ok = success(traj)
-    k, n = int(ok.sum()), int(ok.size)
-    per_plant = ok.reshape(len(params), -1).mean(1)
-    lo, hi = wilson_interval(k, n)
-    return {"successes": k, "n": n, "rate": k / n, "wilson95": [lo, hi],
-            "worst_plant_rate": float(per_plant.min())}
+    ev = evaluate(controller, params=params, delay=delay, angle_noise_deg=noise_deg,
+                  seed=seed, compensate=False)
+    return {k: v for k, v in ev.as_dict(rows=False).items()
+            if k in ("successes", "runs", "rate", "wilson95", "worst_plant_rate",
+                     "median_settle")}
 
 
 def study(policies, *, seed: int, plants: int, spread: float, delay: int,
@@ -99,10 +85,10 @@ def study(policies, *, seed: int, plants: int, spread: float, delay: int,
 
 
 def tune(policies, *, seed: int, plants: int, spread: float, delay: int,
-         noise_deg: float) -> list:
+         noise_deg: float, candidates=TUNE_PROCESS_STD) -> list:
     out = []
     for name in policies:
-        for q in tqdm(TUNE_PROCESS_STD, desc=f"tune {name}", file=sys.stderr):
+        for q in tqdm(candidates, desc=f"tune {name}", file=sys.stderr):
             for cond, d in (("noise", 0), ("combined", delay)):
                 r = measure(load_policy(name), plants_for(cond, plants, spread, seed), delay=d,
                             noise_deg=noise_deg, seed=seed, compensate=True, process_std=q)
@@ -121,6 +107,8 @@ def _check(args) -> None:
         raise ValueError(f"--noise-deg must lie in [0, 45], got {args.noise_deg}")
     for name in args.policies:
         load_policy(name)
+    if not all(math.isfinite(q) and 0 < q <= 10 for q in args.process_std):
+        raise ValueError(f"--process-std values must lie in (0, 10], got {args.process_std}")
 
 
 def main(argv=None) -> int:
@@ -137,6 +125,8 @@ def main(argv=None) -> int:
                     help="angle noise std (deg); speeds get 0.02 rad/s per deg")
     ap.add_argument("--tune", action="store_true",
                     help="measure the candidate observer process stds (development seed)")
+    ap.add_argument("--process-std", type=float, nargs="+", default=list(TUNE_PROCESS_STD),
+                    help="candidate observer process stds of --tune (rad/s per sample)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
     try:
@@ -145,7 +135,8 @@ def main(argv=None) -> int:
         ap.exit(2, f"compensation_study: error: {exc}\n")
     opts = dict(seed=args.seed, plants=args.plants, spread=args.spread, delay=args.delay,
                 noise_deg=args.noise_deg)
-    rows = tune(args.policies, **opts) if args.tune else study(args.policies, **opts)
+    rows = tune(args.policies, candidates=args.process_std, **opts) if args.tune \
+        else study(args.policies, **opts)
     if args.json:
         print(json.dumps({"options": opts, "process_std": PROCESS_STD, "results": rows},
                          indent=2))
@@ -155,15 +146,15 @@ def main(argv=None) -> int:
         print("|---|---|---|---|---|")
         for r in rows:
             print(f"| {r['policy']} | {r['condition']} | {r['process_std']:g} | "
-                  f"{format_rate(r['successes'], r['n'])} | {100 * r['worst_plant_rate']:.0f} % |")
+                  f"{format_rate(r['successes'], r['runs'])} | {100 * r['worst_plant_rate']:.0f} % |")
         return 0
     print(f"seed {args.seed}; combined: {args.plants} plants, +-{100 * args.spread:g} % joint, "
           f"delay {args.delay}, noise {args.noise_deg:g} deg")
     print("| policy | condition | without compensation | with compensation |")
     print("|---|---|---|---|")
     for a, b in zip(rows[::2], rows[1::2]):
-        print(f"| {a['policy']} | {a['condition']} | {format_rate(a['successes'], a['n'])} | "
-              f"{format_rate(b['successes'], b['n'])} |")
+        print(f"| {a['policy']} | {a['condition']} | {format_rate(a['successes'], a['runs'])} | "
+              f"{format_rate(b['successes'], b['runs'])} |")
     return 0
 
 

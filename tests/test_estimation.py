@@ -133,9 +133,10 @@ def test_observer_reduces_the_rms_error_of_noisy_readings(policy):
 
     raw, filtered = rms(np.array(seen)), rms(np.array(est))
     assert raw[:2] == pytest.approx(math.radians(1.0), rel=0.25)
-    # measured: raw angle RMS 0.0147, 0.0172 rad; filtered 0.0053, 0.0063 (0.36 x)
+    # measured: raw RMS 0.0147, 0.0172 rad and 0.0207, 0.0199 rad/s; filtered 0.0053,
+    # 0.0063 rad (0.36 x) and 0.0134, 0.0131 rad/s (0.65 x)
     assert np.all(filtered[:2] < 0.5 * raw[:2]), (raw, filtered)
-    assert np.all(filtered[2:] <= raw[2:]), (raw, filtered)
+    assert np.all(filtered[2:] < 0.8 * raw[2:]), (raw, filtered)
 
 
 def test_nothing_to_compensate_passes_through_bit_for_bit(policy):
