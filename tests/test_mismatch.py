@@ -230,7 +230,9 @@ def test_a_second_run_on_one_folder_is_refused_at_once(tmp_path, capsys):
 @pytest.mark.parametrize("argv, match", [
     (["--policies", "nosuch"], "unknown policy"),
     (["--workers", "0"], "workers"),
-    (["--address", "ray://x:1"], "--executor ray")])
+    (["--address", "ray://x:1"], "--executor ray"),
+    (["--challenge", "easy", "nosuch"], "unknown challenge 'nosuch'; choose one of none, easy"),
+    (["--no-robust", "--seed", "3"], "drop --no-robust or them")])
 def test_bad_input_is_one_error_line_and_writes_nothing(tmp_path, capsys, argv, match):
     out = tmp_path / "r"
     assert main(["mismatch", "--quick", "--out", str(out)] + argv) == 2
