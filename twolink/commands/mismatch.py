@@ -48,7 +48,8 @@ def add_parser(sub):
                    help="worker processes (default: one per CPU)")
     p.add_argument("--challenge", nargs="+", metavar="LEVEL", default=None,
                    help=f"challenge levels of the robust section ({', '.join(LEVELS)}; "
-                        "default: all); each is run with and without compensation")
+                        "default: all); each policy runs as it is and behind the run-time "
+                        "compensator (the paper's policies only as they are)")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the robust section's plants and noise (default: the "
                         "plan's, never tuned on)")
