@@ -3,6 +3,8 @@
 For every policy and condition, success (k/n, 95 % Wilson interval, SPEC.md's rule) over
 the 65 states of the evaluation set, 5 s rollouts on the MuJoCo plant:
 
+* ``nominal``: Table I plant, exact readings (the policy's own ceiling; compensation is
+  then the policy itself, so both columns agree);
 * ``delay``: a ``--delay``-sample actuation delay (Table I plant);
 * ``noise``: Gaussian reading noise, ``--noise-deg`` on the angles and ``--noise-deg`` x
   0.02 rad/s on the speeds (twolink.sweeps.SPEED_PER_DEG), Table I plant;
@@ -41,7 +43,7 @@ from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import load_policy
 from twolink.robustness import evaluate
 
-CONDITIONS = ("delay", "noise", "combined")
+CONDITIONS = ("nominal", "delay", "noise", "combined")
 #: Candidate observer process stds (rad/s per sample) of --tune.
 TUNE_PROCESS_STD = (0.01, 0.02, 0.03, 0.05, 0.1, 0.3, 1.0)
 #: Most plants of the combined condition (65 rollouts each).
@@ -71,7 +73,8 @@ def measure(policy, params: list, *, delay: int, noise_deg: float, seed: int,
 
 def study(policies, *, seed: int, plants: int, spread: float, delay: int,
           noise_deg: float, conditions=CONDITIONS) -> list:
-    settings = {"delay": (delay, 0.0), "noise": (0, noise_deg), "combined": (delay, noise_deg)}
+    settings = {"nominal": (0, 0.0), "delay": (delay, 0.0), "noise": (0, noise_deg),
+                "combined": (delay, noise_deg)}
     runs = [(name, c, comp) for name in policies for c in conditions for comp in (False, True)]
     out = []
     for name, cond, comp in tqdm(runs, desc="compensation study", file=sys.stderr):

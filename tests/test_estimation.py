@@ -333,3 +333,30 @@ def test_dm_env_wrapper_replaces_the_state_observation(policy):
         assert ts.reward == tp.reward
     with pytest.raises(ValueError, match="centralized task"):
         CompensatedEnvironment(dm.load("decentralized"))
+
+
+# ------------------------------------------------------------------ the study script
+def _study_module():
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "scripts" / "compensation_study.py"
+    spec = importlib.util.spec_from_file_location("compensation_study", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_study_script_measures_and_refuses_bad_options(capsys):
+    study = _study_module()
+    rows = study.study(["centralized_full"], seed=3, plants=1, spread=0.2, delay=1,
+                       noise_deg=1.0, conditions=("nominal", "delay"))
+    got = {(r["condition"], r["compensated"]): r["successes"] for r in rows}
+    assert got[("nominal", False)] == got[("nominal", True)] == 65     # pass-through
+    assert got[("delay", False)] == 0 and got[("delay", True)] == 65
+    for argv, match in ((["--plants", "0"], "--plants"), (["--spread", "1.5"], "--spread"),
+                        (["--policies", "nope"], "unknown policy"),
+                        (["--process-std", "nan"], "--process-std")):
+        with pytest.raises(SystemExit) as exc:
+            study.main(argv)
+        assert exc.value.code == 2
+        assert match in capsys.readouterr().err
