@@ -229,6 +229,10 @@ def test_robust_memory_is_estimated_before_any_work():
         synthesize("centralized", robust="worst", draws=2, spread=0.9)
     with pytest.raises(ValueError, match="robust synthesis only"):
         synthesize("centralized", draws=3)
+    with pytest.raises(ValueError, match="at least one problem"):
+        solve_robust([])
+    with pytest.raises(ValueError, match="one grid and one action set"):
+        solve_robust([agent2_problem(), agent2_problem(TABLE_I.scaled(tau2_max=2.0))])
 
 
 @pytest.mark.parametrize("argv, message", [

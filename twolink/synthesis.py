@@ -331,6 +331,8 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
                  extra: Optional[dict] = None) -> Agent:
     """Alg. 1 over the K ``problems`` (one grid and action set, K models) at once:
     Q(m, u) = min_k (``mode="worst"``) or mean_k of rho_k + gamma T_k max_u Q."""
+    if not problems:
+        raise ValueError("a robust synthesis needs at least one problem")
     first = problems[0]
     for other in problems[1:]:
         if other.grid.shape != first.grid.shape or not np.array_equal(other.actions,
