@@ -8,6 +8,7 @@ the 65 states of the evaluation set, 5 s rollouts on the MuJoCo plant:
 * ``delay``: a ``--delay``-sample actuation delay (Table I plant);
 * ``noise``: Gaussian reading noise, ``--noise-deg`` on the angles and ``--noise-deg`` x
   0.02 rad/s on the speeds (twolink.sweeps.SPEED_PER_DEG), Table I plant;
+* ``plants`` (only when named in ``--conditions``): the perturbed plants below alone;
 * ``combined``: both, on ``--plants`` plants whose ten physical parameters
   (perturbations.PHYSICAL) change jointly, each uniform in +-``--spread``
   (perturbations.random_perturbation), 65 states on each.
@@ -18,13 +19,15 @@ same plants and the same noise: every number is one call of
 :func:`twolink.robustness.evaluate` (noise keyed per (plant, state) from ``--seed``;
 plants from default_rng(seed)), the compensated policy handed to it already wrapped.
 
-``--tune`` instead measures the noise and combined conditions (compensated) for each candidate observer process
-std (estimation.PROCESS_STD) on the given seed: run it on a development seed, never on
-the seed of the reported figures.
+``--tune`` instead measures the noise and combined conditions (compensated) for each
+candidate observer process std (estimation.PROCESS_STD, ``--process-std``) on the given
+seed: run it on a development seed (1000), never on the seed of the reported figures.
 
 Run: .venv/bin/python scripts/compensation_study.py [--policies centralized_full ...]
-     [--seed 2027] [--plants 32] [--spread 0.2] [--delay 1] [--noise-deg 1] [--json]
+     [--seed 2027] [--plants 32] [--spread 0.2] [--delay 1] [--noise-deg 1]
+     [--conditions nominal delay noise plants combined] [--json]
      .venv/bin/python scripts/compensation_study.py --tune --seed 1000
+A full run (four policies, four conditions) takes about 3 minutes on 2 idle cores.
 """
 from __future__ import annotations
 
@@ -44,6 +47,9 @@ from twolink.policy import load_policy
 from twolink.robustness import evaluate
 
 CONDITIONS = ("nominal", "delay", "noise", "combined")
+#: More conditions --conditions may name: the perturbed plants alone (exact readings, no
+#: delay), where compensation passes through: the policy's own robustness.
+EXTRA_CONDITIONS = ("plants",)
 #: Candidate observer process stds (rad/s per sample) of --tune.
 TUNE_PROCESS_STD = (0.01, 0.02, 0.03, 0.05, 0.1, 0.3, 1.0)
 #: Most plants of the combined condition (65 rollouts each).
@@ -52,7 +58,7 @@ MAX_PLANTS = 1000
 
 def plants_for(condition: str, count: int, spread: float, seed: int) -> list:
     """Parameter sets of the condition: Table I, or ``count`` jointly perturbed plants."""
-    if condition != "combined":
+    if condition not in ("combined", "plants"):
         return [TABLE_I]
     rng = np.random.default_rng(seed)
     return [random_perturbation(rng, spread, names=PHYSICAL) for _ in range(count)]
@@ -74,7 +80,7 @@ def measure(policy, params: list, *, delay: int, noise_deg: float, seed: int,
 def study(policies, *, seed: int, plants: int, spread: float, delay: int,
           noise_deg: float, conditions=CONDITIONS) -> list:
     settings = {"nominal": (0, 0.0), "delay": (delay, 0.0), "noise": (0, noise_deg),
-                "combined": (delay, noise_deg)}
+                "combined": (delay, noise_deg), "plants": (0, 0.0)}
     runs = [(name, c, comp) for name in policies for c in conditions for comp in (False, True)]
     out = []
     for name, cond, comp in tqdm(runs, desc="compensation study", file=sys.stderr):
@@ -126,6 +132,8 @@ def main(argv=None) -> int:
     ap.add_argument("--delay", type=int, default=1, help="actuation delay (samples)")
     ap.add_argument("--noise-deg", type=float, default=1.0,
                     help="angle noise std (deg); speeds get 0.02 rad/s per deg")
+    ap.add_argument("--conditions", nargs="+", default=list(CONDITIONS),
+                    choices=CONDITIONS + EXTRA_CONDITIONS, help="conditions to measure")
     ap.add_argument("--tune", action="store_true",
                     help="measure the candidate observer process stds (development seed)")
     ap.add_argument("--process-std", type=float, nargs="+", default=list(TUNE_PROCESS_STD),
@@ -139,7 +147,7 @@ def main(argv=None) -> int:
     opts = dict(seed=args.seed, plants=args.plants, spread=args.spread, delay=args.delay,
                 noise_deg=args.noise_deg)
     rows = tune(args.policies, candidates=args.process_std, **opts) if args.tune \
-        else study(args.policies, **opts)
+        else study(args.policies, conditions=args.conditions, **opts)
     if args.json:
         print(json.dumps({"options": opts, "process_std": PROCESS_STD, "results": rows},
                          indent=2))
