@@ -208,7 +208,9 @@ def markdown(report: dict, figures: dict, command: str) -> str:
                 "worst-case return: the lowest discounted return of any run; settle times "
                 f"over every row (`never` when fewer settle). The paper's policies, which fail "
                 "on the nominal MuJoCo arm already (section 2), run only as they are. "
-                f"{rs['seconds']:.0f} s.", "",
+                f"Time: {rs['seconds']:.0f} s wall, {rs['cpu_seconds']:.0f} s of CPU "
+                "(all threads of the run; the wall time includes waiting for a shared "
+                "machine).", "",
                 robust_tables(rs), "", f"![robust section]({figures['robust']})", ""]
     tp = report["throughput"]
     out += ["## Sweep throughput", "",
