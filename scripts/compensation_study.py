@@ -40,7 +40,12 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.estimation import PROCESS_STD, compensated
+from twolink.dynamics import MODELS
 from twolink.formatting import format_rate
+from twolink.integrate import sample_step, wrap_angle
+from twolink.metrics import evaluation_set
+from twolink.plants import MujocoPlant
+from twolink.rollout import rollout
 from twolink.parameters import TABLE_I
 from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import load_policy
@@ -93,6 +98,24 @@ def study(policies, *, seed: int, plants: int, spread: float, delay: int,
     return out
 
 
+def link2_prediction_error(policy) -> dict:
+    """What agent 2 could predict of its own link: one-step predictions of (theta2,
+    dtheta2) along the policy's nominal MuJoCo runs from the evaluation set, with the full
+    model (6) from the whole state and both torques (what the shared compensator uses),
+    and with the link-2 row of (11), which needs only (theta2, dtheta2, tau2) (all an
+    agent-2-local predictor has). RMS errors against MuJoCo's next state."""
+    with MujocoPlant(TABLE_I) as plant:
+        traj = rollout(policy, plant, evaluation_set())
+    x, u, nxt = traj.x[:, :-1], traj.u, traj.x[:, 1:]
+    out = {}
+    for name in ("full", "simplified"):
+        e = sample_step(MODELS[name], TABLE_I, x, u) - nxt
+        e[..., :2] = wrap_angle(e[..., :2])
+        out[name] = {"theta2_rms": float(np.sqrt(np.mean(e[..., 1] ** 2))),
+                     "dtheta2_rms": float(np.sqrt(np.mean(e[..., 3] ** 2)))}
+    return out
+
+
 def tune(policies, *, seed: int, plants: int, spread: float, delay: int,
          noise_deg: float, candidates=TUNE_PROCESS_STD) -> list:
     out = []
@@ -138,6 +161,8 @@ def main(argv=None) -> int:
                     help="measure the candidate observer process stds (development seed)")
     ap.add_argument("--process-std", type=float, nargs="+", default=list(TUNE_PROCESS_STD),
                     help="candidate observer process stds of --tune (rad/s per sample)")
+    ap.add_argument("--coupling", action="store_true",
+                    help="measure instead how well link 2 is predicted without link 1")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
     try:
@@ -146,6 +171,20 @@ def main(argv=None) -> int:
         ap.exit(2, f"compensation_study: error: {exc}\n")
     opts = dict(seed=args.seed, plants=args.plants, spread=args.spread, delay=args.delay,
                 noise_deg=args.noise_deg)
+    if args.coupling:
+        res = {name: link2_prediction_error(load_policy(name)) for name in args.policies}
+        if args.json:
+            print(json.dumps(res, indent=2))
+            return 0
+        print("| policy | one-step link-2 error, full model (6), whole state | "
+              "link-2 row of (11), link 2 only |")
+        print("|---|---|---|")
+        for name, r in res.items():
+            f, s = r["full"], r["simplified"]
+            print(f"| {name} | {math.degrees(f['theta2_rms']):.2g} deg, "
+                  f"{f['dtheta2_rms']:.2g} rad/s | {math.degrees(s['theta2_rms']):.2g} deg, "
+                  f"{s['dtheta2_rms']:.2g} rad/s |")
+        return 0
     rows = tune(args.policies, candidates=args.process_std, **opts) if args.tune \
         else study(args.policies, conditions=args.conditions, **opts)
     if args.json:
