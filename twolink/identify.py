@@ -13,9 +13,9 @@ The experiment (:func:`run_experiment`): a plant whose parameters the fit never 
 driven from rest at random angles by seeded bang-bang torques (the policies' own levels
 0 and +-tau_max, held for random stretches of 0.25 to 2 s; a link is not driven faster
 once its measured speed exceeds 35 % of its limit, and pushed back beyond 60 %, so that
-the plant never clips a speed, which (6) does not model), and its
-angles are read at every MuJoCo timestep (Ts / 10) with Gaussian noise. Speeds are not
-measured.
+the plant never clips a speed, which (6) does not model), and its angles are read at every
+MuJoCo timestep (Ts / 10) with Gaussian noise. Speeds are not measured. The torques
+commanded are taken as applied (the plant's torque limits are Table I's).
 
 The fit (:func:`fit`) never differentiates the noisy angles twice. Writing (6) for the
 momentum p = M(q) dq = Phi(q, dq) theta (:func:`momentum_regressor`),
