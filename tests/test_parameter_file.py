@@ -39,7 +39,7 @@ def test_round_trip_gives_the_same_parameters_and_provenance(tmp_path):
     record = json.loads(path.read_text())
     assert record["format"] == pf.FORMAT and record["format_version"] == pf.FORMAT_VERSION
     assert record["dynamic"] == pf.dynamic_values(ARM)
-    assert len(record["sha256"]) == 64
+    assert len(record["sha256"]) == 64 and content.sha256 == record["sha256"]
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -41,10 +41,12 @@ class ParameterFileError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class ParameterFile:
-    """The content of a parameter file: the parameters and the writer's provenance."""
+    """The content of a parameter file: the parameters, the writer's provenance and the
+    file's content sha256."""
 
     params: ArmParameters
     provenance: dict
+    sha256: str = ""
 
 
 def dynamic_values(p: ArmParameters) -> dict:
@@ -149,7 +151,7 @@ def read(path: os.PathLike) -> ParameterFile:
     if not isinstance(record.get("provenance"), dict):
         raise bad("'provenance' must be an object")
     _check_identified(record, path)
-    return ParameterFile(params, record["provenance"])
+    return ParameterFile(params, record["provenance"], record["sha256"])
 
 
 def load(path: os.PathLike) -> ArmParameters:
