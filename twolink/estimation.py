@@ -32,6 +32,7 @@ import math
 import numpy as np
 import scipy.linalg
 
+from twolink.challenges import LEVELS
 from twolink.dynamics import MODELS
 from twolink.integrate import sample_step, wrap_angle
 from twolink.parameters import TABLE_I, TS, ArmParameters
@@ -42,9 +43,9 @@ PREDICTION_MODELS = {"simplified": "simplified", "full": "full", "identified": "
 #: Longest actuation plus observation delay (samples) a compensator accepts: 10 s.
 MAX_DELAY = 200
 #: Noise the observer's gain is designed for when none is given: the medium challenge's
-#: 1 deg angle noise and 0.02 rad/s speed noise (twolink.challenges.LEVELS["medium"]).
-DESIGN_ANGLE_NOISE_DEG = 1.0
-DESIGN_SPEED_NOISE = 0.02
+#: 1 deg angle noise and 0.02 rad/s speed noise.
+DESIGN_ANGLE_NOISE_DEG = LEVELS["medium"].angle_noise_deg
+DESIGN_SPEED_NOISE = LEVELS["medium"].speed_noise
 #: Std (rad/s per sample period) of the acceleration disturbance each joint's speed takes
 #: in the observer's design model: how far the synthesis model is trusted over one Ts.
 #: Small values smooth the speed readings (gain 0.39 on the speed innovation at 0.01,
