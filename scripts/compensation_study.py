@@ -40,6 +40,7 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.estimation import PROCESS_STD, compensated
+from twolink.challenges import LEVELS, challenge
 from twolink.dynamics import MODELS
 from twolink.formatting import format_rate
 from twolink.integrate import sample_step, wrap_angle
@@ -116,6 +117,32 @@ def link2_prediction_error(policy) -> dict:
     return out
 
 
+def level_study(policies, level: str, *, seed: int, plants: int) -> list:
+    """Each policy under a challenge level (:data:`twolink.challenges.LEVELS`, through
+    :func:`twolink.robustness.evaluate`): as it is, compensated with the observer gain of
+    the default design noise (the medium level's), and with the gain designed for the
+    level's own noise."""
+    ch = challenge(level)
+    noisy = bool(ch.angle_noise_deg or ch.speed_noise or ch.dropout or ch.stuck)
+    modes = (("plain", None), ("compensated, design gain", {}),
+             ("compensated, gain for the level's noise",
+              {"angle_noise_deg": ch.angle_noise_deg, "speed_noise": ch.speed_noise}))
+    out = []
+    for name in policies:
+        for mode, design in tqdm(modes, desc=f"{level} {name}", file=sys.stderr):
+            policy = load_policy(name)
+            if design is not None:
+                policy = compensated(policy, delay=ch.action_delay,
+                                     observation_delay=ch.observation_delay, noise=noisy,
+                                     **design)
+            ev = evaluate(policy, challenge=ch, count=plants, seed=seed, compensate=False)
+            out.append({"policy": name, "level": level, "mode": mode,
+                        **{k: v for k, v in ev.as_dict(rows=False).items()
+                           if k in ("successes", "runs", "rate", "wilson95",
+                                    "worst_plant_rate", "median_settle")}})
+    return out
+
+
 def tune(policies, *, seed: int, plants: int, spread: float, delay: int,
          noise_deg: float, candidates=TUNE_PROCESS_STD) -> list:
     out = []
@@ -161,6 +188,9 @@ def main(argv=None) -> int:
                     help="measure the candidate observer process stds (development seed)")
     ap.add_argument("--process-std", type=float, nargs="+", default=list(TUNE_PROCESS_STD),
                     help="candidate observer process stds of --tune (rad/s per sample)")
+    ap.add_argument("--level", choices=tuple(LEVELS),
+                    help="measure instead a challenge level: plain, compensated with the "
+                         "design gain, and with the gain for the level's noise")
     ap.add_argument("--coupling", action="store_true",
                     help="measure instead how well link 2 is predicted without link 1")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -184,6 +214,20 @@ def main(argv=None) -> int:
             print(f"| {name} | {math.degrees(f['theta2_rms']):.2g} deg, "
                   f"{f['dtheta2_rms']:.2g} rad/s | {math.degrees(s['theta2_rms']):.2g} deg, "
                   f"{s['dtheta2_rms']:.2g} rad/s |")
+        return 0
+    if args.level:
+        rows = level_study(args.policies, args.level, seed=args.seed, plants=args.plants)
+        if args.json:
+            print(json.dumps(rows, indent=2))
+            return 0
+        print(f"level {args.level}, seed {args.seed}, {args.plants} plants")
+        print("| policy | mode | success (k/n, 95 % CI) | worst plant | median settle |")
+        print("|---|---|---|---|---|")
+        for r in rows:
+            med = r["median_settle"]
+            print(f"| {r['policy']} | {r['mode']} | {format_rate(r['successes'], r['runs'])} "
+                  f"| {100 * r['worst_plant_rate']:.0f} % | "
+                  f"{'-' if med is None else f'{med:.2f} s'} |")
         return 0
     rows = tune(args.policies, candidates=args.process_std, **opts) if args.tune \
         else study(args.policies, conditions=args.conditions, **opts)
