@@ -12,14 +12,16 @@ The approximator is the one of fuzzy Q-iteration: Q(x, u_j) = sum_m mu_m(x) thet
 
 Two ways of acting and updating (``update``):
 
-* ``fuzzy`` (default) - the learner acts as policy (14): every active bin m of x picks its
+* ``fuzzy`` - the learner acts as policy (14): every active bin m of x picks its
   own epsilon-greedy action j_m, the arm gets the membership-weighted torque
   sum_m mu_m u_{j_m}, and each (m, j_m) moves towards the target of Alg. 1,
   r + gamma * sum_m' mu_m'(x') max_j theta[m', j], with weight mu_m. theta[m, j] is then a
   weighted average of targets, so it stays within the range of possible values.
-* ``discrete`` - plain Q-learning (4): one epsilon-greedy discrete action per arm from the
-  interpolated Q(x, .), target r + gamma * max_j Q(x', j), and theta moved along the
-  gradient mu_m of the temporal difference r + gamma max Q(x', .) - Q(x, u).
+* ``discrete`` (default) - plain Q-learning (4): one epsilon-greedy discrete action per arm
+  from the interpolated Q(x, .), target r + gamma * max_j Q(x', j), and theta moved along
+  the gradient mu_m of the temporal difference r + gamma max Q(x', .) - Q(x, u). theta may
+  leave [-25, 0]. On MuJoCo this one learned and ``fuzzy`` did not (README, "Learning on
+  the arm"); the saved policy is always read as policy (14).
 
 Batched, synchronous: all arms step together on :class:`twolink.plants.MujocoPlant`, then
 one update sums every arm's contribution per entry (m, j): theta[m, j] moves by
@@ -28,13 +30,14 @@ W being the entry's total membership weight in this step. At a bin centre (mu_m 
 updates are theta[m, j] += alpha (r + gamma V(x') - theta[m, j]), so given the
 transitions f(c_m, u_j) of Alg. 1 the learner converges to fuzzy Q-iteration's fixed
 point. The learning rate follows alpha_t = alpha * h / (h + t) (t: control steps so far,
-h: ``alpha_halflife``, 0 keeps alpha constant); exploration is epsilon-greedy with
-epsilon_t decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
+h: ``alpha_halflife``, 0 keeps alpha constant); exploration is epsilon-greedy per arm and
+step (an exploring arm draws its action, or every active bin's action, at random), epsilon_t
+decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
 
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
 at rest), staggered so that resets spread over time. Every random draw comes from one
 seeded generator, so the same seed gives the same theta bit for bit; checkpoints (policy
-files, :func:`save_checkpoint`) hold theta, the generator, the arms and the learning
+files, ``Learner.policy(resume=True)``) hold theta, the generator, the arms and the learning
 curve, so a resumed run continues exactly as an uninterrupted one.
 """
 from __future__ import annotations
@@ -75,7 +78,7 @@ class LearnConfig:
     steps: int = 1_000_000            # control steps, summed over arms
     arms: int = 256
     seed: int = 0
-    update: str = "fuzzy"
+    update: str = "discrete"          # measured better on MuJoCo (README, benchmarks/learning.py)
     alpha: float = 0.2
     alpha_halflife: float = 0.0       # control steps; 0: constant alpha
     epsilon: float = 0.1
