@@ -13,7 +13,7 @@ from twolink.estimation import Compensator, StateEstimator, compensated, observe
 from twolink.integrate import sample_step, wrap_angle
 from twolink.parameters import TABLE_I
 from twolink.perturbations import (ActuationDelay, ObservationDelay, ObservationNoise,
-                                   perturbed, row_generators)
+                                   row_generators)
 from twolink.plants import make_plant
 from twolink.rollout import rollout
 
