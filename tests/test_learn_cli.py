@@ -74,3 +74,32 @@ def test_task_required_and_independent_only_decentralized(capsys):
     assert "--task is required" in capsys.readouterr().err
     assert main(["learn", "--task", "centralized", "--independent"]) == 2
     assert "--independent applies to --task decentralized" in capsys.readouterr().err
+
+
+def test_sigterm_keeps_the_last_complete_checkpoint_and_it_resumes(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    ckpt = tmp_path / "run.npz"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twolink.cli", "learn", "--task", "decentralized", "--steps",
+         "40000", "--arms", "8", "--eval-every", "40", "--episode", "5", "-o", str(ckpt)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not ckpt.exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert ckpt.exists(), "no checkpoint within 60 s"
+        time.sleep(1.0)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "terminated" in err
+    steps = load_policy(str(ckpt)).meta["learning"]["steps"]
+    assert steps % 40 == 0 and steps < 40000
+    assert [p.name for p in tmp_path.iterdir()] == ["run.npz"]    # no temporary left
+    assert main(["learn", "--resume", str(ckpt), "--steps", str(steps + 40)]) == 0
+    assert load_policy(str(ckpt)).meta["learning"]["steps"] == steps + 40
