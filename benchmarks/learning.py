@@ -38,8 +38,11 @@ RUNS = {
     "decentralized discrete (4) from (11)": ("decentralized", "discrete", "decentralized"),
     "decentralized discrete (4) cold": ("decentralized", "discrete", None),
     "independent cold": ("independent", "fuzzy", None),
+    "independent discrete (4) cold": ("independent", "discrete", None),
     "centralized cold": ("centralized", "fuzzy", None),
     "centralized from (11)": ("centralized", "fuzzy", "centralized"),
+    "centralized discrete (4) cold": ("centralized", "discrete", None),
+    "centralized discrete (4) from (11)": ("centralized", "discrete", "centralized"),
 }
 #: Model-based policies drawn as horizontal lines.
 BASELINES = ("decentralized", "centralized", "decentralized_full", "centralized_full")
