@@ -27,7 +27,8 @@ Run: .venv/bin/python scripts/compensation_study.py [--policies centralized_full
      [--seed 2027] [--plants 32] [--spread 0.2] [--delay 1] [--noise-deg 1]
      [--conditions nominal delay noise plants combined] [--json]
      .venv/bin/python scripts/compensation_study.py --tune --seed 1000
-A full run (four policies, four conditions) takes about 3 minutes on 2 idle cores.
+A full run (four policies, five conditions) takes about 5 CPU-minutes (7 min wall on the
+shared 2-core machine); --level hard on two policies about 2 CPU-minutes.
 """
 from __future__ import annotations
 
