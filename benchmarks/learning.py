@@ -31,7 +31,7 @@ from twolink.parameters import REWARD_OTHER  # noqa: E402
 from twolink.plants import MujocoPlant  # noqa: E402
 from twolink.policy import load_policy  # noqa: E402
 
-#: name: (learner, update, --init policy or None)
+#: name: (learner, update, --init policy or None[, other LearnConfig settings])
 RUNS = {
     "decentralized cold": ("decentralized", "fuzzy", None),
     "decentralized from (11)": ("decentralized", "fuzzy", "decentralized"),
@@ -43,6 +43,8 @@ RUNS = {
     "centralized from (11)": ("centralized", "fuzzy", "centralized"),
     "centralized discrete (4) cold": ("centralized", "discrete", None),
     "centralized discrete (4) from (11)": ("centralized", "discrete", "centralized"),
+    "decentralized discrete (4) cold, alpha halving at 250k":
+        ("decentralized", "discrete", None, {"alpha_halflife": 250_000.0}),
 }
 #: Model-based policies drawn as horizontal lines.
 BASELINES = ("decentralized", "centralized", "decentralized_full", "centralized_full")
@@ -58,9 +60,11 @@ def other_poses(n: int = OTHER_POSES) -> np.ndarray:
     return x
 
 
-def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 3) -> dict:
-    """Control steps per second of raw batched stepping (random torques) and of the
-    decentralized learner, on the same arms, alternating ``repeats`` times."""
+def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 5) -> dict:
+    """Control steps per CPU second of raw batched stepping (random torques) and of the
+    decentralized learner (default update), on the same arms, alternating ``repeats``
+    times. CPU time of this process (one MuJoCo thread), so that other work on a shared
+    machine does not enter the ratio."""
     rng = np.random.default_rng(seed)
     raw, learn = [], []
     config = LearnConfig(learner="decentralized", steps=arms * iterations * (repeats + 1),
@@ -69,23 +73,23 @@ def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 3) -
         x = other_poses(arms)
         for _ in range(repeats):
             tau = rng.uniform(-1, 1, (iterations, arms, 2)) * plant.params.tau_max
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             for k in range(iterations):
                 x = plant.step(x, tau[k])
-            raw.append(arms * iterations / (time.perf_counter() - t0))
-            t0 = time.perf_counter()
+            raw.append(arms * iterations / (time.process_time() - t0))
+            t0 = time.process_time()
             for _ in range(iterations):
                 learner.step()
-            learn.append(arms * iterations / (time.perf_counter() - t0))
+            learn.append(arms * iterations / (time.process_time() - t0))
     r, lr = float(np.median(raw)), float(np.median(learn))
     return {"arms": arms, "iterations": iterations, "raw_steps_per_s": r,
             "learn_steps_per_s": lr, "ratio": lr / r, "raw_all": raw, "learn_all": learn}
 
 
 def run_one(name: str, seed: int, steps: int, arms: int) -> dict:
-    learner_name, update, init = RUNS[name]
+    learner_name, update, init, *more = RUNS[name]
     config = LearnConfig(learner=learner_name, update=update, steps=steps, arms=arms,
-                         seed=seed, eval_every=max(arms, steps // 16))
+                         seed=seed, eval_every=max(arms, steps // 16), **(more[0] if more else {}))
     with Learner(config, init=load_policy(init) if init else None) as learner:
         t0 = time.perf_counter()
         curve = learner.run(on_eval=lambda e: print(
@@ -119,6 +123,7 @@ def figure(data: dict, path: Path) -> Path:
     for run in data["runs"]:
         panel = "warm start from the (11) policies" if run["init"] else "cold start (theta = 0)"
         label = run["name"].replace(" cold", "").replace(" from (11)", "")
+        label += f", {run['curve'][-1]['steps'] / 1e6:.1f} M" if run["curve"] else ""
         panels[panel][f"{label}, seed {run['seed']}"] = run["curve"]
     panels = {k: v for k, v in panels.items() if v}
     lines = {f"{k} (11)" if "full" not in k else k.replace("_full", " (6)"):
@@ -148,7 +153,8 @@ def report(data: dict) -> str:
     if "throughput" in data:
         t = data["throughput"]
         lines.append(f"throughput ({t['arms']} arms): raw {t['raw_steps_per_s']:.0f} steps/s, "
-                     f"learning {t['learn_steps_per_s']:.0f} steps/s, ratio {t['ratio']:.2f}")
+                     f"learning {t['learn_steps_per_s']:.0f} steps/s (per CPU second, medians "
+                     f"of {len(t['raw_all'])}), ratio {t['ratio']:.2f}")
     return "\n".join(lines)
 
 
