@@ -261,3 +261,22 @@ def test_a_policy_keeps_its_colour_whatever_the_order(monkeypatch, tmp_path):
     assert colours[0]["centralized"] != colours[0]["decentralized_full"]
     assert mismatch_figures.policy_color("centralized_full") == \
         f"C{list(SHIPPED).index('centralized_full')}"
+
+
+def test_robust_figure_draws_rates_at_the_ends_of_their_intervals(tmp_path):
+    """2080/2080 has a Wilson upper bound a hair under 1 (round-off): still drawn."""
+    from twolink.mismatch_figures import robust_figure
+
+    def res(k, n):
+        return {"rate": k / n, "wilson95": list(wilson_interval(k, n))}
+    section = {"levels": {"none": {}, "medium": {}}, "plants": 32, "states": 65, "seed": 1,
+               "modes": {"centralized": ["plain"], "centralized_robust": list(MODES)},
+               "results": {"centralized": {"none": {"plain": res(7, 65)},
+                                           "medium": {"plain": res(0, 2080)}},
+                           "centralized_robust": {lv: {m: res(2080, 2080) for m in MODES}
+                                                  for lv in ("none", "medium")}}}
+    settle = {(p, lv, m): np.r_[np.full(60, 1.2), np.full(5, np.inf)]
+              for p, d in section["results"].items() for lv, ms in d.items() for m in ms}
+    assert wilson_interval(2080, 2080)[1] < 1.0
+    assert robust_figure(section, settle, tmp_path / "r.png") == "r.png"
+    assert (tmp_path / "r.png").stat().st_size > 10_000

@@ -134,8 +134,9 @@ def robust_figure(section: dict, settle: dict, path: Path) -> str:
             at = [i for i, p in enumerate(pols) if mode in res[p][level]]
             got = [res[pols[i]][level][mode] for i in at]
             rates = [r["rate"] for r in got]
-            lo = [r["rate"] - r["wilson95"][0] for r in got]
-            hi = [r["wilson95"][1] - r["rate"] for r in got]
+            # error bars from the interval; max(0, .) absorbs round-off at k = 0 or k = n
+            lo = [max(0.0, r["rate"] - r["wilson95"][0]) for r in got]
+            hi = [max(0.0, r["wilson95"][1] - r["rate"]) for r in got]
             a.bar(np.array(at) + (j - (len(modes) - 1) / 2) * w, rates, w,
                   yerr=[lo, hi], capsize=2, color=[policy_color(pols[i]) for i in at],
                   alpha=1.0 if mode == "compensated" else 0.45,
