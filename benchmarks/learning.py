@@ -123,6 +123,9 @@ def figure(data: dict, path: Path) -> Path:
     for run in data["runs"]:
         panel = "warm start from the (11) policies" if run["init"] else "cold start (theta = 0)"
         label = run["name"].replace(" cold", "").replace(" from (11)", "")
+        if run["config"]["update"] == "fuzzy":
+            label = label.replace("ized", "ized fuzzy (14)", 1).replace("independent",
+                                                                       "independent fuzzy (14)")
         label += f", {run['curve'][-1]['steps'] / 1e6:.1f} M" if run["curve"] else ""
         panels[panel][f"{label}, seed {run['seed']}"] = run["curve"]
     panels = {k: v for k, v in panels.items() if v}
