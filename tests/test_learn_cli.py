@@ -77,7 +77,6 @@ def test_task_required_and_independent_only_decentralized(capsys):
 
 
 def test_sigterm_keeps_the_last_complete_checkpoint_and_it_resumes(tmp_path):
-    import os
     import signal
     import subprocess
     import sys

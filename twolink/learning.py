@@ -53,7 +53,7 @@ from twolink import __version__, fuzzy
 from twolink.metrics import discounted_return, evaluation_set, settle_time, success
 from twolink.parameters import GAMMA, HORIZON, TABLE_I, TS
 from twolink.plants import MujocoPlant
-from twolink.policy import Agent, Policy
+from twolink.policy import TIE_TOLERANCE, Agent, Policy
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import rollout
 from twolink.synthesis import centralized_actions
@@ -502,7 +502,6 @@ def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarra
 
 def _greedy(q: np.ndarray) -> np.ndarray:
     """argmax over the last axis, ties to the first action (as policy (14))."""
-    from twolink.policy import TIE_TOLERANCE
     return np.argmax(q >= q.max(axis=-1, keepdims=True) - TIE_TOLERANCE, axis=-1)
 
 

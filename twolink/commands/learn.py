@@ -13,7 +13,7 @@ from pathlib import Path
 
 from twolink.artifacts import check_outputs
 from twolink.formatting import format_rate
-from twolink.learning import (LEARNERS, MAX_ARMS, MAX_STEPS, UPDATES, LearnConfig, Learner,
+from twolink.learning import (MAX_ARMS, MAX_STEPS, UPDATES, LearnConfig, Learner,
                               evaluate, policy_kind, stays_above, steps_to_reach)
 from twolink.learning_curves import learning_curves
 from twolink.policy import Policy, load_policy
