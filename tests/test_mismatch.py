@@ -76,6 +76,7 @@ def test_joint_margin_by_wilson_lower_bound_tells_neighbouring_sizes_apart():
 
     def margins_for(n):
         kn = {s: [round(r * n), n] for s, r in rates.items()}
+        kn[0.0] = [65, 65]                   # the nominal plant: 65 states, judged by rate
         curves = {"p": {"nominal": 1.0, "joint": {s: k / n for s, (k, n) in kn.items()}}}
         return margins(curves, counted={"p": {"joint": kn}})["p"]
 

@@ -217,8 +217,9 @@ def margins(curves: dict, threshold: float = THRESHOLD, counted: Optional[dict] 
     of single parameters; None if any is None).
 
     With ``counted`` (:func:`counts`), also ``joint_lower_bound``: the joint margin by the
-    rule applied to the lower end of each size's 95 % Wilson interval instead of its rate,
-    so a size counts only when its success is known to clear the threshold.
+    rule applied to the lower end of each perturbed size's 95 % Wilson interval instead of
+    its rate, so a size counts only when its success is known to clear the threshold (the
+    nominal plant, one deterministic plant, is judged by its rate as in the rate rule).
     """
     out = {}
     for pol, fams in curves.items():
@@ -229,7 +230,8 @@ def margins(curves: dict, threshold: float = THRESHOLD, counted: Optional[dict] 
         joint = (counted or {}).get(pol, {}).get("joint")
         if joint:
             m["joint_lower_bound"] = margin(
-                {s: wilson_interval(*kn)[0] for s, kn in joint.items()}, threshold)
+                {s: wilson_interval(*kn)[0] if s else kn[0] / kn[1]
+                 for s, kn in joint.items()}, threshold)
         out[pol] = m
     return out
 

@@ -187,10 +187,10 @@ def markdown(report: dict, figures: dict, command: str) -> str:
             f"{100 * rb['threshold']:.0f} %; `none` = the policy falls short of that "
             "already on the nominal plant. Joint: all parameters at once, uniform in "
             f"[-size, size], {rb['joint_draws']} random plants per size; the column `joint, "
-            "Wilson lower bound` applies the same rule to the lower end of each size's 95 % "
-            "Wilson interval (a size counts only when its success is known to be >= "
-            f"{100 * rb['threshold']:.0f} %), so two neighbouring sizes count as different "
-            "only when the data tell them apart. Noise: angle std in "
+            "Wilson lower bound` applies the same rule to the lower end of each perturbed size's "
+            "95 % Wilson interval (a size counts only when its success is known to be >= "
+            f"{100 * rb['threshold']:.0f} %; the nominal plant is judged by its rate), so "
+            "two neighbouring sizes count as different only when the data tell them apart. Noise: angle std in "
             "degrees, speed std scaled so that 5 deg <-> 0.1 rad/s.", ""]
     out += [robustness_tables(rb), "",
             f"![robustness, parameters]({figures['robustness_parameters']})", "",
