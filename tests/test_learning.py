@@ -23,7 +23,7 @@ def reference_update(theta, idx, w, j, target, alpha, rule):
         q_xu = sum(w[a, b] * old[idx[a, b], j[a, b]] for b in range(k))
         for b in range(k):
             m, u = int(idx[a, b]), int(j[a, b])
-            err = target[a] - (old[m, u] if rule == "fuzzy" else q_xu)
+            err = target[a] - (old[m, u] if rule in ("fuzzy", "rule") else q_xu)
             s, wsum = hits.get((m, u), (0.0, 0.0))
             hits[(m, u)] = (s + w[a, b] * err, wsum + w[a, b])
     for (m, u), (s, wsum) in hits.items():
@@ -32,7 +32,7 @@ def reference_update(theta, idx, w, j, target, alpha, rule):
     return theta
 
 
-@pytest.mark.parametrize("rule", ["fuzzy", "discrete"])
+@pytest.mark.parametrize("rule", ["fuzzy", "discrete", "rule", "fql"])
 def test_update_matches_reference_loop(rule):
     rng = np.random.default_rng(3)
     agent = make_agents("decentralized")[1]                 # agent 1, 4-D grid, 16 bins
@@ -41,7 +41,7 @@ def test_update_matches_reference_loop(rule):
                          rng.uniform(-3, 3, 40), rng.uniform(-0.1, 0.1, 40)])
     x[:5] = x[0]                                             # shared bins across arms
     idx, w = agent.grid.memberships(x)
-    if rule == "fuzzy":
+    if rule != "discrete":
         j = rng.integers(0, 3, idx.shape)
     else:
         j = np.broadcast_to(rng.integers(0, 3, len(x))[:, None], idx.shape)
@@ -174,3 +174,52 @@ def test_curve_summaries():
     assert steps_to_reach(curve) == 100
     assert not stays_above(curve)
     assert stays_above(curve[:2]) and steps_to_reach(curve[:1]) is None
+
+
+def test_rule_update_is_the_per_rule_form_acting_as_policy_14():
+    """``rule``, one arm, one step, written as the prototype's loop: each active bin its
+    own epsilon-greedy action (its own coin), the arm applies sum mu_m u_{a_m} (agent 1
+    reading the applied tau2), then theta[m, a_m] += alpha mu_m (r + gamma sum_m' mu_m'(x')
+    max_u theta[m', u] - theta[m, a_m])."""
+    rng = np.random.default_rng(11)
+    cfg = LearnConfig(learner="decentralized", steps=40, arms=1, seed=2, update="rule",
+                      epsilon=0.4, epsilon_final=0.4, alpha=0.3)
+    with ModelPlant("full") as plant, Learner(cfg, plant=plant) as learner:
+        for a in learner.agents:
+            a.theta = rng.uniform(-25, 0, a.theta.shape)
+        for _ in range(12):                       # several steps: coins both ways
+            x = learner.x.copy()
+            theta = [a.theta.copy() for a in learner.agents]
+            draws = np.random.default_rng()
+            draws.bit_generator.state = learner.rng.bit_generator.state
+            sig = {"theta1": x[0, 0], "theta2": x[0, 1], "dtheta1": x[0, 2],
+                   "dtheta2": x[0, 3]}
+            picked = []
+            for a, th in zip(learner.agents, theta):
+                idx, w = a.grid.memberships(np.array([[sig[k] for k in a.grid.names]]))
+                coins = draws.random(idx.shape)[0]
+                random_u = draws.integers(0, len(a.actions), idx.shape)[0]
+                out, bins = 0.0, []
+                for b in range(idx.shape[1]):
+                    m = int(idx[0, b])
+                    u = int(random_u[b]) if coins[b] < 0.4 else int(np.argmax(th[m]))
+                    out += w[0, b] * a.actions[u, 0]
+                    bins.append((m, u, w[0, b]))
+                sig[a.outputs[0]] = out
+                picked.append(bins)
+            nxt = plant.step(x, np.array([[sig["tau1"], sig["tau2"]]]))
+            nsig = {"theta1": nxt[0, 0], "theta2": nxt[0, 1], "dtheta1": nxt[0, 2],
+                    "dtheta2": nxt[0, 3]}
+            expect = [t.copy() for t in theta]
+            for a, th, ex, bins in zip(learner.agents, theta, expect, picked):
+                idx, w = a.grid.memberships(np.array([[nsig[k] for k in a.grid.names]]))
+                v = sum(w[0, b] * th[idx[0, b]].max() for b in range(idx.shape[1]))
+                nsig[a.outputs[0]] = sum(w[0, b] * a.actions[int(np.argmax(th[idx[0, b]])), 0]
+                                         for b in range(idx.shape[1]))
+                target = float(a.reward(nxt)[0]) + 0.98 * v
+                for m, u, mu in bins:
+                    if mu > 0:
+                        ex[m, u] += 0.3 * mu * (target - th[m, u])
+            learner.step()
+            for a, ex in zip(learner.agents, expect):
+                np.testing.assert_allclose(a.theta, ex, rtol=0, atol=1e-9)

@@ -17,6 +17,13 @@ Two ways of acting and updating (``update``):
   sum_m mu_m u_{j_m}, and each (m, j_m) moves towards the target of Alg. 1,
   r + gamma * sum_m' mu_m'(x') max_j theta[m', j], with weight mu_m. theta[m, j] is then a
   weighted average of targets, so it stays within the range of possible values.
+* ``rule`` - ``fuzzy`` with exploration per bin: each active bin takes its own
+  epsilon-greedy draw (``fuzzy`` draws once per arm and, exploring, randomises every bin).
+  This is the per-rule form theta[m, a_m] += alpha mu_m (r + gamma sum_m' mu_m'(x')
+  max_u theta[m', u] - theta[m, a_m]).
+* ``fql`` - acting as ``rule``, but the error is the gradient form of fuzzy Q-learning
+  (Glorennec, Jouffe): r + gamma sum_m' mu_m'(x') max_u theta[m', u] - sum_m mu_m
+  theta[m, a_m], so that, like ``discrete``, theta may leave [-25, 0].
 * ``discrete`` (default) - plain Q-learning (4): one epsilon-greedy discrete action per arm
   from the interpolated Q(x, .), target r + gamma * max_j Q(x', j), and theta moved along
   the gradient mu_m of the temporal difference r + gamma max Q(x', .) - Q(x, u). theta may
@@ -31,7 +38,8 @@ updates are theta[m, j] += alpha (r + gamma V(x') - theta[m, j]), so given the
 transitions f(c_m, u_j) of Alg. 1 the learner converges to fuzzy Q-iteration's fixed
 point. The learning rate follows alpha_t = alpha * h / (h + t) (t: control steps so far,
 h: ``alpha_halflife``, 0 keeps alpha constant); exploration is epsilon-greedy per arm and
-step (an exploring arm draws its action, or every active bin's action, at random), epsilon_t
+step (an exploring arm draws its action, or every active bin's action, at random; ``rule`` and
+``fql`` draw per active bin), epsilon_t
 decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
 
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
@@ -59,7 +67,9 @@ from twolink.rollout import rollout
 from twolink.synthesis import centralized_actions
 
 LEARNERS = ("centralized", "decentralized", "independent")
-UPDATES = ("fuzzy", "discrete")
+UPDATES = ("fuzzy", "discrete", "rule", "fql")
+#: Updates that act as policy (14): every active bin its own action.
+_FUZZY_ACTING = ("fuzzy", "rule", "fql")
 #: Most arms a run may drive (the checkpoint stores every arm's state in its header).
 MAX_ARMS = 4096
 #: Most control steps (summed over arms) a run may take: some hours on one core.
@@ -317,14 +327,16 @@ class Learner:
     def _act(self, x: np.ndarray, eps: float):
         """Exploratory torques (n, 2) and, per agent, (bins, weights, chosen actions)."""
         sig = self._signals(x)
-        fuzzy_update = self.config.update == "fuzzy"
+        fuzzy_update = self.config.update in _FUZZY_ACTING
+        per_bin = self.config.update in ("rule", "fql")
         chosen = []
         for a in self.agents:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
             nu = len(a.actions)
             if fuzzy_update:                          # each active bin its own action
                 j = _greedy(a.theta[idx])
-                explore = (self.rng.random(len(x)) < eps)[:, None]
+                explore = (self.rng.random(idx.shape if per_bin else len(x)) < eps)
+                explore = explore if per_bin else explore[:, None]
                 j = np.where(explore, self.rng.integers(0, nu, idx.shape), j)
                 out = np.einsum("nk,nko->no", w, a.actions[j])
             else:                                     # one action per arm, from Q(x, .)
@@ -346,7 +358,7 @@ class Learner:
         values = []
         for a in self.agents:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
-            if self.config.update == "fuzzy":
+            if self.config.update in _FUZZY_ACTING:
                 rows = a.theta[idx]                                       # (n, K, N_U)
                 values.append(np.einsum("nk,nk->n", w, rows.max(axis=-1)))
                 out = np.einsum("nk,nko->no", w, a.actions[_greedy(rows)])
@@ -480,15 +492,16 @@ def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarra
     ``idx``, ``w`` (n, K): the active bins of x_k and their memberships; ``j`` (n, K) the
     action each bin took (one per row for ``discrete``); ``target`` (n,) r + gamma V(x').
     Every entry e = (m, j) hit by weight W_e = sum mu moves by min(1, alpha W_e) times the
-    weighted mean error sum mu err / W_e, where err is target - theta[m, j] (``fuzzy``)
-    or target - Q(x_k, u_k) = target - sum_m mu_m theta[m, j] (``discrete``, (4)).
+    weighted mean error sum mu err / W_e, where err is target - theta[m, j] (``fuzzy``,
+    ``rule``: per rule) or target - Q(x_k, u_k) = target - sum_m mu_m theta[m, j_m]
+    (``discrete``, (4), one j per row; ``fql``, a j per bin).
     """
     nu = theta.shape[1]
     flat = theta.reshape(-1)
     entry = idx * nu + j
-    if rule == "fuzzy":
+    if rule in ("fuzzy", "rule"):
         err = target[:, None] - flat[entry]
-    elif rule == "discrete":
+    elif rule in ("discrete", "fql"):
         err = np.broadcast_to((target - np.einsum("nk,nk->n", w, flat[entry]))[:, None],
                               w.shape)
     else:

@@ -59,8 +59,10 @@ def add_parser(sub):
                         "shipped 'decentralized' (synthesised on model (11))")
     p.add_argument("--update", choices=UPDATES, default=_DEFAULTS.update,
                    help="fuzzy: act and update as policy (14) (each active bin its own "
-                        "action, target sum mu max theta); discrete: plain Q-learning (4) "
-                        f"(default {_DEFAULTS.update})")
+                        "action, target sum mu max theta, per-rule error); rule: the same with "
+                        "epsilon-greedy per bin; fql: per-bin actions, error against "
+                        "sum mu theta[m, a_m] (Jouffe/Glorennec); discrete: plain Q-learning "
+                        f"(4) (default {_DEFAULTS.update})")
     p.add_argument("--seed", default="0", metavar="S", help="seed of every random draw (default 0)")
     p.add_argument("--alpha", type=float, default=_DEFAULTS.alpha,
                    help=f"learning rate per unit of membership weight, in (0, 1] (default "
