@@ -41,8 +41,9 @@ def _reference_run(policy, plant_params, x0, ch, seed, p, s, steps, compensate):
     noise = _generator([seed, NOISE_STREAM], p, s)
     faults = _generator([seed, FAULT_STREAM], p, s)
     std = np.array([ch.angle_std, ch.angle_std, ch.speed_noise, ch.speed_noise])
+    design = {"angle_noise_deg": ch.angle_noise_deg, "speed_noise": ch.speed_noise}
     ctrl = compensated(policy, delay=ch.action_delay, observation_delay=ch.observation_delay,
-                       noise=True) if compensate else policy
+                       noise=True, **design) if compensate else policy   # for its own noise
     xs, us, handed, readings, commands, stuck_for = [x0], [], [], [], [], 0
     with MujocoPlant(plant_params, nthread=1) as plant:
         x = x0

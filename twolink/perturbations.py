@@ -15,7 +15,9 @@ from typing import Sequence
 
 import numpy as np
 
-from twolink.parameters import TABLE_I, ArmParameters
+import math
+
+from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, ArmParameters
 
 #: Table I parameters a sweep may perturb (the plant's physical constants).
 PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max", "tau2_max")
@@ -23,6 +25,13 @@ PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max",
 #: challenge's joint plant perturbation and a robust synthesis's model draws change.
 #: l2 has no dynamic effect on the horizontal arm (only the drawn arm's length).
 PHYSICAL = ("l1", "l2", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2")
+#: Speed noise std (rad/s) per degree of angle noise where only an angle noise is given
+#: (sweeps, ``robustness.evaluate`` without a challenge): the goal band's ratio, 0.1 rad/s
+#: per 5 deg, so 1 deg goes with 0.02 rad/s, as in the ``medium`` challenge.
+SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
+#: Second word of the seeds of observation noise: a noisy run draws from a child of
+#: ``SeedSequence([seed, NOISE_STREAM])`` (sweeps and ``robustness.evaluate``).
+NOISE_STREAM = 7919
 
 
 def perturbed(base: ArmParameters = TABLE_I, **relative: float) -> ArmParameters:

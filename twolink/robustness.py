@@ -25,18 +25,14 @@ from tqdm import tqdm
 from twolink.challenges import MAX_PLANTS, Challenge, challenge as challenge_named
 from twolink.metrics import (discounted_return, evaluation_set, settle_time, success,
                              wilson_interval)
-from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
-from twolink.perturbations import ActuationDelay, keyed_generators
+from twolink.parameters import HORIZON, TABLE_I, ArmParameters
+from twolink.perturbations import (NOISE_STREAM, SPEED_PER_DEG, ActuationDelay,
+                                   keyed_generators)
 from twolink.plants import MujocoPlant, check_states
 from twolink.rollout import rollout, steps_for
 
-#: Second words of the seeds of a run's observation noise and reading faults.
-NOISE_STREAM = 7919
+#: Second word of the seeds of a run's reading faults (its noise: perturbations.NOISE_STREAM).
 FAULT_STREAM = 7927
-#: Speed noise std (rad/s) per degree of angle noise when ``angle_noise_deg`` is given
-#: without a challenge: the goal band's ratio, 0.1 rad/s per 5 deg (so 1 deg goes with
-#: 0.02 rad/s, as in the ``medium`` challenge).
-SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
 #: Plants drawn when a plant-perturbing challenge is given without ``params`` or ``count``.
 DEFAULT_PLANTS = 32
 #: Most runs (plants x states) one evaluation holds.
@@ -191,13 +187,17 @@ def _states(x0) -> np.ndarray:
 def controller(policy, ch: Challenge, *, compensate: bool = True):
     """The policy as the controller sees it: wrapped by
     :func:`twolink.estimation.compensated` for the challenge's delays and noise when
-    ``compensate`` and there is anything to compensate, else the policy itself."""
+    ``compensate`` and there is anything to compensate, else the policy itself. The
+    observer is designed for the challenge's own noise levels when it has both (a
+    challenge with faults but no noise keeps the estimator's design noise)."""
     noise = bool(ch.angle_noise_deg or ch.speed_noise or ch.dropout or ch.stuck)
     if not compensate or not (ch.action_delay or ch.observation_delay or noise):
         return policy
     from twolink.estimation import compensated     # running layer, beside this module
+    design = ({"angle_noise_deg": ch.angle_noise_deg, "speed_noise": ch.speed_noise}
+              if ch.angle_noise_deg > 0 and ch.speed_noise > 0 else {})
     return compensated(policy, delay=ch.action_delay,
-                       observation_delay=ch.observation_delay, noise=noise)
+                       observation_delay=ch.observation_delay, noise=noise, **design)
 
 
 def closed_loop(policy, ch: Challenge, *, keys, seed: int, steps: int,

@@ -27,12 +27,11 @@ from tqdm import tqdm
 
 from twolink.challenges import LEVELS, Challenge, challenge
 from twolink.parameters import HORIZON
-from twolink.perturbations import ActuationDelay, keyed_generators
+from twolink.perturbations import SPEED_PER_DEG
 from twolink.plants import make_plant
 from twolink.policy import load_policy
 from twolink.registry import SHIPPED
-from twolink.robustness import (FAULT_STREAM, NOISE_STREAM, SPEED_PER_DEG, controller,
-                                evaluate)
+from twolink.robustness import closed_loop, evaluate
 from twolink.rollout import rollout, steps_for
 from twolink.sweeps import states_of
 
@@ -146,7 +145,7 @@ def targets(section: dict) -> list[dict]:
 def level(name=None, *, delay: int = 0, angle_noise_deg: float = 0.0) -> Challenge:
     """The challenge a command line asks for: the level ``name``, or (without one) a
     ``custom`` challenge of ``delay`` actuation samples and ``angle_noise_deg`` of noise
-    (speed noise :data:`twolink.robustness.SPEED_PER_DEG` rad/s per degree), as
+    (speed noise :data:`twolink.perturbations.SPEED_PER_DEG` rad/s per degree), as
     :func:`twolink.robustness.evaluate` builds it; None when nothing is asked for."""
     if name is not None:
         if delay or angle_noise_deg:
@@ -189,20 +188,13 @@ def challenged_rollouts(policies: dict, plants, x0, ch: Challenge, *, seed: int,
     check_horizon(ch, duration)
     params = ch.plants(1, seed)[0]
     steps = steps_for(duration)
-    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
-    faulty = ch.dropout > 0 or ch.stuck > 0
     runs = {}
     for plant_name in dict.fromkeys(plants):
         with make_plant(plant_name, params) as plant:
             for label, policy in policies.items():
-                sensors = ch.sensors(
-                    rngs=keyed_generators([int(seed), NOISE_STREAM], [(0, 0)]) if noisy
-                    else [None], fault_rngs=keyed_generators([int(seed), FAULT_STREAM],
-                                                             [(0, 0)]) if faulty else [None],
-                    block=steps)
-                act = ActuationDelay(controller(policy, ch, compensate=compensate),
-                                     ch.action_delay)
+                act, observe = closed_loop(policy, ch, keys=[(0, 0)], seed=seed, steps=steps,
+                                           compensate=compensate)
                 runs[(label, plant_name)] = rollout(
                     act, plant, np.asarray(x0, dtype=float)[None], duration=duration,
-                    observe=lambda k, x, s=sensors: s(x), label=label)[0]
+                    observe=observe, label=label)[0]
     return {(label, p): runs[(label, p)] for label in policies for p in dict.fromkeys(plants)}

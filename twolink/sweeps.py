@@ -41,9 +41,10 @@ import numpy as np
 from tqdm import tqdm
 
 from twolink.metrics import discounted_return, evaluation_set, settle_time, success
-from twolink.parameters import GOAL_ANGLE, GOAL_SPEED, HORIZON, TABLE_I, ArmParameters
-from twolink.perturbations import (PERTURBABLE, ActuationDelay, ObservationNoise, perturbed,
-                                   random_perturbation, row_generators, torque_limited)
+from twolink.parameters import HORIZON, TABLE_I, ArmParameters
+from twolink.perturbations import (NOISE_STREAM, PERTURBABLE, SPEED_PER_DEG, ActuationDelay,
+                                   ObservationNoise, perturbed, random_perturbation,
+                                   row_generators, torque_limited)
 from twolink.plants import MujocoPlant
 from twolink.policy import load_policy
 from twolink.rollout import rollout, steps_for
@@ -54,11 +55,6 @@ EXECUTORS = ("serial", "local", "ray")
 #: Evaluation sets a cell can use: all 65 states of SPEC.md, or every 13th (the paper's x0
 #: and 4 grid states) for quick runs.
 STATE_SETS = ("full", "quick")
-#: Speed noise std per degree of angle noise: 5 deg of angle noise <-> 0.1 rad/s.
-SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
-#: Second word of a noise cell's seed: row i of the cell draws from the i-th child of
-#: ``SeedSequence([cell.seed, NOISE_STREAM])`` (every size of a seed sees the same normals).
-NOISE_STREAM = 7919
 #: Rows per batch a task aims for (more rows, fewer Python steps per MuJoCo step).
 _ROWS_PER_TASK = 1100
 
