@@ -117,48 +117,17 @@ def gap_closure(closed: dict) -> dict:
 
 
 # --------------------------------------------------------------------------- 4. robustness
-def robustness(results: dict, policies) -> dict:
-    """Success rate against perturbation size, per policy and curve of CURVES.
-
-    The order of ``results`` does not matter: policies come out in registry order,
-    curves in CURVES order, sizes ascending, ``nominal`` last. Size 0 of every curve is
-    the nominal cell.
-    """
+def _by_curve(results: dict, policies, value) -> dict:
+    """``value(record)`` per policy, curve of CURVES and size: policies in registry order,
+    curves in CURVES order, sizes ascending, size 0 of every curve the nominal cell,
+    ``nominal`` last; the order of ``results`` does not matter."""
     points: dict = {}
     for rec in results.values():
         c = rec["cell"]
         if c["policy"] not in policies:
             continue
         key = f"parameter:{c['name']}" if c["family"] == "parameter" else c["family"]
-        points.setdefault(c["policy"], {}).setdefault(key, {})[float(c["size"])] = \
-            rec["success_rate"]
-    curves = {}
-    for pol in report_order(points):
-        fams = points[pol]
-        nominal = fams.get("nominal", {}).get(0.0)
-        curves[pol] = {}
-        for key in CURVES:
-            if key in fams:
-                pts = dict(fams[key])
-                if nominal is not None:
-                    pts.setdefault(0.0, nominal)
-                curves[pol][key] = {s: pts[s] for s in sorted(pts)}
-        curves[pol]["nominal"] = nominal
-    return curves
-
-
-def counts(results: dict, policies) -> dict:
-    """``[successes, rows]`` per policy, curve and size, in the order of :func:`robustness`
-    (a joint size counts every state of every one of its random plants)."""
-    points: dict = {}
-    for rec in results.values():
-        c = rec["cell"]
-        if c["policy"] not in policies:
-            continue
-        key = f"parameter:{c['name']}" if c["family"] == "parameter" else c["family"]
-        ok = rec["successes"]
-        points.setdefault(c["policy"], {}).setdefault(key, {})[float(c["size"])] = \
-            [int(sum(ok)), len(ok)]
+        points.setdefault(c["policy"], {}).setdefault(key, {})[float(c["size"])] = value(rec)
     out = {}
     for pol in report_order(points):
         fams = points[pol]
@@ -172,6 +141,19 @@ def counts(results: dict, policies) -> dict:
                 out[pol][key] = {s: pts[s] for s in sorted(pts)}
         out[pol]["nominal"] = nominal
     return out
+
+
+def robustness(results: dict, policies) -> dict:
+    """Success rate against perturbation size, per policy and curve of CURVES (in the
+    order of :func:`_by_curve`)."""
+    return _by_curve(results, policies, lambda rec: rec["success_rate"])
+
+
+def counts(results: dict, policies) -> dict:
+    """``[successes, rows]`` per policy, curve and size, in the order of :func:`robustness`
+    (a joint size counts every state of every one of its random plants)."""
+    return _by_curve(results, policies,
+                     lambda rec: [int(sum(rec["successes"])), len(rec["successes"])])
 
 
 def worst_plants(results: dict, policies) -> dict:
