@@ -45,6 +45,21 @@ def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
     return t
 
 
+def _checked_layout(table, axes: str) -> None:
+    """Store ``table.index`` as contiguous int32 and ``table.weight`` as float64 of one
+    shape with the axes named in ``axes``. The compiled sweeps do not check bounds, so a
+    table whose bin indices would read outside V is refused here."""
+    index = np.ascontiguousarray(table.index, dtype=np.int32)
+    weight = np.ascontiguousarray(table.weight, dtype=float)
+    if index.ndim != axes.count(",") + 1 or index.shape != weight.shape:
+        raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
+                         f"{axes} shape")
+    if index.size and (index.min() < 0 or index.max() >= table.n_states):
+        raise ValueError(f"bin indices must lie in [0, {table.n_states})")
+    object.__setattr__(table, "index", index)
+    object.__setattr__(table, "weight", weight)
+
+
 @dataclasses.dataclass(frozen=True)
 class TransitionTable:
     """T in fixed width: row m * N_U + j lists the bins m~ with mu_m~(f(c_m, u_j)) > 0
@@ -58,16 +73,7 @@ class TransitionTable:
     state_shape: Optional[tuple] = None
 
     def __post_init__(self):
-        # the compiled sweeps do not check bounds: refuse a table that would read outside V
-        index = np.ascontiguousarray(self.index, dtype=np.int32)
-        weight = np.ascontiguousarray(self.weight, dtype=float)
-        if index.ndim != 2 or index.shape != weight.shape:
-            raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
-                             f"(rows, width) shape")
-        if index.size and (index.min() < 0 or index.max() >= self.n_states):
-            raise ValueError(f"bin indices must lie in [0, {self.n_states})")
-        object.__setattr__(self, "index", index)
-        object.__setattr__(self, "weight", weight)
+        _checked_layout(self, "(rows, width)")
         object.__setattr__(self, "state_shape", _shape(self.state_shape, self.n_states))
 
     @property
@@ -149,15 +155,7 @@ class RobustTable:
     n_states: int
 
     def __post_init__(self):
-        index = np.ascontiguousarray(self.index, dtype=np.int32)
-        weight = np.ascontiguousarray(self.weight, dtype=float)
-        if index.ndim != 3 or index.shape != weight.shape:
-            raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
-                             f"(rows, models, width) shape")
-        if index.size and (index.min() < 0 or index.max() >= self.n_states):
-            raise ValueError(f"bin indices must lie in [0, {self.n_states})")
-        object.__setattr__(self, "index", index)
-        object.__setattr__(self, "weight", weight)
+        _checked_layout(self, "(rows, models, width)")
 
     @property
     def models(self) -> int:
