@@ -28,6 +28,8 @@ class ShippedPolicy:
     draws: int = 1                  # K models: the centre and K - 1 joint draws
     spread: float = 0.0             # each physical parameter uniform in +-spread (relative)
     seed: int = 0                   # seed of the draws (twolink.synthesis.parameter_draws)
+    links: int = 2                  # links of the arm (twolink.parameters.chain beyond 2)
+    rule: str = "tapered"           # how links beyond the second are made (links > 2 only)
 
     @property
     def file(self) -> Path:
@@ -42,13 +44,15 @@ class ShippedPolicy:
         if self.robust is not None:
             opts.update(robust=self.robust, draws=self.draws, spread=self.spread,
                         seed=self.seed)
+        if self.links > 2:
+            opts.update(links=self.links, rule=self.rule)
         return opts
 
 
 #: The seed of the shipped robust policies' parameter draws (fixed before any evaluation).
 ROBUST_SEED = 2006
 
-#: Every shipped policy, in report order: the paper's three, the two on (6), then the two
+#: Every shipped policy, in report order: the paper's three, the two on (6), the two
 #: robust ones (worst case over K = 8 models within +-20 %, on (6)).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
@@ -70,6 +74,8 @@ SHIPPED = {p.name: p for p in (
                   "within +-20 %, frozen context",
                   robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
 )}
+#: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
+TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
 #: The paper's policies (synthesised on (11)).
 PAPER_POLICIES = tuple(n for n, p in SHIPPED.items() if p.paper)
 #: Which policy synthesised on (6) answers which paper policy.

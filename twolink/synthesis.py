@@ -36,7 +36,7 @@ from twolink import __version__, dynamics, fuzzy
 from twolink.fqi import (ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust,
                          robust_table, transition_table)
 from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled, wrap_angle
-from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters
+from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters, chain, check_links
 from twolink.perturbations import PHYSICAL, random_perturbation
 from twolink.policy import Agent, Policy
 from twolink.reward import agent_reward, centralized_reward
@@ -372,12 +372,12 @@ def _meta(p: ArmParameters, model: str, gamma: float, delta: float, **more) -> d
             "twolink_version": __version__, **more}
 
 
-def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: str = "simplified",
-               context: str = "frozen", gamma: float = GAMMA, delta: float = DELTA,
+def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = None,
+               context: Optional[str] = None, gamma: float = GAMMA, delta: float = DELTA,
                sweeps: str = "synchronous", refine: int = 1,
                robust: Optional[str] = None, draws: int = 1, spread: float = 0.0,
                seed: int = 0, source: Optional[dict] = None,
-               progress: bool = False) -> Policy:
+               progress: bool = False, links: int = 2, rule: str = "tapered") -> Policy:
     """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``
     with ``sweeps`` of Alg. 1 (:data:`SWEEPS`) over the paper's bins, each subdivided
     ``refine`` times (:meth:`fuzzy.Axis.refined`; 1: the paper's grid). Both are recorded
@@ -388,7 +388,17 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: str = "simplifie
     ``seed``), recorded in ``meta["robust"]``; ``meta["parameters"]`` stays ``p``, the
     centre. ``model="identified"`` is the full model (6) with ``p`` read from a parameter
     file, whose provenance ``source`` is recorded as ``meta["parameters_source"]``.
+    ``model`` defaults to ``"simplified"``, ``context`` to ``"frozen"``.
+
+    ``links`` > 2: the decentralized agents of the arm ``parameters.chain(links, rule,
+    base=p)`` on its full model (:func:`twolink.chain_agents.synthesize_chain`; ``context``
+    None takes that construction's default).
     """
+    if check_links(links) > 2:
+        return _synthesize_links(kind, p, model, context, gamma, delta, sweeps, refine,
+                                 (robust, draws, spread, seed), source, progress, links, rule)
+    model = "simplified" if model is None else model
+    context = "frozen" if context is None else context
     check_sweeps(sweeps)
     refine = check_refine(refine)
     dynamics_of(model)
@@ -437,3 +447,24 @@ def _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine, p
     a1 = solve(agent1_problem(a2, p, model, context, refine=refine), **opts,
                extra={"context": context})
     return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
+
+
+def _synthesize_links(kind, p, model, context, gamma, delta, sweeps, refine, robust, source,
+                      progress, links, rule) -> Policy:
+    """The ``links``-link decentralized agents (twolink.chain_agents), refusing what only
+    the two-link synthesis offers."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
+    if kind != "decentralized":
+        raise ValueError(f"the centralized synthesis of a {links}-link arm is "
+                         f"twolink.chain_centralized; synthesize builds its decentralized "
+                         f"agents")
+    if model not in (None, "full"):
+        raise ValueError(f"a {links}-link arm is synthesised on its full model, not "
+                         f"{model!r} (model (11) is the paper's two-link simplification)")
+    if robust != (None, 1, 0.0, 0) or refine != 1 or source is not None:
+        raise ValueError(f"robust synthesis, refine and parameter files are two-link "
+                         f"options; a {links}-link arm takes none of them")
+    from twolink.chain_agents import synthesize_chain
+    return synthesize_chain(chain(links, rule, base=p), context=context, gamma=gamma,
+                            delta=delta, sweeps=sweeps, progress=progress)
