@@ -1,13 +1,15 @@
 """Continuous-time dynamics of the two-link arm, vectorised over a leading batch axis.
 
 State x = [theta1, theta2, dtheta1, dtheta2], torque tau = [tau1, tau2].
-Each ``*_acceleration`` function returns d(dtheta)/dt of shape (..., 2).
+Each ``*_acceleration`` function returns d(dtheta)/dt of shape (..., 2). The ``chain_*``
+functions are the N-link arm (x = [theta_1..theta_N, dtheta_1..dtheta_N], tau of N),
+of which (6)-(9) are the two-link case.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from twolink.parameters import ArmParameters
+from twolink.parameters import ArmParameters, ChainParameters, as_chain
 
 
 def mass_matrix(p: ArmParameters, theta2: np.ndarray) -> np.ndarray:
@@ -79,3 +81,176 @@ MODELS = {
     "simplified": simplified_acceleration,
     "full": full_acceleration,
 }
+
+
+# --------------------------------------------------------------------------- N links
+# The horizontal arm of N links (twolink.parameters.chain), of which (6)-(9) are the
+# two-link case. With phi_a = theta_2 + ... + theta_a the angle of link a relative to
+# link 1 (phi_1 = 0) and omega_a = dtheta_1 + ... + dtheta_a its angular speed, the
+# kinetic energy is 1/2 sum_ab G_ab omega_a omega_b with
+#   G_ab = W_ab cos(phi_a - phi_b) + delta_ab I_a,
+#   W_ab = sum_{k >= max(a, b)} m_k r_ka r_kb,  r_ka = l_a (a < k), c_a (a = k), 0 (a > k),
+# so M = L^T G L (L the lower-triangular matrix of ones: omega = L dtheta), and the
+# Coriolis/centrifugal forces are L^T h with h_a = sum_b W_ab sin(phi_a - phi_b) omega_b^2.
+# For two links W_11 + I_1 = P1, W_22 + I_2 = P2 and W_12 = P3 of (10).
+
+
+def _chain_weights(c: ChainParameters) -> np.ndarray:
+    """The constant N x N matrix W of the comment above."""
+    n = c.links
+    w = np.zeros((n, n))
+    for k in range(n):
+        r = np.array(c.lengths[:k] + (c.coms[k],))
+        w[:k + 1, :k + 1] += c.masses[k] * np.outer(r, r)
+    return w
+
+
+def _relative_angles(theta: np.ndarray) -> tuple:
+    """cos and sin of phi_a (a = 1..N) as lists of arrays; phi_1 = 0 gives None."""
+    phi = np.cumsum(theta[..., 1:], -1)
+    cos = [None] + [np.cos(phi[..., k]) for k in range(phi.shape[-1])]
+    sin = [None] + [np.sin(phi[..., k]) for k in range(phi.shape[-1])]
+    return cos, sin
+
+
+def _cos_diff(cos, sin, a, b):
+    """cos(phi_a - phi_b) for a < b."""
+    return cos[b] if a == 0 else cos[a] * cos[b] + sin[a] * sin[b]
+
+
+def _sin_diff(cos, sin, a, b):
+    """sin(phi_a - phi_b) for a < b."""
+    return -sin[b] if a == 0 else sin[a] * cos[b] - cos[a] * sin[b]
+
+
+def _mass_entries(c: ChainParameters, cos, sin, batch: tuple) -> np.ndarray:
+    """M(theta) laid out as (N, N) + batch (each entry contiguous)."""
+    n = c.links
+    w = _chain_weights(c)
+    g = np.empty((n, n) + batch)
+    for a in range(n):
+        g[a, a] = w[a, a] + c.inertias[a]
+        for b in range(a + 1, n):
+            g[a, b] = g[b, a] = w[a, b] * _cos_diff(cos, sin, a, b)
+    # M = L^T G L: suffix sums over both link axes.
+    g = np.flip(np.cumsum(np.flip(g, 0), 0), 0)
+    return np.flip(np.cumsum(np.flip(g, 1), 1), 1)
+
+
+def _bias(c: ChainParameters, x: np.ndarray, cos, sin) -> list:
+    """C(theta, dtheta) dtheta as a list of N arrays (no damping)."""
+    n = c.links
+    w = _chain_weights(c)
+    omega2 = np.cumsum(x[..., n:], -1) ** 2
+    h = [np.zeros(x.shape[:-1]) for _ in range(n)]
+    for a in range(n):
+        for b in range(a + 1, n):
+            s = w[a, b] * _sin_diff(cos, sin, a, b)
+            h[a] += s * omega2[..., b]
+            h[b] -= s * omega2[..., a]
+    for a in range(n - 2, -1, -1):   # L^T h: suffix sums
+        h[a] += h[a + 1]
+    return h
+
+
+def _check_chain_state(c: ChainParameters, x: np.ndarray, name: str = "x") -> None:
+    n = c.links
+    if x.ndim < 1 or x.shape[-1] != 2 * n:
+        raise ValueError(f"{name} must have shape (..., {2 * n}) for a {n}-link arm "
+                         f"([theta_1..theta_{n}, dtheta_1..dtheta_{n}]), got {x.shape}")
+
+
+def chain_mass_matrix(p: ArmParameters | ChainParameters, theta) -> np.ndarray:
+    """M(theta) of the N-link arm, shape (..., N, N); (7) for two links.
+
+    ``theta`` has shape (..., N) (the joint angles; only theta_2..theta_N matter)."""
+    c = as_chain(p)
+    theta = np.asarray(theta, dtype=float)
+    if theta.ndim < 1 or theta.shape[-1] != c.links:
+        raise ValueError(f"theta must have shape (..., {c.links}) for a {c.links}-link arm, "
+                         f"got {theta.shape}")
+    cos, sin = _relative_angles(theta)
+    m = _mass_entries(c, cos, sin, theta.shape[:-1])
+    return np.ascontiguousarray(np.moveaxis(m, (0, 1), (-2, -1)))
+
+
+def chain_bias(p: ArmParameters | ChainParameters, x) -> np.ndarray:
+    """Coriolis/centrifugal forces C(theta, dtheta) dtheta of the N-link arm, shape
+    (..., N), as MuJoCo's qfrc_bias of the horizontal arm (no gravity torque, no damping);
+    (8) without the damping diag(b) for two links (see :func:`coriolis_forces`)."""
+    c = as_chain(p)
+    x = np.asarray(x, dtype=float)
+    _check_chain_state(c, x)
+    cos, sin = _relative_angles(x[..., :c.links])
+    return np.stack(_bias(c, x, cos, sin), -1)
+
+
+def _check_locked(locked, n: int) -> list:
+    """The indices of the free joints for ``locked`` (None or N booleans)."""
+    if locked is None:
+        return list(range(n))
+    flags = list(locked) if not isinstance(locked, (str, bytes)) else None
+    if flags is None or len(flags) != n or \
+            not all(isinstance(f, (bool, np.bool_)) for f in flags):
+        raise ValueError(f"locked must be a sequence of {n} booleans (one per joint), "
+                         f"got {locked!r}")
+    free = [k for k, f in enumerate(flags) if not f]
+    if not free:
+        raise ValueError("locked holds every joint; at least one joint must be free")
+    return free
+
+
+def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
+                       locked=None) -> np.ndarray:
+    """ddtheta of the N-link horizontal arm, shape (..., N): M ddtheta = tau - C dtheta
+    - diag(b) dtheta, the N-link form of (6)-(9) (G = 0: the arm is horizontal).
+
+    ``x`` has shape (..., 2N), ``tau`` (..., N) (broadcast against each other).
+    ``locked`` (N booleans) holds joints fixed: their ddtheta is 0 and they leave the
+    solve, which becomes M_uu ddtheta_u = rhs_u over the free joints u.
+    """
+    c = as_chain(p)
+    n = c.links
+    x = np.asarray(x, dtype=float)
+    tau = np.asarray(tau, dtype=float)
+    _check_chain_state(c, x)
+    if tau.ndim < 1 or tau.shape[-1] != n:
+        raise ValueError(f"tau must have shape (..., {n}) for a {n}-link arm, "
+                         f"got {tau.shape}")
+    free = _check_locked(locked, n)
+    try:
+        batch = np.broadcast_shapes(x.shape[:-1], tau.shape[:-1])
+    except ValueError:
+        raise ValueError(f"x of shape {x.shape} and tau of shape {tau.shape} do not "
+                         f"broadcast") from None
+    cos, sin = _relative_angles(x[..., :n])
+    m = _mass_entries(c, cos, sin, x.shape[:-1])
+    bias = _bias(c, x, cos, sin)
+    rhs = [np.broadcast_to(tau[..., k] - bias[k] - c.dampings[k] * x[..., n + k], batch)
+           for k in free]
+    # LDL^T of M_uu (symmetric positive definite), a loop over the free joints only.
+    u = len(free)
+    low = [[None] * u for _ in range(u)]
+    diag = [None] * u
+    for j in range(u):
+        d = m[free[j], free[j]]
+        for k in range(j):
+            d = d - low[j][k] * low[j][k] * diag[k]
+        diag[j] = d
+        for i in range(j + 1, u):
+            v = m[free[i], free[j]]
+            for k in range(j):
+                v = v - low[i][k] * low[j][k] * diag[k]
+            low[i][j] = v / d
+    y = list(rhs)
+    for i in range(u):
+        for k in range(i):
+            y[i] = y[i] - low[i][k] * y[k]
+    z = [y[i] / diag[i] for i in range(u)]
+    for i in range(u - 1, -1, -1):
+        for k in range(i + 1, u):
+            z[i] = z[i] - low[k][i] * z[k]
+    out = np.zeros(batch + (n,))
+    for i, k in enumerate(free):
+        out[..., k] = z[i]
+    return out

@@ -2,7 +2,8 @@
 
 The conventions of SPEC.md: torques clipped to +-tau_max and held over Ts; fixed-step
 RK4 substeps inside Ts; at the end of every Ts the angles wrap to [-pi, pi) and the
-speeds saturate at +-dtheta_max.
+speeds saturate at +-dtheta_max. States are (..., 2N) and torques (..., N) for an arm of
+N = ``p.links`` links (N = 2: the paper's arm).
 """
 from __future__ import annotations
 
@@ -11,12 +12,15 @@ from typing import Callable
 
 import numpy as np
 
-from twolink.parameters import TS, ArmParameters
+from twolink.parameters import TS, ArmParameters, ChainParameters
 
 #: RK4 substeps per sample period used by every numpy plant (see README, integration error).
 SUBSTEPS = 10
 
-Acceleration = Callable[[ArmParameters, np.ndarray, np.ndarray], np.ndarray]
+#: A two-link arm (Table I) or an N-link chain: anything with ``links``, ``tau_max`` and
+#: ``speed_max``.
+Parameters = ArmParameters | ChainParameters
+Acceleration = Callable[[Parameters, np.ndarray, np.ndarray], np.ndarray]
 
 
 def wrap_angle(a):
@@ -24,26 +28,29 @@ def wrap_angle(a):
     return np.mod(np.asarray(a, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
 
 
-def finish_sample(p: ArmParameters, x: np.ndarray, *, speed_max=None) -> np.ndarray:
+def finish_sample(p: Parameters, x: np.ndarray, *, speed_max=None) -> np.ndarray:
     """Wrap the angles and saturate the speeds at the end of a sample period.
 
-    ``speed_max`` (broadcastable to x[..., 2:], e.g. one row per perturbed plant)
-    overrides ``p.speed_max``.
+    ``x`` has shape (..., 2N) with N = ``p.links``. ``speed_max`` (broadcastable to
+    x[..., N:], e.g. one row per perturbed plant) overrides ``p.speed_max``.
     """
+    n = p.links
     out = np.empty_like(x)
-    out[..., :2] = wrap_angle(x[..., :2])
+    out[..., :n] = wrap_angle(x[..., :n])
     vmax = p.speed_max if speed_max is None else speed_max
-    out[..., 2:] = np.clip(x[..., 2:], -vmax, vmax)
+    out[..., n:] = np.clip(x[..., n:], -vmax, vmax)
     return out
 
 
-def rk4(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau: np.ndarray,
+def rk4(accel: Acceleration, p: Parameters, x: np.ndarray, tau: np.ndarray,
         duration: float, substeps: int) -> np.ndarray:
-    """Integrate dx/dt = [dtheta, accel(x, tau)] over ``duration`` with RK4 substeps."""
+    """Integrate dx/dt = [dtheta, accel(x, tau)] over ``duration`` with RK4 substeps
+    (x of shape (..., 2N), N = ``p.links``)."""
     h = duration / substeps
+    n = p.links
 
     def f(s):
-        return np.concatenate([s[..., 2:], accel(p, s, tau)], -1)
+        return np.concatenate([s[..., n:], accel(p, s, tau)], -1)
 
     for _ in range(substeps):
         k1 = f(x)
@@ -54,18 +61,36 @@ def rk4(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau: np.ndarray,
     return x
 
 
-def sample_step(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau: np.ndarray,
+def _check_shapes(p: Parameters, x: np.ndarray, tau: np.ndarray) -> tuple:
+    """The common batch shape of states (..., 2N) and torques (..., N), N = ``p.links``."""
+    n = p.links
+    if x.ndim < 1 or x.shape[-1] != 2 * n:
+        raise ValueError(f"states must have shape (..., {2 * n}) for a {n}-link arm, "
+                         f"got {x.shape}")
+    if tau.ndim < 1 or tau.shape[-1] != n:
+        raise ValueError(f"torques must have shape (..., {n}) for a {n}-link arm, "
+                         f"got {tau.shape}")
+    try:
+        return np.broadcast_shapes(x.shape[:-1], tau.shape[:-1])
+    except ValueError:
+        raise ValueError(f"states of shape {x.shape} and torques of shape {tau.shape} "
+                         f"do not broadcast") from None
+
+
+def sample_step(accel: Acceleration, p: Parameters, x: np.ndarray, tau: np.ndarray,
                 *, ts: float = TS, substeps: int = SUBSTEPS) -> np.ndarray:
-    """x_{k+1} = f(x_k, u_k): one sample period of a model, batched over leading axes."""
+    """x_{k+1} = f(x_k, u_k): one sample period of a model, batched over leading axes:
+    states (..., 2N), torques (..., N), N = ``p.links``."""
     x = np.asarray(x, dtype=float)
     tau = np.clip(np.asarray(tau, dtype=float), -p.tau_max, p.tau_max)
-    batch = np.broadcast_shapes(x.shape[:-1], tau.shape[:-1])
-    x = np.broadcast_to(x, batch + (4,))
-    tau = np.broadcast_to(tau, batch + (2,))
+    batch = _check_shapes(p, x, tau)
+    n = p.links
+    x = np.broadcast_to(x, batch + (2 * n,))
+    tau = np.broadcast_to(tau, batch + (n,))
     return finish_sample(p, rk4(accel, p, x, tau, ts, substeps))
 
 
-def integration_error(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau: np.ndarray,
+def integration_error(accel: Acceleration, p: Parameters, x: np.ndarray, tau: np.ndarray,
                       *, substeps: int = SUBSTEPS, reference_substeps: int = 1000) -> dict:
     """Error of one sample period with ``substeps`` against a much finer RK4 reference.
 
@@ -74,9 +99,10 @@ def integration_error(accel: Acceleration, p: ArmParameters, x: np.ndarray, tau:
     """
     a = sample_step(accel, p, x, tau, substeps=substeps)
     b = sample_step(accel, p, x, tau, substeps=reference_substeps)
+    n = p.links
     d = a - b
-    d[..., :2] = wrap_angle(d[..., :2])
-    d = np.abs(d).reshape(-1, 4)
+    d[..., :n] = wrap_angle(d[..., :n])
+    d = np.abs(d).reshape(-1, 2 * n)
     return {"substeps": substeps, "reference_substeps": reference_substeps,
             "max": d.max(0).tolist(), "rms": np.sqrt((d**2).mean(0)).tolist()}
 
@@ -98,6 +124,11 @@ def sample_step_compiled(model: str, p: ArmParameters, x: np.ndarray, tau: np.nd
     """
     if model not in COMPILED_MODELS:
         raise ValueError(f"no compiled model {model!r}; choose one of {', '.join(COMPILED_MODELS)}")
+    if p.links != 2:
+        raise ValueError(f"the compiled step is for two links; use sample_step for a "
+                         f"{p.links}-link arm")
+    if isinstance(p, ChainParameters):
+        p = p.as_arm()
     if not isinstance(substeps, (int, np.integer)) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps}")
     x = np.asarray(x, dtype=float)
