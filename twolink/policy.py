@@ -7,6 +7,10 @@ argmax_u Q(m, u) (14); actions whose Q lies within :data:`TIE_TOLERANCE` of the 
 are tied and the first of them wins (SPEC.md), so round-off never decides an action. The
 decentralized policy runs agent 2 first and hands its tau2 to agent 1, as in (18).
 
+A policy is for an arm of N = :attr:`Policy.links` links (``meta["links"]``, 2 when
+absent): it reads states x = [theta_1..theta_N, dtheta_1..dtheta_N] and its agents
+together output tau1..tauN. Files of two-link policies carry no ``links``.
+
 Policy files are ``.npz`` archives holding the Q-tables and a JSON header with the
 provenance (parameters, bins, gamma, delta, iterations, model, package version) and a
 sha256 of the content (header, actions, grids and Q-tables). They are written atomically.
@@ -27,7 +31,7 @@ import numpy as np
 
 from twolink.artifacts import atomic_path
 from twolink.fuzzy import Grid
-from twolink.parameters import STATE_NAMES
+from twolink.parameters import check_links, state_names
 from twolink.registry import SHIPPED
 
 FORMAT = "twolink-policy"
@@ -141,41 +145,57 @@ def _content_hash(header: dict, q_tables: dict) -> str:
     return h.hexdigest()
 
 
+def _torque_names(links: int) -> tuple:
+    return tuple(f"tau{i}" for i in range(1, links + 1))
+
+
 class Policy:
-    """A state-feedback policy tau = h(x) made of one or more agents, evaluated in order."""
+    """A state-feedback policy tau = h(x) made of one or more agents, evaluated in order,
+    for an arm of ``meta["links"]`` links (2 when absent)."""
 
     def __init__(self, kind: str, agents, meta: dict | None = None):
         self.kind = kind
         self.agents = list(agents)
         self.meta = dict(meta or {})
-        known = set(STATE_NAMES)
+        self._links = check_links(self.meta.get("links", 2))
+        self._state_names = state_names(self._links)
+        self._outputs = _torque_names(self._links)
+        known = set(self._state_names)
         for agent in self.agents:
             missing = [n for n in agent.inputs if n not in known]
             if missing:
                 raise ValueError(f"agent {agent.name} reads {missing}, which no earlier "
                                  f"agent or state component provides")
             known.update(agent.outputs)
-        if not {"tau1", "tau2"} <= known:
-            raise ValueError(f"policy {kind}: its agents must output tau1 and tau2")
+        if not set(self._outputs) <= known:
+            names = ", ".join(self._outputs[:-1]) + " and " + self._outputs[-1]
+            raise ValueError(f"policy {kind}: its agents must output {names}")
+
+    @property
+    def links(self) -> int:
+        """N, the number of links of the arm this policy is for."""
+        return self._links
 
     def __repr__(self):
         sizes = ", ".join(f"{a.name}: {a.q.size}" for a in self.agents)
         return f"Policy({self.kind!r}, Q sizes {{{sizes}}})"
 
     def __call__(self, x) -> np.ndarray:
-        """Torques [tau1, tau2] for states x of shape (..., 4)."""
+        """Torques [tau1..tauN] (..., N) for states x of shape (..., 2N)."""
         x = np.asarray(x, dtype=float)
-        if x.ndim == 0 or x.shape[-1] != 4:
-            raise ValueError(f"policy input must have shape (..., 4), got {x.shape}")
+        width = 2 * self._links
+        if x.ndim == 0 or x.shape[-1] != width:
+            arm = "" if self._links == 2 else f" (a {self._links}-link policy)"
+            raise ValueError(f"policy input must have shape (..., {width}), got {x.shape}{arm}")
         if not np.all(np.isfinite(x)):
             raise ValueError("policy input contains NaN or infinite values")
-        signals = {name: x[..., k] for k, name in enumerate(STATE_NAMES)}
+        signals = {name: x[..., k] for k, name in enumerate(self._state_names)}
         for agent in self.agents:
             points = np.stack([signals[n] for n in agent.inputs], -1)
             out = agent.act(points)
             for k, name in enumerate(agent.outputs):
                 signals[name] = out[..., k]
-        return np.stack([signals["tau1"], signals["tau2"]], -1)
+        return np.stack([signals[name] for name in self._outputs], -1)
 
     @property
     def q_sizes(self) -> dict:
@@ -320,6 +340,16 @@ def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
             raise PolicyFileError(f"{path}: agent {name}: Q contains NaN or infinite values")
         q_tables[name] = q
     return header, q_tables
+
+
+def check_links_match(policy: Policy, links: int, *, name: str | None = None) -> Policy:
+    """``policy`` if it is for an arm of ``links`` links, else one clear ValueError line
+    naming it (``name``, default its kind) and both numbers of links."""
+    n = check_links(links)
+    if policy.links != n:
+        raise ValueError(f"policy {name or policy.kind} is for a {policy.links}-link arm, "
+                         f"the arm has {n} links")
+    return policy
 
 
 def shipped_policies() -> list[str]:
