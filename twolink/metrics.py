@@ -1,6 +1,8 @@
 """Metrics of SPEC.md: goal band, settle time, success, return, trajectory gap.
 
-The evaluation set is the paper's x0 plus a fixed grid of angle pairs at rest.
+The evaluation set is the paper's x0 plus a fixed grid of angle pairs at rest; arms of N
+links are evaluated on :func:`random_poses` instead. The metrics hold for any N
+(trajectories of states (..., K+1, 2N)).
 """
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import numpy as np
 
 from twolink.integrate import wrap_angle
 from twolink.parameters import (GAMMA, GOAL_ANGLE, GOAL_SPEED, PAPER_X0,
-                                SUCCESS_MARGIN)
+                                SUCCESS_MARGIN, check_links)
 from twolink.reward import in_goal_band
 from twolink.rollout import Trajectory
 
@@ -24,6 +26,27 @@ def evaluation_set() -> np.ndarray:
     t1, t2 = np.meshgrid(a, a, indexing="ij")
     grid = np.stack([t1.ravel(), t2.ravel(), np.zeros(t1.size), np.zeros(t1.size)], -1)
     return np.concatenate([np.asarray(PAPER_X0, dtype=float)[None], grid])
+
+
+#: Most poses :func:`random_poses` draws at once.
+MAX_POSES = 100_000
+
+
+def random_poses(links: int, count: int, seed) -> np.ndarray:
+    """``count`` poses of an arm of ``links`` links at rest, shape (count, 2N): angles
+    uniform in [-pi, pi), drawn row by row from ``np.random.default_rng(seed)`` (``seed``
+    an int or a Generator), speeds zero. The evaluation sets of N-link arms."""
+    n = check_links(links)
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
+            or not 1 <= count <= MAX_POSES:
+        raise ValueError(f"count must be a whole number from 1 to {MAX_POSES}, got {count!r}")
+    if seed is None or isinstance(seed, bool) or not isinstance(
+            seed, (int, np.integer, np.random.Generator)):
+        raise ValueError(f"seed must be an int or a numpy Generator, got {seed!r}")
+    rng = np.random.default_rng(seed)
+    poses = np.zeros((int(count), 2 * n))
+    poses[:, :n] = rng.uniform(-math.pi, math.pi, size=(int(count), n))
+    return poses
 
 
 def settle_time(traj: Trajectory) -> np.ndarray:
@@ -62,8 +85,9 @@ def stalled_at_band_edge(traj: Trajectory, *, slack_deg: float = 0.1) -> np.ndar
     outside the band.
     """
     last = traj.x[..., -1, :]
-    resting = np.all(np.abs(last[..., 2:]) <= GOAL_SPEED, axis=-1)
-    near = np.all(np.abs(last[..., :2]) <= GOAL_ANGLE + math.radians(slack_deg), axis=-1)
+    n = last.shape[-1] // 2
+    resting = np.all(np.abs(last[..., n:]) <= GOAL_SPEED, axis=-1)
+    near = np.all(np.abs(last[..., :n]) <= GOAL_ANGLE + math.radians(slack_deg), axis=-1)
     return ~success(traj) & resting & near
 
 
@@ -88,8 +112,8 @@ def wilson_interval(successes: int, n: int, *, z: float = _Z95) -> tuple[float, 
 
 
 def final_offsets_deg(traj: Trajectory) -> np.ndarray:
-    """Final link angles in degrees, shape (..., 2)."""
-    return np.rad2deg(traj.x[..., -1, :2])
+    """Final link angles in degrees, shape (..., N)."""
+    return np.rad2deg(traj.x[..., -1, :traj.x.shape[-1] // 2])
 
 
 def trajectory_gap(a: Trajectory, b: Trajectory) -> dict:
@@ -97,9 +121,10 @@ def trajectory_gap(a: Trajectory, b: Trajectory) -> dict:
     if a.x.shape != b.x.shape:
         raise ValueError(f"trajectories differ in shape: {a.x.shape} vs {b.x.shape}")
     d = a.x - b.x
-    ang = wrap_angle(d[..., :2])
+    n = d.shape[-1] // 2
+    ang = wrap_angle(d[..., :n])
     return {"angle_rms": np.sqrt((ang**2).mean(axis=(-2, -1))),
-            "speed_rms": np.sqrt((d[..., 2:]**2).mean(axis=(-2, -1)))}
+            "speed_rms": np.sqrt((d[..., n:]**2).mean(axis=(-2, -1)))}
 
 
 def summary(traj: Trajectory) -> dict:
