@@ -1,0 +1,213 @@
+"""Fuzzy Q-iteration (Alg. 1) over a grid whose first axis the dynamics ignore.
+
+The horizontal arm's dynamics (6) do not depend on theta_1, so the reached points of the
+B theta_1 blocks of the grid differ in theta_1 only. The transition matrix T (rows
+m * N_U + j, memberships (12)-(13) of f(c_m, u_j)) then factors: the memberships of every
+other axis (2**(d-1) pairs) are stored once per slice bin and action, and only theta_1's two
+per block (:class:`FactoredTable`). The memberships T would hold are the same; a
+(slice bin, action) row stores 12 * 2**(d-1) + B * 24 bytes instead of B * 12 * 2**d.
+:func:`factored_q_iteration` sweeps it with the compiled kernel
+(:mod:`twolink.fqi_factored_kernel`); :meth:`FactoredTable.tocsr` gives the plain T that
+tests hold the sweeps against.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Optional
+
+import numpy as np
+import scipy.sparse as sp
+
+from twolink import fqi_factored_kernel
+from twolink.fqi import QIterationResult
+from twolink.fuzzy import Grid
+from twolink.parameters import DELTA, GAMMA
+
+#: :meth:`FactoredTable.tocsr` refuses to expand a table past this many non-zeros.
+MAX_CSR_NNZ = 50_000_000
+
+
+@dataclasses.dataclass(frozen=True)
+class FactoredTable:
+    """T of a grid of B first-axis blocks of S slice bins (bin m = i * S + r), N_U actions.
+
+    ``index``/``weight`` (S * N_U, W): for pair row r * N_U + a, the slice bins (int32) and
+    memberships of the reached point on the axes after the first; ``index1``/``weight1``
+    (S * N_U, B, 2): for each block i, the first-axis bins (int32) and memberships of the
+    first-axis value reached from block i. T[(i S + r) N_U + a, t S + s] is the sum of
+    weight1[.., i, k] * weight[.., j] over k, j with index1 = t and index = s.
+    """
+
+    index: np.ndarray
+    weight: np.ndarray
+    index1: np.ndarray
+    weight1: np.ndarray
+    n_actions: int
+
+    def __post_init__(self):
+        index = np.ascontiguousarray(self.index, dtype=np.int32)
+        weight = np.ascontiguousarray(self.weight, dtype=float)
+        index1 = np.ascontiguousarray(self.index1, dtype=np.int32)
+        weight1 = np.ascontiguousarray(self.weight1, dtype=float)
+        n_u = self.n_actions
+        if isinstance(n_u, bool) or not isinstance(n_u, (int, np.integer)) or n_u < 1:
+            raise ValueError(f"n_actions must be a positive whole number, got {n_u!r}")
+        if index.ndim != 2 or index.shape != weight.shape or index.shape[0] % n_u:
+            raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
+                             f"(S * {n_u}, width) shape")
+        if index1.ndim != 3 or index1.shape != weight1.shape \
+                or index1.shape[::2] != (index.shape[0], 2):
+            raise ValueError(f"index1 {index1.shape} and weight1 {weight1.shape} must be one "
+                             f"({index.shape[0]}, B, 2) shape")
+        n_slice, n_first = index.shape[0] // n_u, index1.shape[1]
+        if index.size and (index.min() < 0 or index.max() >= n_slice):
+            raise ValueError(f"slice bin indices must lie in [0, {n_slice})")
+        if index1.size and (index1.min() < 0 or index1.max() >= n_first):
+            raise ValueError(f"first-axis bin indices must lie in [0, {n_first})")
+        for name, value in (("index", index), ("weight", weight), ("index1", index1),
+                            ("weight1", weight1)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "n_actions", int(n_u))
+
+    @property
+    def n_slice(self) -> int:
+        return self.index.shape[0] // self.n_actions
+
+    @property
+    def n_first(self) -> int:
+        return self.index1.shape[1]
+
+    @property
+    def n_states(self) -> int:
+        return self.n_first * self.n_slice
+
+    @property
+    def shape(self) -> tuple:
+        """The shape of the T this table stands for: (N_X * N_U, N_X)."""
+        return (self.n_states * self.n_actions, self.n_states)
+
+    @property
+    def nnz(self) -> int:
+        """Non-zeros of T: per row, the non-zero products of both factors."""
+        rest = np.count_nonzero(self.weight, axis=1).astype(np.int64)
+        first = np.count_nonzero(self.weight1, axis=2).sum(axis=1, dtype=np.int64)
+        return int(rest @ first)
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (self.index, self.weight, self.index1, self.weight1))
+
+    def tocsr(self) -> sp.csr_matrix:
+        """T as a scipy CSR matrix (duplicates summed, zeros dropped), for small grids."""
+        n_rows, width = self.index.shape
+        if n_rows * self.n_first * 2 * width > MAX_CSR_NNZ:
+            raise ValueError(f"a T of {n_rows * self.n_first * 2 * width} memberships is too "
+                             f"large to expand (at most {MAX_CSR_NNZ})")
+        s = self.n_slice
+        pair = np.arange(n_rows)
+        rows = (np.arange(self.n_first)[None, :] * s * self.n_actions + pair[:, None])
+        cols = self.index1[:, :, :, None].astype(np.int64) * s + self.index[:, None, None, :]
+        vals = self.weight1[:, :, :, None] * self.weight[:, None, None, :]
+        rows = np.broadcast_to(rows[:, :, None, None], vals.shape)
+        t = sp.csr_matrix((vals.reshape(-1), (rows.reshape(-1), cols.reshape(-1))),
+                          shape=self.shape)
+        t.sum_duplicates()
+        t.eliminate_zeros()
+        return t
+
+
+class FactoredBuilder:
+    """Fills a :class:`FactoredTable` of ``grid`` (its first axis the one the dynamics
+    ignore) block by block of slice bins, so the reached points never need to be held all
+    at once."""
+
+    def __init__(self, grid: Grid, n_actions: int):
+        if len(grid.axes) < 2:
+            raise ValueError("a factored table needs a grid of at least two axes")
+        self.first = grid.axes[0]
+        self.rest = Grid(tuple(grid.axes[1:]))
+        rows = self.rest.size * n_actions
+        width = 2 ** len(self.rest.axes)
+        self.n_actions = n_actions
+        self._index = np.empty((rows, width), dtype=np.int32)
+        self._weight = np.empty((rows, width))
+        self._index1 = np.empty((rows, self.first.size, 2), dtype=np.int32)
+        self._weight1 = np.empty((rows, self.first.size, 2))
+        self._done = np.zeros(self.rest.size, dtype=bool)
+
+    def add(self, start: int, rest_points: np.ndarray, first_points: np.ndarray) -> None:
+        """The reached points of slice bins start..start+n-1: ``rest_points`` (n, N_U, d-1)
+        on the axes after the first, ``first_points`` (n, N_U, B) the first-axis value
+        reached from each of the B blocks."""
+        n = rest_points.shape[0]
+        if rest_points.shape != (n, self.n_actions, len(self.rest.axes)) \
+                or first_points.shape != (n, self.n_actions, self.first.size) \
+                or not 0 <= start <= self.rest.size - n:
+            raise ValueError(f"block of {rest_points.shape} and {first_points.shape} at "
+                             f"{start} does not fit a slice of {self.rest.size} bins")
+        rows = slice(start * self.n_actions, (start + n) * self.n_actions)
+        idx, w = self.rest.memberships(rest_points.reshape(-1, len(self.rest.axes)))
+        self._index[rows], self._weight[rows] = idx, w
+        idx1, w1 = self.first.memberships(first_points.reshape(-1, self.first.size))
+        self._index1[rows], self._weight1[rows] = idx1, w1
+        self._done[start:start + n] = True
+
+    def table(self) -> FactoredTable:
+        """The filled table (a RuntimeError if a slice bin was never added)."""
+        if not self._done.all():
+            raise RuntimeError(f"{int((~self._done).sum())} slice bins have no transitions")
+        return FactoredTable(self._index, self._weight, self._index1, self._weight1,
+                             self.n_actions)
+
+
+def default_threads() -> int:
+    """Threads the sweeps use: two, or one on a one-core machine."""
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: float = GAMMA,
+                         delta: float = DELTA, max_iterations: int = 10000,
+                         callback: Optional[Callable[[int, float], None]] = None,
+                         threads: Optional[int] = None) -> QIterationResult:
+    """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max |Q_l - Q_{l-1}| <= delta, over
+    a :class:`FactoredTable`; ``rewards`` (N_X, N_U) rho(c_m, u_j). ``threads`` share each
+    sweep's slice rows (default :func:`default_threads`); ``callback(l, change)`` after
+    each sweep."""
+    rewards = np.ascontiguousarray(rewards, dtype=float)
+    if rewards.shape != (table.n_states, table.n_actions):
+        raise ValueError(f"rewards of shape {rewards.shape} do not match a table of "
+                         f"{table.n_states} bins and {table.n_actions} actions")
+    if not 0.0 < gamma < 1.0:
+        raise ValueError(f"gamma must lie in (0, 1), got {gamma}")
+    if not delta > 0.0:
+        raise ValueError(f"delta must be positive, got {delta}")
+    threads = default_threads() if threads is None else threads
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
+    start = time.perf_counter()
+    n_x, n_u = rewards.shape
+    q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
+    v, v_next = np.zeros(n_x), np.empty(n_x)
+    r = rewards.reshape(-1)
+    cuts = np.linspace(0, table.n_slice, min(threads, table.n_slice) + 1).astype(int)
+    history = []
+    converged = False
+    with ThreadPoolExecutor(max_workers=len(cuts) - 1) as pool:
+        while len(history) < max_iterations:
+            def part(k, q=q, q_next=q_next, v=v, v_next=v_next):
+                return fqi_factored_kernel.factored_sweep(
+                    table.index, table.weight, table.index1, table.weight1, r, q, q_next,
+                    v, v_next, gamma, cuts[k], cuts[k + 1])
+            change = max(pool.map(part, range(len(cuts) - 1)))
+            q, q_next, v, v_next = q_next, q, v_next, v
+            history.append(change)
+            if callback is not None:
+                callback(len(history), change)
+            if change <= delta:
+                converged = True
+                break
+    return QIterationResult(q.reshape(n_x, n_u), len(history), np.array(history), converged,
+                            time.perf_counter() - start)
