@@ -133,8 +133,11 @@ def _mass_entries(c: ChainParameters, cos, sin, batch: tuple) -> np.ndarray:
         for b in range(a + 1, n):
             g[a, b] = g[b, a] = w[a, b] * _cos_diff(cos, sin, a, b)
     # M = L^T G L: suffix sums over both link axes.
-    g = np.flip(np.cumsum(np.flip(g, 0), 0), 0)
-    return np.flip(np.cumsum(np.flip(g, 1), 1), 1)
+    for a in range(n - 2, -1, -1):
+        g[a] += g[a + 1]
+    for b in range(n - 2, -1, -1):
+        g[:, b] += g[:, b + 1]
+    return g
 
 
 def _bias(c: ChainParameters, x: np.ndarray, cos, sin) -> list:
