@@ -168,10 +168,18 @@ def _model(p):
     return p, dynamics.chain_acceleration
 
 
-def _transitions(p, g: fuzzy.Grid, acts: np.ndarray, progress: bool) -> tuple:
-    """The factored T and the rewards (N_X, N_U) of the problem on grid ``g``, the theta_1 =
-    0 slice integrated in blocks; with the seconds (wall, CPU) of the model and of the
-    table."""
+def factored_problem(p, g: Optional[fuzzy.Grid] = None, *, progress: bool = False) -> tuple:
+    """(T, rewards, clocks) of (16) for arm ``p`` on grid ``g`` (default :func:`grid`; its
+    axes in the order of :func:`twolink.parameters.state_names`, theta_1 first): the
+    :class:`~twolink.fqi_factored.FactoredTable` of the transitions, the rewards (15) on the
+    states reached (N_X, N_U), and the seconds (wall, CPU) of the model and of the table.
+    The theta_1 = 0 slice is integrated in blocks of :data:`BLOCK_PAIRS` pairs and every
+    theta_1 bin's reached angle is theta_1 + the slice's (the dynamics ignore theta_1)."""
+    g = grid(p.links) if g is None else g
+    if g.names != state_names(p.links):
+        raise ValueError(f"a {p.links}-link grid needs axes {', '.join(state_names(p.links))}, "
+                         f"got {', '.join(g.names)}")
+    acts = actions(p)
     n, n_u = p.links, len(acts)
     params, accel = _model(p)
     theta1 = np.asarray(g.axes[0].centers)
@@ -221,8 +229,7 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
     threads = default_threads() if threads is None else threads
     wall0, cpu0 = time.perf_counter(), time.process_time()
     g = grid(p.links, refine)
-    acts = actions(p)
-    table, rewards, clocks = _transitions(p, g, acts, progress)
+    table, rewards, clocks = factored_problem(p, g, progress=progress)
     nnz, stored = table.nnz, table.nbytes
     c0 = time.process_time()
     with tqdm(desc=f"Q-iteration centralized {p.links}-link", unit=" sweeps", leave=False,
@@ -248,7 +255,7 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
     info = {"iterations": result.iterations, "sweeps": "synchronous", "converged": True,
             "final_change": float(result.history[-1]), "q_size": int(result.q.size),
             "transition_nnz": nnz, **timings}
-    agent = Agent("centralized", g, acts, result.q, tuple(f"tau{k}" for k in
+    agent = Agent("centralized", g, actions(p), result.q, tuple(f"tau{k}" for k in
                                                           range(1, p.links + 1)), info)
     meta = {"parameters": p.as_dict(), "links": p.links, "model": "full", "gamma": gamma,
             "delta": delta, "ts": TS, "substeps": SUBSTEPS,
