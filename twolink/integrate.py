@@ -82,8 +82,9 @@ def sample_step(accel: Acceleration, p: Parameters, x: np.ndarray, tau: np.ndarr
     """x_{k+1} = f(x_k, u_k): one sample period of a model, batched over leading axes:
     states (..., 2N), torques (..., N), N = ``p.links``."""
     x = np.asarray(x, dtype=float)
-    tau = np.clip(np.asarray(tau, dtype=float), -p.tau_max, p.tau_max)
+    tau = np.asarray(tau, dtype=float)
     batch = _check_shapes(p, x, tau)
+    tau = np.clip(tau, -p.tau_max, p.tau_max)
     n = p.links
     x = np.broadcast_to(x, batch + (2 * n,))
     tau = np.broadcast_to(tau, batch + (n,))
