@@ -11,7 +11,7 @@ from twolink import __version__
 #: Subcommand modules, in the order ``--help`` lists them. Each defines
 #: ``add_parser(subparsers)`` (returning its parser) and ``run(args) -> int``.
 COMMANDS = ("reproduce", "synthesize", "mjcf", "rollout", "render", "mismatch", "learn",
-            "identify")
+            "identify", "scaling")
 
 
 def build_parser() -> argparse.ArgumentParser:
