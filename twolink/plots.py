@@ -14,7 +14,8 @@ from twolink.artifacts import atomic_path  # noqa: E402
 from twolink.parameters import GOAL_ANGLE, GOAL_SPEED  # noqa: E402
 from twolink.rollout import Trajectory  # noqa: E402
 
-_LINK_COLORS = ("tab:orange", "tab:blue")
+#: Link k's colour, link 1 first: those of the arm's links in the MJCF and the videos.
+_LINK_COLORS = ("tab:orange", "tab:blue", "tab:green", "tab:purple", "tab:red", "tab:cyan")
 _STYLES = ("-", "--", ":", "-.")
 
 
@@ -22,7 +23,8 @@ def fig3(panels: dict, path: os.PathLike, *, title: str | None = None) -> Path:
     """Write a Fig. 3-style PNG.
 
     ``panels`` maps a column title to ``{label: Trajectory}``; within a column, each
-    label gets its own line style and each link its own colour.
+    label gets its own line style and each link its own colour (N lines per row for an
+    N-link arm).
     """
     if not panels:
         raise ValueError("nothing to plot")
@@ -35,14 +37,15 @@ def fig3(panels: dict, path: os.PathLike, *, title: str | None = None) -> Path:
             if not isinstance(tr, Trajectory) or tr.x.ndim != 2:
                 raise ValueError(f"{label}: expected a single trajectory")
             ls = _STYLES[s % len(_STYLES)]
-            for i in range(2):
+            n = tr.x.shape[-1] // 2
+            for i in range(n):
                 kw = dict(color=_LINK_COLORS[i], ls=ls, lw=1.4)
                 name = f"link {i + 1}" + (f", {label}" if len(trajs) > 1 or label else "")
                 ax[0].step(tr.t[:-1], tr.u[:, i], where="post", label=name, **kw)
                 ax[1].plot(tr.t, tr.x[:, i], **kw)
-                ax[2].plot(tr.t, tr.x[:, 2 + i], **kw)
+                ax[2].plot(tr.t, tr.x[:, n + i], **kw)
             if tr.kind == "decentralized":             # per-link rewards (17)
-                for i in range(2):
+                for i in range(n):
                     ax[3].step(tr.t[1:], tr.r_links[:, i], where="pre", color=_LINK_COLORS[i],
                                ls=ls, lw=1.4)
             else:

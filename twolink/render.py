@@ -24,7 +24,8 @@ import numpy as np
 
 from twolink import mjcf
 from twolink.integrate import wrap_angle
-from twolink.parameters import GOAL_ANGLE, TABLE_I, TS, ArmParameters
+from twolink.parameters import (GOAL_ANGLE, TABLE_I, TS, ArmParameters, ChainParameters,
+                                as_chain)
 from twolink.reward import centralized_reward
 from twolink.rollout import Trajectory
 
@@ -154,28 +155,40 @@ def _has_nvidia(vendors) -> bool:
 
 
 # --------------------------------------------------------------------------- model
-def tip_positions(x, p: ArmParameters = TABLE_I) -> np.ndarray:
-    """Elbow and link-2 tip of states (..., 4) in the plane: shape (..., 2, 2)."""
+def tip_positions(x, p: ArmParameters | ChainParameters = TABLE_I) -> np.ndarray:
+    """Joint positions past the shoulder and the tip of states (..., 2N) in the plane:
+    shape (..., N, 2), row k the far end of link k + 1 (for two links: elbow, tip)."""
+    c = as_chain(p)
+    n = c.links
     x = np.asarray(x, dtype=float)
-    t1, t12 = x[..., 0], x[..., 0] + x[..., 1]
-    elbow = np.stack([p.l1 * np.cos(t1), p.l1 * np.sin(t1)], -1)
-    tip = elbow + np.stack([p.l2 * np.cos(t12), p.l2 * np.sin(t12)], -1)
-    return np.stack([elbow, tip], -2)
+    if x.ndim == 0 or x.shape[-1] != 2 * n:
+        raise ValueError(f"a {n}-link state has {2 * n} components, got shape {x.shape}")
+    absolute = np.cumsum(x[..., :n], axis=-1)          # each link's angle to the x axis
+    lengths = np.asarray(c.lengths)
+    steps = np.stack([lengths * np.cos(absolute), lengths * np.sin(absolute)], -1)
+    return np.cumsum(steps, axis=-2)
 
 
-def goal_tip_radius(p: ArmParameters = TABLE_I) -> float:
-    """Largest distance of the tip from its goal (l1 + l2, 0) over the 5 deg angle band."""
-    a = np.array([-GOAL_ANGLE, GOAL_ANGLE])
-    t1, t2 = np.meshgrid(a, a)
-    x = np.stack([t1.ravel(), t2.ravel(), 0 * t1.ravel(), 0 * t1.ravel()], -1)
-    tips = tip_positions(x, p)[:, 1]
-    return float(np.max(np.hypot(tips[:, 0] - p.l1 - p.l2, tips[:, 1])))
+def goal_tip_radius(p: ArmParameters | ChainParameters = TABLE_I) -> float:
+    """Largest distance of the tip from its goal (the stretched arm's reach, 0) over the
+    5 deg angle band of every joint (its corners)."""
+    c = as_chain(p)
+    corners = np.meshgrid(*[[-GOAL_ANGLE, GOAL_ANGLE]] * c.links, indexing="ij")
+    angles = np.stack([a.ravel() for a in corners], -1)
+    tips = tip_positions(np.concatenate([angles, np.zeros_like(angles)], -1), p)[:, -1]
+    along = tips[:, 0]
+    for length in c.lengths:                   # link by link, as the reach is summed
+        along = along - length
+    return float(np.max(np.hypot(along, tips[:, 1])))
 
 
-def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
+def build_render_spec(p: ArmParameters | ChainParameters = TABLE_I, *, ghost: bool = False,
                       width: int = 640, height: int = 480,
                       samples: int = 0) -> mujoco.MjSpec:
-    """The arm's MjSpec plus the goal-region marker and, optionally, a ghost arm."""
+    """The arm's MjSpec (two links or an N-link chain) plus the goal-region marker and,
+    optionally, a ghost arm of as many links."""
+    c = as_chain(p)
+    n = c.links
     spec = mjcf.build_spec(p)
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, width)
     spec.visual.global_.offheight = max(spec.visual.global_.offheight, height)
@@ -184,7 +197,7 @@ def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
     spec.visual.quality.shadowsize = 0
     spec.visual.quality.offsamples = samples
     world = spec.worldbody
-    reach = p.l1 + p.l2
+    reach = sum(c.lengths)
     # The floor fills any frame shape (wide side-by-side panels too), not just 4:3.
     spec.geom("floor").size = [reach * 4, reach * 4, 0.01]
     world.add_geom(name="goal_region", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
@@ -200,14 +213,16 @@ def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
                        conaffinity=0, mass=0)
     if ghost:
         parent = world
-        for k, (length, pos) in enumerate(((p.l1, (0, 0, _GHOST_Z)), (p.l2, (p.l1, 0, 0)))):
-            body = parent.add_body(name=f"ghost_{mjcf.LINKS[k]}", pos=list(pos))
+        joints, links = mjcf.joint_names(n), mjcf.link_names(n)
+        starts = [(0, 0, _GHOST_Z)] + [(c.lengths[k - 1], 0, 0) for k in range(1, n)]
+        for k, (length, pos) in enumerate(zip(c.lengths, starts)):
+            body = parent.add_body(name=f"ghost_{links[k]}", pos=list(pos))
             body.mass = 1e-3
             body.inertia = [1e-6, 1e-6, 1e-6]
             body.explicitinertial = True
-            body.add_joint(name=f"ghost_{mjcf.JOINTS[k]}", type=mujoco.mjtJoint.mjJNT_HINGE,
+            body.add_joint(name=f"ghost_{joints[k]}", type=mujoco.mjtJoint.mjJNT_HINGE,
                            axis=[0, 0, 1])
-            body.add_geom(name=f"ghost_{mjcf.LINKS[k]}_geom",
+            body.add_geom(name=f"ghost_{links[k]}_geom",
                           type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, length, 0, 0],
                           size=[0.008, 0, 0], rgba=list(_GHOST_RGBA), contype=0,
                           conaffinity=0, mass=0)
@@ -219,15 +234,19 @@ def build_render_spec(p: ArmParameters = TABLE_I, *, ghost: bool = False,
 class Renderer:
     """Frames of the arm at given states, rendered offscreen through EGL.
 
+    ``params`` is Table I's arm (the default), other two-link parameters or an N-link
+    :class:`~twolink.parameters.ChainParameters`; states then have 2N components.
     ``samples`` is the multisample anti-aliasing level (0 = off: on Mesa's software
     device 4x MSAA makes a frame about three times slower). Use as a context manager (or
     call :meth:`close`) to free the GL context.
     """
 
     def __init__(self, *, width: int = 640, height: int = 480, ghost: bool = False,
-                 overlay: bool = True, samples: int = 0, params: ArmParameters = TABLE_I):
+                 overlay: bool = True, samples: int = 0,
+                 params: ArmParameters | ChainParameters = TABLE_I):
         self.width, self.height = int(width), int(height)
         self.ghost, self.overlay, self.params = bool(ghost), bool(overlay), params
+        self.links = params.links
         self.model = build_render_spec(params, ghost=ghost, width=self.width,
                                        height=self.height, samples=samples).compile()
         self.data = mujoco.MjData(self.model)
@@ -257,12 +276,20 @@ class Renderer:
         except Exception:
             pass
 
-    def _pose(self, x, ghost_x=None) -> None:
+    def _state(self, x, what: str) -> np.ndarray:
         x = np.asarray(x, dtype=float)
-        self.data.qpos[:2] = x[:2]
+        if x.shape != (2 * self.links,):
+            raise ValueError(f"{what} of a {self.links}-link arm must have {2 * self.links} "
+                             f"components, got shape {x.shape}")
+        return x
+
+    def _pose(self, x, ghost_x=None) -> None:
+        n = self.links
+        x = self._state(x, "state")
+        self.data.qpos[:n] = x[:n]
         if self.ghost:
-            g = x if ghost_x is None else np.asarray(ghost_x, dtype=float)
-            self.data.qpos[2:4] = g[:2]
+            g = x if ghost_x is None else self._state(ghost_x, "ghost state")
+            self.data.qpos[n:2 * n] = g[:n]
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
 
@@ -314,16 +341,17 @@ def frame_count(duration: float, fps: float) -> int:
 
 def sample_at(traj: Trajectory, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """States (linearly interpolated, angles along the short way), held commands and the
-    reward (15) of the last sample reached, at ``times`` (seconds)."""
+    reward (15) of the last sample reached, at ``times`` (seconds); any number of links."""
     times = np.asarray(times, dtype=float)
+    n = traj.x.shape[-1] // 2
     s = np.clip(times / TS, 0, traj.steps)
     k = np.minimum(np.floor(s + 1e-9).astype(int), traj.steps)
     nxt = np.minimum(k + 1, traj.steps)
     a = (s - k)[:, None]
     d = traj.x[nxt] - traj.x[k]
-    d[:, :2] = wrap_angle(d[:, :2])
+    d[:, :n] = wrap_angle(d[:, :n])
     x = traj.x[k] + a * d
-    x[:, :2] = wrap_angle(x[:, :2])
+    x[:, :n] = wrap_angle(x[:, :n])
     u = traj.u[np.minimum(k, traj.steps - 1)]
     r = np.concatenate([centralized_reward(traj.x[:1]), traj.r])[k]
     return x, u, r
@@ -349,8 +377,8 @@ def trajectory_frames(renderer: Renderer, panels, *, fps: float, speed: float = 
     for i, t in enumerate(times):
         tiles = []
         for label, (x, u, r), gx in sampled:
-            lines = [label, f"t = {t:5.2f} s",
-                     f"tau = [{u[i, 0]:+.3f}, {u[i, 1]:+.3f}] Nm", f"r = {r[i]:+.1f}"]
+            torques = ", ".join(f"{v:+.3f}" for v in u[i])
+            lines = [label, f"t = {t:5.2f} s", f"tau = [{torques}] Nm", f"r = {r[i]:+.1f}"]
             tiles.append(renderer.frame(x[i], ghost_x=None if gx is None else gx[i],
                                         lines=lines))
         yield tiles[0] if len(tiles) == 1 else np.concatenate(tiles, axis=1)

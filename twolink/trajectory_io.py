@@ -15,31 +15,48 @@ from pathlib import Path
 import numpy as np
 
 from twolink.artifacts import atomic_path, provenance, write_text
-from twolink.parameters import STATE_NAMES
+from twolink.parameters import state_names
 from twolink.rollout import Trajectory
 
 FORMAT = "twolink-trajectories"
-CSV_COLUMNS = ("policy", "plant", "k", "t", *STATE_NAMES, "tau1", "tau2", "r", "r1", "r2")
 
 
-def _check(runs: dict) -> None:
+def csv_columns(links: int = 2) -> tuple:
+    """The CSV header of an arm of ``links`` links: policy, plant, k, t, the 2N state
+    components, tau1..tauN, the reward r of (15) and the per-link rewards r1..rN of (17)."""
+    torques = tuple(f"tau{i}" for i in range(1, links + 1))
+    rewards = tuple(f"r{i}" for i in range(1, links + 1))
+    return ("policy", "plant", "k", "t", *state_names(links), *torques, "r", *rewards)
+
+
+#: The CSV header of the paper's two-link arm.
+CSV_COLUMNS = csv_columns(2)
+
+
+def _check(runs: dict) -> int:
+    """The number of links of ``runs`` (one for all), or a ValueError."""
     if not runs:
         raise ValueError("no trajectories to save")
+    links = set()
     for key, tr in runs.items():
         if not isinstance(tr, Trajectory) or tr.x.ndim != 2:
             raise ValueError(f"{key}: expected a single (unbatched) trajectory")
+        links.add(tr.x.shape[-1] // 2)
+    if len(links) > 1:
+        raise ValueError(f"trajectories of arms with {sorted(links)} links cannot share a file")
+    return links.pop()
 
 
 def to_csv_text(runs: dict) -> str:
     """CSV text of ``{(policy, plant): Trajectory}``, one row per sample."""
-    _check(runs)
+    n = _check(runs)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(CSV_COLUMNS)
+    w.writerow(csv_columns(n))
     for (policy, plant), tr in runs.items():
         for k in range(len(tr.t)):
-            u = tr.u[k] if k < tr.steps else ("", "")
-            r = (tr.r[k - 1], *tr.r_links[k - 1]) if k > 0 else ("", "", "")
+            u = tr.u[k] if k < tr.steps else ("",) * n
+            r = (tr.r[k - 1], *tr.r_links[k - 1]) if k > 0 else ("",) * (n + 1)
             w.writerow([policy, plant, k, f"{tr.t[k]:.6g}", *(repr(float(v)) for v in tr.x[k]),
                         *(v if v == "" else repr(float(v)) for v in u),
                         *(v if v == "" else repr(float(v)) for v in r)])
