@@ -39,6 +39,13 @@ def _estimator(delay, observation_delay, observer, model, params, design) -> Sta
                           observer=observer, **design)
 
 
+def _check_two_links(links) -> None:
+    """The estimator predicts the two-link arm (6)/(11): a ValueError for another N."""
+    if links != 2:
+        raise ValueError(f"compensation (twolink.estimation) predicts the two-link arm; the "
+                         f"wrapped environment's arm has {links} links")
+
+
 def _check_state_space(space, shape, what: str) -> None:
     if not isinstance(space, spaces.Box) or space.shape != shape:
         raise ValueError(f"{what} must observe the state (observation='state', a Box of "
@@ -66,6 +73,7 @@ class CompensatedObservation(gymnasium.Wrapper):
                  observer: bool = True, model: str = "full",
                  params: ArmParameters | None = None, **design):
         super().__init__(env)
+        _check_two_links(getattr(env.unwrapped, "links", 2))
         _check_state_space(env.observation_space, (4,), "the wrapped environment")
         self.estimator = _estimator(delay, observation_delay, observer, model, params, design)
         self._torques = _Torques(env.action_space, self.estimator.params)
@@ -90,6 +98,7 @@ class CompensatedVectorObservation(VectorWrapper):
                  observer: bool = True, model: str = "full",
                  params: ArmParameters | None = None, **design):
         super().__init__(env)
+        _check_two_links(getattr(env.unwrapped, "links", 2))
         _check_state_space(env.single_observation_space, (4,), "the wrapped environment")
         self.estimator = _estimator(delay, observation_delay, observer, model, params, design)
         self._torques = _Torques(env.single_action_space, self.estimator.params)
@@ -126,6 +135,7 @@ class CompensatedEnvironment:
 
     def __init__(self, env, *, delay: int = 0, observer: bool = True, model: str = "full",
                  params: ArmParameters | None = None, **design):
+        _check_two_links(getattr(getattr(env, "task", None), "links", 2))
         spec = env.observation_spec()
         if "state" not in spec or spec["state"].shape != (4,):
             raise ValueError("CompensatedEnvironment wraps the centralized task (an observation "

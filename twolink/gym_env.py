@@ -11,10 +11,18 @@ the state reached. Episodes never terminate; they are truncated at the time limi
 environment retraces ``rollout(policy, MujocoPlant(), x0)`` and the dm_env environment
 bit for bit.
 
-``TwoLinkVectorEnv`` is a ``gymnasium.vector.VectorEnv`` over N such arms: one
+``TwoLinkVectorEnv`` is a ``gymnasium.vector.VectorEnv`` over many such arms: one
 ``mujoco.rollout`` call per Ts for all of them, next-step autoreset (Gymnasium's
-default), each arm with its own generator, so it equals N single environments bit for
-bit. Both share :class:`_Arms`, the batched episode logic.
+default), each arm with its own generator, so it equals as many single environments bit
+for bit. Both share :class:`_Arms`, the batched episode logic.
+
+Arms of N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``; issue 11):
+observation [theta1 .. thetaN, dtheta1 .. dthetaN] or [cos theta1, sin theta1, ..,
+cos thetaN, sin thetaN, dtheta1 .. dthetaN], action [tau1 .. tauN] (a Box) or the index
+of one of the 3^N joint actions, reward (15) over all links; episodes last 8 s
+(:func:`twolink.tasks.horizon`) and start from random angles at rest by default.
+Perturbations, challenges and observation noise are two-link options; ``delay`` works
+for any N.
 
 Importing this module registers ``twolink/TwoLink-v0`` and ``twolink/TwoLinkDiscrete-v0``
 (with the vector environment as their ``vector_entry_point``). Gymnasium 1.4 loads no
@@ -23,6 +31,7 @@ plugins by itself, so import it first, or name it in the id:
 """
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import gymnasium
@@ -32,13 +41,14 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
+from twolink.parameters import TS, ArmParameters, ChainParameters
 from twolink.perturbations import ActuationDelay, Sensors
 from twolink.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
 from twolink.reward import centralized_reward
-from twolink.synthesis import centralized_actions
-from twolink.tasks import (check_action, check_challenge, check_reset_options, check_x0,
-                           initial_state, observe, perturbed_params)
+from twolink.synthesis import _levels, centralized_actions
+from twolink.tasks import (arm, check_action, check_challenge, check_policy_links,
+                           check_reset_options, check_two_link_options, check_x0,
+                           default_x0, horizon, initial_state, observe, perturbed_params)
 
 ENV_ID = "twolink/TwoLink-v0"
 #: Most arms one vector environment steps (a batch of this size is a few hundred MB of
@@ -65,12 +75,21 @@ def _check_steps(time_limit) -> int:
 
 
 
-def _check_x0(x0, speed_max):
+def _check_x0(x0, speed_max, links: int = 2):
     """``check_x0`` plus the plant's bounds, so a bad x0 fails at reset, not at a step."""
-    x0 = check_x0(x0)
+    x0 = check_x0(x0, links)
     if not isinstance(x0, str):
-        check_states(x0, what="x0", speed_max=speed_max)
+        check_states(x0, what="x0", speed_max=speed_max, links=links)
     return x0
+
+
+def joint_actions(params) -> np.ndarray:
+    """The discrete joint actions: every combination of the levels {-tau_max, 0, tau_max}
+    of the links, the last link varying fastest, shape (3^N, N); for two links the 9 of
+    (16) (:func:`twolink.synthesis.centralized_actions`)."""
+    if params.links == 2:
+        return centralized_actions(params)
+    return np.array(list(itertools.product(*(_levels(t) for t in params.tau_max))))
 
 
 def _real(action, what: str = "action") -> np.ndarray:
@@ -85,26 +104,36 @@ def _hold(u):
 
 
 def features(x: np.ndarray, observation: str = "state") -> np.ndarray:
-    """The observation of (measured) states x (..., 4): ``'state'`` as given, or
-    ``'cos_sin'`` = [cos theta1, sin theta1, cos theta2, sin theta2, dtheta1, dtheta2]."""
+    """The observation of (measured) states x (..., 2N): ``'state'`` as given, or
+    ``'cos_sin'`` = [cos theta1, sin theta1, .., cos thetaN, sin thetaN, dtheta1 ..
+    dthetaN] (for two links [cos theta1, sin theta1, cos theta2, sin theta2, dtheta1,
+    dtheta2])."""
     if observation == "state":
         return observe(x, "state")
-    th = np.asarray(x)[..., :2]
-    return np.stack([np.cos(th[..., 0]), np.sin(th[..., 0]), np.cos(th[..., 1]),
-                     np.sin(th[..., 1]), x[..., 2], x[..., 3]], -1)
+    x = np.asarray(x)
+    n = x.shape[-1] // 2
+    trig = [f(x[..., k]) for k in range(n) for f in (np.cos, np.sin)]
+    return np.stack(trig + [x[..., n + k] for k in range(n)], -1)
 
 
 def policy_action(policy, observation, *, features: str = "state") -> np.ndarray:
-    """Torques [tau1, tau2] of a :class:`twolink.policy.Policy` for an observation of the
-    Box environments (one (d,) or a batch (N, d) from the vector environment)."""
+    """Torques [tau1 .. tauN] of a :class:`twolink.policy.Policy` for an observation of
+    the Box environments (one (d,) or a batch (B, d) from the vector environment); a
+    ValueError for a policy of another number of links than the observation's."""
     obs = np.asarray(observation, dtype=float)
+    if features not in OBSERVATIONS:
+        raise ValueError(f"features must be 'state' or 'cos_sin', got {features!r}")
+    per_link = 2 if features == "state" else 3
+    d = obs.shape[-1] if obs.ndim else 0
+    if d % per_link or not 2 <= d // per_link:
+        raise ValueError(f"a {features!r} observation has {per_link} numbers per link, "
+                         f"got shape {obs.shape}")
+    n = d // per_link
+    check_policy_links(policy, n)
     if features == "state":
         return policy(obs)
-    if features == "cos_sin":
-        x = np.stack([np.arctan2(obs[..., 1], obs[..., 0]),
-                      np.arctan2(obs[..., 3], obs[..., 2]), obs[..., 4], obs[..., 5]], -1)
-        return policy(x)
-    raise ValueError(f"features must be 'state' or 'cos_sin', got {features!r}")
+    th = [np.arctan2(obs[..., 2 * k + 1], obs[..., 2 * k]) for k in range(n)]
+    return policy(np.stack(th + [obs[..., 2 * n + k] for k in range(n)], -1))
 
 
 class _Arms:
@@ -117,17 +146,21 @@ class _Arms:
     never depends on the arms beside it.
     """
 
-    def __init__(self, rows: int, *, params: ArmParameters, observation: str, actions: str,
+    def __init__(self, rows: int, *, params, observation: str, actions: str,
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
-                 nthread, challenge=None):
-        if not isinstance(params, ArmParameters):
+                 nthread, challenge=None, links=None, rule=None):
+        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
             raise ValueError(f"params must be an ArmParameters, got {type(params).__name__}")
+        params = arm(params, links=links, rule=rule)
         self.rows = rows
         self.params = params
+        self.links = n = params.links
+        check_two_link_options(n, perturbation=perturbation, challenge=challenge,
+                               angle_noise=angle_noise, speed_noise=speed_noise)
         self.observation = _check_choice(observation, OBSERVATIONS, "observation")
         self.actions = _check_choice(actions, ACTIONS, "actions")
-        self.x0 = _check_x0(x0, params.speed_max)
-        self.steps = _check_steps(time_limit)
+        self.x0 = _check_x0(default_x0(n) if x0 is None else x0, params.speed_max, n)
+        self.steps = _check_steps(horizon(n) if time_limit is None else time_limit)
         size = perturbation is not None and not isinstance(perturbation, dict)
         # Checks a dict or a size now (a size is drawn anew every episode).
         fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
@@ -150,10 +183,10 @@ class _Arms:
         self._size = size
         self._noisy = self.sensors.noisy
         self._delay = ActuationDelay(_hold, delay)                     # checks the delay
-        self.table = centralized_actions(params)      # the controller's levels, not the plant's
+        self.table = joint_actions(params)      # the controller's levels, not the plant's
         self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
         self.rngs: list = [None] * rows
-        self.x = np.zeros((rows, 4))
+        self.x = np.zeros((rows, 2 * n))
         self.k = np.zeros(rows, dtype=int)
 
     # -------------------------------------------------------------- spaces
@@ -161,25 +194,26 @@ class _Arms:
         if self.actions == "discrete":
             return spaces.Discrete(len(self.table))
         t = self.params.tau_max
-        return spaces.Box(-t, t, (2,), np.float64)
+        return spaces.Box(-t, t, (self.links,), np.float64)
 
     def observation_space(self) -> spaces.Space:
         """Bounds of the true state (x0's bounds; the plant keeps states inside them);
         unbounded where noise may leave them."""
         speed = SPEED_BOUND * self.params.speed_max
+        n = self.links
         if self.observation == "state":
-            high = np.array([MAX_ANGLE, MAX_ANGLE, *speed])
+            high = np.array([MAX_ANGLE] * n + [*speed])
             if self._noisy:
                 high[:] = np.inf
         else:
-            high = np.array([1.0, 1.0, 1.0, 1.0, *speed])
+            high = np.array([1.0] * (2 * n) + [*speed])
             if self._noisy:
-                high[4:] = np.inf
+                high[2 * n:] = np.inf
         return spaces.Box(-high, high, (len(high),), np.float64)
 
     # -------------------------------------------------------------- checks
     def torques(self, action, *, single: bool = False) -> np.ndarray:
-        """Checked torques (rows, 2) for the actions of all arms (``single``: the one
+        """Checked torques (rows, N) for the actions of all arms (``single``: the one
         action of a one-arm environment); a ValueError otherwise."""
         a = _real(action)
         if self.actions == "box":
@@ -196,14 +230,15 @@ class _Arms:
         return self.table[np.reshape(a, (-1,))]
 
     def check_x0_option(self, x0):
-        """One x0 for all arms, or one per arm (rows, 4); a list of per-arm x0 options."""
+        """One x0 for all arms, or one per arm (rows, 2N); a list of per-arm x0 options."""
+        n = self.links
         if isinstance(x0, str) or np.ndim(x0) == 1:
-            x0 = _check_x0(x0, self.params.speed_max)
+            x0 = _check_x0(x0, self.params.speed_max, n)
             return [x0] * self.rows
-        x0 = check_states(x0, what="x0", speed_max=self.params.speed_max)
-        if x0.shape != (self.rows, 4):
-            raise ValueError(f"x0 must be one state (4,) or one per arm ({self.rows}, 4), got "
-                             f"shape {x0.shape}")
+        x0 = check_states(x0, what="x0", speed_max=self.params.speed_max, links=n)
+        if x0.shape != (self.rows, 2 * n):
+            raise ValueError(f"x0 must be one state ({2 * n},) or one per arm ({self.rows}, "
+                             f"{2 * n}), got shape {x0.shape}")
         return list(x0.copy())
 
     # -------------------------------------------------------------- episodes
@@ -215,7 +250,7 @@ class _Arms:
             self.sensors.set_generator(i, rng)
             if self._size:
                 self.plant.set_row_params(i, self._draw(rng))
-            self.x[i] = initial_state(x0, rng)
+            self.x[i] = initial_state(x0, rng, self.links)
             self.k[i] = 0
         self._delay.restart(rows)
         self.sensors.restart(rows)
@@ -238,10 +273,15 @@ class _Arms:
 class TwoLinkEnv(gymnasium.Env):
     """The arm, ``centralized`` task, under Gymnasium's API (see the module docstring).
 
-    Options (keyword-only): ``observation`` ``'state'`` | ``'cos_sin'``; ``actions``
-    ``'box'`` | ``'discrete'``; ``x0`` ``'paper'`` | ``'random'`` | a state (4,), the default
+    Options (keyword-only): ``links`` (2, the default, to 6) and ``rule`` (``'tapered'``
+    | ``'copied'``, :func:`twolink.parameters.chain`) or ``params`` (the nominal arm,
+    Table I by default, whose torque limits bound the actions; an
+    :class:`~twolink.parameters.ArmParameters` or a
+    :class:`~twolink.parameters.ChainParameters`); ``observation`` ``'state'`` |
+    ``'cos_sin'``; ``actions`` ``'box'`` | ``'discrete'``; ``x0`` ``'paper'`` (two links; the
+    default there) | ``'random'`` (the default for N >= 3) | a state (2N,), the default
     of every episode (``reset(options={'x0': ...})`` overrides it once); ``time_limit``
-    (s); ``params`` (the nominal Table I arm, whose torque limits bound the actions);
+    (s; default :func:`twolink.tasks.horizon`, 5 s for two links, 8 s beyond);
     ``perturbation`` a dict of relative changes (``{'m2': 0.2}``) or a size s for a new
     random joint change of every Table I constant within +-s each episode;
     ``angle_noise``, ``speed_noise`` (std of Gaussian observation noise; rewards use the
@@ -255,10 +295,11 @@ class TwoLinkEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": round(1 / TS)}
 
     def __init__(self, *, task: str = "centralized", observation: str = "state",
-                 actions: str = "box", x0="paper", time_limit: float = HORIZON,
-                 params: ArmParameters = TABLE_I, perturbation=None,
+                 actions: str = "box", x0=None, time_limit: float | None = None,
+                 params=None, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
-                 challenge=None, render_mode: str | None = None, render_size=(320, 240)):
+                 challenge=None, render_mode: str | None = None, render_size=(320, 240),
+                 links: int | None = None, rule: str | None = None):
         _check_task(task)
         if render_mode is not None:
             _check_choice(render_mode, self.metadata["render_modes"], "render_mode")
@@ -266,7 +307,8 @@ class TwoLinkEnv(gymnasium.Env):
         self._arms = _Arms(1, params=params, observation=observation, actions=actions, x0=x0,
                            time_limit=time_limit, perturbation=perturbation,
                            angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
-                           nthread=1, challenge=challenge)
+                           nthread=1, challenge=challenge, links=links, rule=rule)
+        self.links = self._arms.links
         self.render_mode = render_mode
         self.action_space = self._arms.action_space()
         self.observation_space = self._arms.observation_space()
@@ -275,7 +317,7 @@ class TwoLinkEnv(gymnasium.Env):
 
     @property
     def state(self) -> np.ndarray:
-        """The true state x (4,) (a copy)."""
+        """The true state x (2N,) (a copy)."""
         return self._live().x[0].copy()
 
     @property
@@ -340,18 +382,19 @@ class TwoLinkVectorEnv(VectorEnv):
     pool (default: one per core). Next-step autoreset: the step after an arm's
     truncation resets it (reward 0, not truncated) and ignores its action.
     ``reset(seed=s)`` seeds arm i with s + i (as ``SyncVectorEnv`` does); ``seed`` may
-    also be a list; ``options``: ``x0`` (one (4,) or one per arm (num_envs, 4)) and
+    also be a list; ``options``: ``x0`` (one (2N,) or one per arm (num_envs, 2N)) and
     ``reset_mask`` (a bool array (num_envs,): reset only those arms).
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, num_envs: int = 1, *, task: str = "centralized",
-                 observation: str = "state", actions: str = "box", x0="paper",
-                 time_limit: float = HORIZON, params: ArmParameters = TABLE_I,
+                 observation: str = "state", actions: str = "box", x0=None,
+                 time_limit: float | None = None, params=None,
                  perturbation=None, angle_noise: float = 0.0, speed_noise: float = 0.0,
                  delay: int = 0, challenge=None, nthread: int | None = None,
-                 render_mode: str | None = None):
+                 render_mode: str | None = None, links: int | None = None,
+                 rule: str | None = None):
         _check_task(task)
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) \
                 or not 1 <= num_envs <= MAX_ENVS:
@@ -365,7 +408,8 @@ class TwoLinkVectorEnv(VectorEnv):
                            actions=actions, x0=x0, time_limit=time_limit,
                            perturbation=perturbation, angle_noise=angle_noise,
                            speed_noise=speed_noise, delay=delay, nthread=nthread,
-                           challenge=challenge)
+                           challenge=challenge, links=links, rule=rule)
+        self.links = self._arms.links
         self.single_action_space = self._arms.action_space()
         self.single_observation_space = self._arms.observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -376,7 +420,7 @@ class TwoLinkVectorEnv(VectorEnv):
 
     @property
     def states(self) -> np.ndarray:
-        """The true states (num_envs, 4) (a copy)."""
+        """The true states (num_envs, 2N) (a copy)."""
         return self._live().x.copy()
 
     @property

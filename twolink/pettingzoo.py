@@ -14,6 +14,16 @@ link on the state reached (``reward="individual"``), or the same number to every
 (15) (``"centralized"``) or r1 + r2 (``"sum"``). Episodes are truncated at the time limit
 (default 5 s = 100 steps), never terminated.
 
+N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``; issue 11): agents
+``link1`` .. ``linkN``, one per joint; ``linkI`` (I < N) observes the one-hop
+(theta_I, dtheta_I, theta_{I+1}, dtheta_{I+1}) and ``linkN`` (theta_N, dtheta_N)
+(:func:`twolink.tasks.observation_names`); rewards (17) per link (or (15), or their sum,
+to every agent); episodes of 8 s from random angles at rest by default
+(:func:`twolink.tasks.horizon`). ``link1_tau2`` then applies to every inner agent: link I
+sees its outer neighbour's torque tau_{I+1} (``"previous"``; in the AEC form
+``"current"``, with the turns running linkN first down to link1). Perturbations,
+challenges and observation noise are two-link options.
+
 How link1 can see tau2 (``link1_tau2``). In (18) agent 2 chooses tau2 first and agent 1
 reads it in the same sample.
 - ``"previous"`` (parallel and AEC-through-the-converter): in a parallel step both agents
@@ -49,17 +59,25 @@ from pettingzoo.utils import conversions
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink import mjcf
-from twolink.parameters import HORIZON, TABLE_I, TS, ArmParameters
+from twolink.parameters import TS, ArmParameters, ChainParameters, check_links
 from twolink.perturbations import ActuationDelay, Sensors
 from twolink.plants import MujocoPlant, check_states
 from twolink.reward import agent_reward, centralized_reward
 from twolink.rollout import steps_for
-from twolink.tasks import (OBSERVATION_NAMES, check_action, check_challenge,
-                           check_reset_options, check_x0, initial_state, observe,
+from twolink.tasks import (arm, check_action, check_challenge, check_policy_links,
+                           check_reset_options, check_two_link_options, check_x0,
+                           default_x0, horizon, initial_state, observation_names, observe,
                            perturbed_params)
 
-#: The agents, one per joint; agent ``linkI`` is agent I of (17)-(18).
-AGENTS = tuple(f"link{i}" for i in range(1, len(mjcf.JOINTS) + 1))
+
+def agents(links: int = 2) -> tuple:
+    """The agents of an arm of ``links`` links, one per joint: ``link1`` .. ``linkN``;
+    agent ``linkI`` is agent I of (17)-(18)."""
+    return tuple(f"link{i}" for i in range(1, check_links(links) + 1))
+
+
+#: The agents of the two-link arm, one per joint; agent ``linkI`` is agent I of (17)-(18).
+AGENTS = agents(len(mjcf.JOINTS))
 #: Reward modes: (17) per agent, (15) to every agent, or the sum of (17) to every agent.
 REWARDS = ("individual", "centralized", "sum")
 #: What link1 may see of link2's torque in a parallel step (see the module docstring);
@@ -67,7 +85,10 @@ REWARDS = ("individual", "centralized", "sum")
 LINK1_TAU2 = ("none", "previous")
 RESET_OPTIONS = ("x0",)
 
-_TASK_KEY = {agent: f"agent{i}" for i, agent in enumerate(AGENTS, 1)}   # tasks.OBSERVATION_NAMES
+
+def _task_keys(names) -> dict:
+    """Agent ``linkI`` -> its observation ``agentI`` of :func:`twolink.tasks.observation_names`."""
+    return {agent: f"agent{i}" for i, agent in enumerate(names, 1)}
 
 
 def _check_choice(name: str, value, choices) -> str:
@@ -106,13 +127,19 @@ class ParallelArm(pettingzoo.ParallelEnv):
     metadata = {"name": "twolink_decentralized_v0", "render_modes": ["rgb_array"],
                 "render_fps": round(1 / TS), "is_parallelizable": True}
 
-    def __init__(self, *, x0="paper", params: ArmParameters = TABLE_I, perturbation=None,
+    def __init__(self, *, x0=None, params=None, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
                  reward: str = "individual", link1_tau2: str = "none",
-                 time_limit: float = HORIZON, render_mode: str | None = None,
-                 challenge=None):
-        if not isinstance(params, ArmParameters):
+                 time_limit: float | None = None, render_mode: str | None = None,
+                 challenge=None, links: int | None = None, rule: str | None = None):
+        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
             raise ValueError(f"params must be ArmParameters, got {params!r}")
+        params = arm(params, links=links, rule=rule)
+        n = self.links = params.links
+        check_two_link_options(n, perturbation=perturbation, challenge=challenge,
+                               angle_noise=angle_noise, speed_noise=speed_noise)
+        x0 = default_x0(n) if x0 is None else x0
+        time_limit = horizon(n) if time_limit is None else time_limit
         if link1_tau2 == "current":
             raise ValueError("link1_tau2='current' is impossible in a parallel step: both "
                              "agents act at once, so link2's torque of this step does not "
@@ -142,17 +169,21 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._delay = delay if self._challenge is None else self._challenge.action_delay
         self.render_mode = render_mode
 
-        self.possible_agents = list(AGENTS)
+        self._agents = agents(n)
+        self._keys = _task_keys(self._agents)
+        self.possible_agents = list(self._agents)
         self.agents: list = []
-        extra = {AGENTS[0]: 1 if link1_tau2 == "previous" else 0}
+        names = observation_names(n)
+        # With link1_tau2="previous" every inner agent also sees its outer neighbour's torque.
+        extra = 1 if link1_tau2 == "previous" else 0
         self.observation_spaces = {
-            a: spaces.Box(-np.inf, np.inf, (len(OBSERVATION_NAMES[_TASK_KEY[a]]) +
-                                            extra.get(a, 0),), np.float64)
-            for a in AGENTS}
+            a: spaces.Box(-np.inf, np.inf, (len(names[self._keys[a]]) +
+                                            (extra if i < n else 0),), np.float64)
+            for i, a in enumerate(self._agents, 1)}
         tau_max = params.tau_max
         self.action_spaces = {a: spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64)
-                              for i, a in enumerate(AGENTS)}
-        self.state_space = spaces.Box(-np.inf, np.inf, (4,), np.float64)
+                              for i, a in enumerate(self._agents)}
+        self.state_space = spaces.Box(-np.inf, np.inf, (2 * n,), np.float64)
 
         self._rng = None
         self._plant = None
@@ -163,11 +194,11 @@ class ParallelArm(pettingzoo.ParallelEnv):
 
     # ------------------------------------------------------------------ spaces
     @staticmethod
-    def _check_x0(x0, params: ArmParameters):
+    def _check_x0(x0, params):
         """A checked ``x0`` option; a given state also within the plant's speed bound."""
-        x0 = check_x0(x0)
+        x0 = check_x0(x0, params.links)
         if not isinstance(x0, str):
-            check_states(x0, what="x0", speed_max=params.speed_max)
+            check_states(x0, what="x0", speed_max=params.speed_max, links=params.links)
         return x0
 
     def observation_space(self, agent):
@@ -189,7 +220,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
         ch = self._challenge
         params = (ch.plant(self._rng, self._base) if ch is not None
                   else perturbed_params(self._base, self._perturbation, self._rng))
-        x = initial_state(x0, self._rng)
+        x = initial_state(x0, self._rng, self.links)
         if self._plant is None or params != self.params:
             self._close_plant()
             self._plant = MujocoPlant(params, nthread=1)
@@ -197,10 +228,10 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._noise = (ch.sensors(rngs=[self._rng]) if ch is not None
                        else Sensors(*self._noise_std, rngs=[self._rng]))
         self._delay_line = ActuationDelay(lambda u: u, self._delay)
-        self._last = np.zeros(len(AGENTS))
-        self._applied = np.zeros(len(AGENTS))
-        self._rewards = dict.fromkeys(AGENTS, 0.0)
-        self.agents = list(AGENTS)
+        self._last = np.zeros(self.links)
+        self._applied = np.zeros(self.links)
+        self._rewards = dict.fromkeys(self._agents, 0.0)
+        self.agents = list(self._agents)
         return self._observations(), {a: {} for a in self.agents}
 
     def step(self, actions):
@@ -219,7 +250,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
             raise ValueError(f"actions must name every agent exactly ({', '.join(self.agents)}); "
                              + "; ".join(f"{what}: {', '.join(map(repr, names))}" for what, names
                                          in (("unknown", unknown), ("missing", missing)) if names))
-        commanded = np.concatenate([_check_agent_action(a, actions[a]) for a in AGENTS])
+        commanded = np.concatenate([_check_agent_action(a, actions[a]) for a in self._agents])
         tau = check_action(commanded, self.params.tau_max)
         applied = np.asarray(self._delay_line(tau), dtype=np.float64)
         x = self._plant.step(self._x, applied)
@@ -228,9 +259,9 @@ class ParallelArm(pettingzoo.ParallelEnv):
         done = self._k >= self._steps
         obs = self._observations()
         rewards = dict(self._rewards)
-        terminations = dict.fromkeys(AGENTS, False)
-        truncations = dict.fromkeys(AGENTS, done)
-        infos = {a: {} for a in AGENTS}
+        terminations = dict.fromkeys(self._agents, False)
+        truncations = dict.fromkeys(self._agents, done)
+        infos = {a: {} for a in self._agents}
         if done:
             self.agents = []
         return obs, rewards, terminations, truncations, infos
@@ -238,22 +269,23 @@ class ParallelArm(pettingzoo.ParallelEnv):
     def _observations(self) -> dict:
         """Per-agent observations (18), fresh arrays; noise on the measured state only."""
         seen = self._noise(self._x)
-        obs = {a: observe(seen, _TASK_KEY[a]) for a in AGENTS}
-        if self._link1_tau2 == "previous":
-            obs[AGENTS[0]] = np.append(obs[AGENTS[0]], self._last[1])
+        obs = {a: observe(seen, self._keys[a]) for a in self._agents}
+        if self._link1_tau2 == "previous":          # agent i sees tau_{i+1}, i < N
+            for i, a in enumerate(self._agents[:-1]):
+                obs[a] = np.append(obs[a], self._last[i + 1])
         return {a: obs[a] for a in self.agents}
 
     def _reward_of(self, x) -> dict:
         """(17) per agent, (15) to every agent, or the sum of (17) to every agent."""
         if self._reward == "centralized":
-            return dict.fromkeys(AGENTS, float(centralized_reward(x)))
-        own = {a: float(agent_reward(x, i)) for i, a in enumerate(AGENTS, 1)}
+            return dict.fromkeys(self._agents, float(centralized_reward(x)))
+        own = {a: float(agent_reward(x, i)) for i, a in enumerate(self._agents, 1)}
         if self._reward == "sum":
-            return dict.fromkeys(AGENTS, float(sum(own.values())))
+            return dict.fromkeys(self._agents, float(sum(own.values())))
         return own
 
     def state(self) -> np.ndarray:
-        """The true state x = [theta1, theta2, dtheta1, dtheta2] (a copy)."""
+        """The true state x = [theta1 .. thetaN, dtheta1 .. dthetaN] (a copy)."""
         if self._x is None:
             raise RuntimeError("call reset() before state()")
         return self._x.copy()
@@ -297,6 +329,8 @@ class SequentialArm(pettingzoo.AECEnv):
     """The decentralized task as an AEC env in the ordering of (18): in every sample
     link2 acts first, then link1 observes (theta1, dtheta1, theta2, tau2) with the tau2
     link2 has just commanded (before clipping) and acts, then the arm moves one sample period.
+    For N links the turns run linkN, .., link1, and every inner link I observes its own
+    observation followed by the tau_{I+1} its outer neighbour has just commanded.
 
     ``arm`` (a :class:`ParallelArm` without ``link1_tau2``) holds the physics, the options,
     the perturbations and the rewards; this class only orders the turns. Outside link1's
@@ -312,12 +346,14 @@ class SequentialArm(pettingzoo.AECEnv):
         self.metadata = {**arm.metadata, "name": "twolink_decentralized_sequential_v0",
                          "is_parallelizable": False}
         self.render_mode = arm.render_mode
-        self.possible_agents = list(reversed(AGENTS))        # the turn order: link2 first
+        self._agents = tuple(arm.possible_agents)
+        self.possible_agents = list(reversed(self._agents))  # the turn order: outermost first
         self.agents: list = []
-        own = arm.observation_space(AGENTS[0]).shape[0]
-        self.observation_spaces = {**{a: arm.observation_space(a) for a in AGENTS},
-                                   AGENTS[0]: spaces.Box(-np.inf, np.inf, (own + 1,), np.float64)}
-        self.action_spaces = {a: arm.action_space(a) for a in AGENTS}
+        self.observation_spaces = {a: arm.observation_space(a) for a in self._agents}
+        for a in self._agents[:-1]:                          # inner agents: + tau_{i+1}
+            own = arm.observation_space(a).shape[0]
+            self.observation_spaces[a] = spaces.Box(-np.inf, np.inf, (own + 1,), np.float64)
+        self.action_spaces = {a: arm.action_space(a) for a in self._agents}
         self.state_space = arm.state_space
 
     def observation_space(self, agent):
@@ -328,7 +364,7 @@ class SequentialArm(pettingzoo.AECEnv):
 
     def reset(self, seed=None, options=None):
         self._obs, infos = self.arm.reset(seed=seed, options=options)
-        self._tau = np.zeros(len(AGENTS))      # the latest torque each agent commanded
+        self._tau = np.zeros(len(self._agents))   # the latest torque each agent commanded
         self._chosen: dict = {}
         self.agents = list(self.possible_agents)
         self.rewards = dict.fromkeys(self.agents, 0.0)
@@ -339,9 +375,11 @@ class SequentialArm(pettingzoo.AECEnv):
         self.agent_selection = self.agents[0]
 
     def observe(self, agent):
-        """The agent's observation (18); link1's ends with link2's latest torque."""
-        if agent == AGENTS[0]:
-            return np.append(self._obs[agent], self._tau[1])
+        """The agent's observation (18); link1's ends with link2's latest torque (link I's,
+        I < N, with tau_{I+1})."""
+        i = self._agents.index(agent)
+        if i < len(self._agents) - 1:
+            return np.append(self._obs[agent], self._tau[i + 1])
         return self._obs[agent].copy()
 
     def step(self, action):
@@ -349,7 +387,7 @@ class SequentialArm(pettingzoo.AECEnv):
         if self.terminations[agent] or self.truncations[agent]:
             self._was_dead_step(action)
             return
-        i = AGENTS.index(agent)
+        i = self._agents.index(agent)
         a = _check_agent_action(agent, action)
         if agent == self.agents[0]:
             self._clear_rewards()
@@ -403,19 +441,25 @@ def env(**kwargs):
 def policy_actions(policy, observations) -> dict:
     """``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.Policy` in the
     ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
-    agent 1, which reads link1's observation (its (18) components) and that tau2."""
+    agent 1, which reads link1's observation (its (18) components) and that tau2. For N
+    links the same down the chain (agent N first); the arm's N is the number of
+    ``linkI`` observations, and a policy of another N is refused (ValueError)."""
     from twolink.env import policy_action     # the one implementation of (18) for policies
 
-    missing = [a for a in AGENTS if a not in observations]
+    n = sum(1 for key in observations if str(key).startswith("link"))
+    names = agents(n) if 2 <= n else AGENTS
+    missing = [a for a in names if a not in observations]
     if missing:
         raise ValueError(f"observations lack agent(s) {', '.join(missing)}")
+    check_policy_links(policy, len(names))
+    keys, wanted = _task_keys(names), observation_names(len(names))
     seen = {}
-    for a in AGENTS:
+    for a in names:
         o = np.asarray(observations[a], dtype=float)
-        n = len(OBSERVATION_NAMES[_TASK_KEY[a]])
-        if o.ndim != 1 or len(o) < n:
-            raise ValueError(f"observation of {a} must be a vector of at least {n} numbers, "
+        k = len(wanted[keys[a]])
+        if o.ndim != 1 or len(o) < k:
+            raise ValueError(f"observation of {a} must be a vector of at least {k} numbers, "
                              f"got shape {o.shape}")
-        seen[_TASK_KEY[a]] = o[:n]
+        seen[keys[a]] = o[:k]
     tau = policy_action(policy, seen)
-    return {a: np.array([tau[i]], dtype=np.float64) for i, a in enumerate(AGENTS)}
+    return {a: np.array([tau[i]], dtype=np.float64) for i, a in enumerate(names)}
