@@ -102,8 +102,9 @@ def check_two_link_options(links: int, **options) -> None:
     given = [k for k, v in options.items() if v is not None and not
              (isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0)]
     if given:
-        raise ValueError(f"{', '.join(given)} exist(s) for the two-link arm only (Table I's "
-                         f"constants, the 4-component state); this arm has {links} links")
+        what = "is a two-link option" if len(given) == 1 else "are two-link options"
+        raise ValueError(f"{', '.join(given)} {what} (Table I's constants, the 4-component "
+                         f"state); this arm has {links} links")
 
 
 def check_task(task: str) -> str:
