@@ -150,7 +150,8 @@ class _Arms:
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
                  nthread, challenge=None, links=None, rule=None):
         if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
-            raise ValueError(f"params must be an ArmParameters, got {type(params).__name__}")
+            raise ValueError(f"params must be an ArmParameters or a ChainParameters, got "
+                             f"{type(params).__name__}")
         params = arm(params, links=links, rule=rule)
         self.rows = rows
         self.params = params

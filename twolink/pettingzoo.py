@@ -133,7 +133,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
                  time_limit: float | None = None, render_mode: str | None = None,
                  challenge=None, links: int | None = None, rule: str | None = None):
         if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
-            raise ValueError(f"params must be ArmParameters, got {params!r}")
+            raise ValueError(f"params must be ArmParameters or ChainParameters, got {params!r}")
         params = arm(params, links=links, rule=rule)
         n = self.links = params.links
         check_two_link_options(n, perturbation=perturbation, challenge=challenge,
