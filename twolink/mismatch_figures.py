@@ -18,14 +18,14 @@ from twolink.artifacts import atomic_path  # noqa: E402
 from twolink.mismatch_plan import UNITS  # noqa: E402
 from twolink.model_error import PREDICTIONS  # noqa: E402
 from twolink.parameters import HORIZON  # noqa: E402
-from twolink.registry import SHIPPED  # noqa: E402
+from twolink.registry import TWO_LINK  # noqa: E402
 
 _PLANT_STYLES = {"simplified": ":", "full": "--", "mujoco": "-"}
 
 
 def policy_color(name: str) -> str:
     """The colour of policy ``name`` in every figure: fixed by its registry position."""
-    names = list(SHIPPED)
+    names = list(TWO_LINK)
     return f"C{names.index(name) if name in names else len(names)}"
 
 

@@ -13,7 +13,7 @@ import dataclasses
 from typing import Iterable, Mapping
 
 from twolink.perturbations import PERTURBABLE
-from twolink.registry import SHIPPED
+from twolink.registry import TWO_LINK
 from twolink.sweeps import Cell, states_of
 
 #: Perturbation families of the robustness sweep, in report order.
@@ -89,5 +89,5 @@ def plan(name: str) -> Plan:
 def report_order(policies: Iterable[str]) -> tuple[str, ...]:
     """Policies without repeats, shipped ones in registry order, then any others as given."""
     names = list(dict.fromkeys(policies))
-    rank = {n: i for i, n in enumerate(SHIPPED)}
+    rank = {n: i for i, n in enumerate(TWO_LINK)}
     return tuple(sorted(names, key=lambda n: (rank.get(n, len(rank)), names.index(n))))

@@ -290,8 +290,8 @@ def run(args) -> int:
                   for pname in policies}
         x0s = ", ".join(f"{v:.3g}" for v in x0)
         fig3(panels, outputs["figure"],
-             title=("" if links == 2 else f"{links} links ({args.rule}); ")
-                   + f"x0 = [{x0s}]; line styles: {', '.join(plants)}"
+             title=f"x0 = [{x0s}]" + ("; " if links == 2 else f", {links} links ({args.rule})\n")
+                   + f"line styles: {', '.join(plants)}"
                    + ("" if ch is None else f"; challenge {ch.name}, seed {args.seed}")
                    + ("; compensated" if args.compensate else ""))
         report["outputs"] = {k: str(v) for k, v in outputs.items()}

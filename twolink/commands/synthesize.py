@@ -11,7 +11,11 @@ mean (:func:`twolink.synthesis.synthesize`). ``--params FILE`` takes the centre 
 parameter file (:mod:`twolink.parameter_file`); ``--model identified`` is the full model (6)
 with them. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
 :data:`twolink.registry.SHIPPED` into the source checkout's ``policies/``, with everything
-its registry entry records.
+its registry entry records. ``--links N`` (with ``--rule``) synthesises the agents of an
+N-link arm (:mod:`twolink.chain_agents`) into ``./decentralized_<N>link[_<rule>].npz``; the
+centralized policy of N >= 3 links is refused before any work, with its estimate
+(:func:`twolink.chain_centralized.check_size`): over the memory cap, or over what a policy
+file may hold.
 """
 from __future__ import annotations
 
@@ -20,6 +24,7 @@ import json
 from pathlib import Path
 
 from twolink.artifacts import check_outputs
+from twolink.commands.rollout import add_arm_options, arm_of
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
@@ -112,8 +117,57 @@ def add_parser(sub):
     p.add_argument("--ship", action="append", metavar="NAME", default=None,
                    help="re-synthesise the shipped policy NAME into policies/ of the source "
                         f"checkout (repeatable; 'all' for every one: {', '.join(SHIPPED)})")
+    add_arm_options(p)
     p.add_argument("--json", action="store_true", help="print the synthesis summary as JSON")
     return p
+
+
+def chain_file_name(kind: str, links: int, rule: str, context: str | None = None) -> str:
+    """``<kind>_<N>link[_<rule>][_<context>].npz``: the rule when not tapered, the
+    context when given and not the N-link default (so the shipped one gets its name)."""
+    from twolink.chain_agents import CHAIN_DEFAULT
+
+    name = f"{kind}_{links}link" + ("" if rule == "tapered" else f"_{rule}")
+    if context is not None and context != CHAIN_DEFAULT.context:
+        name += f"_{context}"
+    return f"{name}.npz"
+
+
+def _chain_job(args, links: int) -> tuple[str, dict, Path]:
+    """(kind, synthesize() options, output) of an N-link synthesis (N >= 3), checked; the
+    two-link options and the centralized table that no policy file can hold refused."""
+    two_link = [o for o, given in (
+        ("--model simplified", args.model == "simplified"),
+        (f"--model {args.model}", args.model in IDENTIFIED_MODELS),
+        ("--robust", args.robust is not None), ("--draws", args.draws is not None),
+        ("--spread", args.spread is not None), ("--seed", args.seed is not None),
+        ("--sweeps serial", (args.sweeps or "synchronous") != "synchronous"),
+        ("--refine", args.refine not in (None, 1))) if given]
+    if args.params is not None:
+        raise ValueError(f"--params {args.params}: a parameter file describes a 2-link arm; "
+                         f"--links {links} extends Table I by --rule")
+    if two_link:
+        raise ValueError(f"{', '.join(two_link)}: a two-link option; a {links}-link arm is "
+                         f"synthesised on its full model, synchronous sweeps, the paper's "
+                         f"grid")
+    if args.kind == "centralized":
+        if args.context is not None:
+            raise ValueError("--context applies to the decentralized policy only")
+        from twolink.chain_centralized import check_size
+        est = check_size(links)                   # refuses over the memory cap, estimate
+        if est.q_bytes > MAX_Q_BYTES:
+            raise ValueError(f"a centralized {links}-link Q-table of {est.q_values:,} values "
+                             f"({est.q_bytes / 2**30:.3g} GiB; synthesis needs about "
+                             f"{est.peak_bytes / 2**30:.3g} GiB) is over the "
+                             f"{MAX_Q_BYTES >> 20} MiB a policy file may hold; twolink "
+                             f"scaling synthesises it in memory")
+    out = args.output or Path(chain_file_name(args.kind, links, args.rule, args.context))
+    check_outputs({"-o": out})
+    if out.exists() and not args.force:
+        raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
+    opts = {"p": TABLE_I, "links": links, "rule": args.rule, "context": args.context,
+            "gamma": args.gamma, "delta": args.delta}
+    return args.kind, opts, out
 
 
 def _number(text, option: str, kind: type):
@@ -169,15 +223,17 @@ def _parameters(args) -> tuple:
 
 def _jobs(args) -> list[tuple[str, dict, Path]]:
     """(kind, synthesize() options, output path) for every policy to write; checks first."""
+    links, _ = arm_of(args)
     if args.ship:
         if args.kind or args.model or args.context or args.output or args.force \
                 or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA \
                 or args.robust or args.draws is not None or args.spread is not None \
-                or args.seed is not None or args.params is not None:
+                or args.seed is not None or args.params is not None or links != 2 \
+                or args.rule != "tapered":
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
-                             "--spread, --seed, --params, --gamma, --delta, -o or --force "
-                             "with it")
+                             "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
+                             "-o or --force with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
@@ -186,6 +242,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         return [(e.kind, {"p": TABLE_I, **e.synthesis_options()}, e.file) for e in entries]
     if args.kind is None:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
+    if links != 2:
+        return [_chain_job(args, links)]
     model = args.model or "simplified"
     context = args.context or "frozen"
     if args.kind == "centralized" and args.context is not None:
@@ -219,7 +277,8 @@ def run(args) -> int:
         policy = synthesize(kind, progress=not args.json, **opts)
         policy.save(out)
         info = {a.name: a.info for a in policy.agents}
-        summary.append({"path": str(out), "kind": policy.kind, "agents": info})
+        arm = {} if policy.links == 2 else {"links": policy.links, "rule": policy.meta["rule"]}
+        summary.append({"path": str(out), "kind": policy.kind, **arm, "agents": info})
         if not args.json:
             for name, i in info.items():
                 over = f" ({i['robust']} case over {i['draws']} models)" if "robust" in i else ""
