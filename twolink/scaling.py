@@ -24,11 +24,11 @@ is the JSON that :mod:`twolink.scaling_report` presents.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import dataclasses
 import math
 import multiprocessing
 import os
-import resource
 import time
 import tracemalloc
 from concurrent.futures import ProcessPoolExecutor
@@ -62,11 +62,13 @@ QUICK_MAX_LINKS = 4
 #: Most poses a run accepts (the rollouts of one arm stay well under a second per pose).
 MAX_POSES = 4096
 #: How the peak memory of one synthesis is measured: ``"process"`` runs it in a fresh
-#: process and takes the growth of its peak resident set (``ru_maxrss``) over the resident
-#: set just before the synthesis (after the imports and a warm-up synthesis of N = 2 that
-#: loads the compiled kernels); ``"tracemalloc"`` runs it here and takes tracemalloc's
-#: peak (numpy arrays and Python objects; not numba's own allocations), faster but
-#: narrower, and it slows Python-heavy code a little.
+#: process, after the imports and a warm-up (the two-link decentralized synthesis, which
+#: loads the compiled kernels: about 125 MiB of numba's own), gives freed heap back
+#: (``malloc_trim``), resets the peak resident set (Linux: /proc/self/clear_refs) and
+#: takes its growth (VmHWM) over the resident set just before the synthesis;
+#: ``"tracemalloc"`` runs it here and takes tracemalloc's peak (numpy arrays and Python
+#: objects; not numba's own allocations), faster but narrower, and it slows
+#: Python-heavy code a little.
 PEAK_METHODS = ("process", "tracemalloc")
 #: Row statuses: synthesised and evaluated, refused over the cap, skipped by quick, failed.
 STATUSES = ("run", "refused", "not run (quick)", "failed")
@@ -270,14 +272,25 @@ def _agent_info(agent) -> dict:
             "seconds": float(info.get("seconds", float("nan")))}
 
 
-def _rss_bytes() -> int:
-    """The resident set of this process now."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+def _status_bytes(key: str) -> int:
+    """A ``Vm...`` line of /proc/self/status in bytes."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    raise OSError(f"/proc/self/status has no {key}")
 
 
-def _maxrss_bytes() -> int:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024    # KiB on Linux
+def _reset_high_water() -> bool:
+    """Give freed heap back to the system and reset this process's peak resident set
+    (VmHWM) to the current one; False where Linux does not allow it."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False
 
 
 @contextlib.contextmanager
@@ -298,9 +311,12 @@ def _peak(method: str):
             if started:
                 tracemalloc.stop()
     else:
-        base = _rss_bytes()
+        if not _reset_high_water():
+            raise OSError("cannot reset the peak resident set (/proc/self/clear_refs); "
+                          "measure with tracemalloc instead")
+        base = _status_bytes("VmRSS")
         yield out
-        out["bytes"] = max(0, _maxrss_bytes() - base)
+        out["bytes"] = max(0, _status_bytes("VmHWM") - base)
 
 
 def synthesize_measured(links: int, rule: str, scheme: str, *, max_bytes: int,
@@ -357,7 +373,7 @@ def _cell(links: int, rule: str, scheme: str, poses: int, seed: int, max_bytes: 
           peak: str, warm_up: bool) -> tuple:
     """Synthesis and evaluation of one cell (run in a fresh process by :func:`measure`)."""
     if warm_up:          # load the compiled kernels before the measured synthesis
-        _policy(2, rule, scheme, max_bytes)
+        _policy(2, rule, "decentralized", max_bytes)
     policy, synth = synthesize_measured(links, rule, scheme, max_bytes=max_bytes, peak=peak)
     return synth, evaluate(policy, links, rule, poses=poses, seed=seed)
 

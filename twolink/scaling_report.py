@@ -70,7 +70,7 @@ def _line(row: dict, short: float, long: float) -> list:
     else:
         q = count(est["q_values"]) if "q_values" in est else "—"
         nnz = f"≈ {count(est['nnz'])} (est.)" if "nnz" in est else "—"
-        peak, time, sweeps = row["note"] or row["status"], "—", "—"
+        peak, time, sweeps = row.get("note") or row["status"], "—", "—"
     return [str(n), scheme, q, nnz, peak, time, sweeps, _success(row, short),
             _success(row, long) if n > 2 else "—", _settle(row)]
 
