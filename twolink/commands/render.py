@@ -4,7 +4,8 @@ The arm is seen from the top camera with the goal region marked, a translucent g
 arm following the simplified-model (11) rollout of the same policy from the same x0,
 and a text overlay with time, torques and reward. Two ``--policy`` values render side
 by side; ``--challenge`` (or ``--delay`` / ``--angle-noise``) and ``--compensate`` run
-them as ``twolink rollout`` does. Rendering speed is measured by the benchmarks
+them as ``twolink rollout`` does. ``--links N`` renders an N-link arm, its ghost then the
+numpy full N-link model's rollout. Rendering speed is measured by the benchmarks
 (``make bench``).
 """
 from __future__ import annotations
@@ -20,7 +21,9 @@ from tqdm import tqdm
 
 from twolink.artifacts import check_outputs
 from twolink.challenges import challenge
-from twolink.commands.rollout import (_X0_HELP, _label, add_challenge_options, challenge_of,
+from twolink.commands.rollout import (_X0_HELP, _label, add_arm_options, add_challenge_options,
+                                      arm_of, challenge_of, check_policy_links,
+                                      check_two_link_options, default_policy, horizon,
                                       parse_x0)
 from twolink.parameters import HORIZON, TS
 from twolink.plants import PLANTS
@@ -46,10 +49,12 @@ def add_parser(sub):
     p.add_argument("--seed", type=int, default=0,
                    help="seed of --x0 random and of the challenge's plant, noise and faults "
                         "(default 0)")
+    add_arm_options(p)
     add_challenge_options(p)
-    p.add_argument("--duration", type=float, default=HORIZON,
-                   help=f"simulated seconds (default {HORIZON:g}, at most {MAX_DURATION:g}; "
-                        f"a video has at most {MAX_FRAMES} frames)")
+    p.add_argument("--duration", type=float, default=None,
+                   help=f"simulated seconds (default {HORIZON:g}, with --links 3 or more "
+                        f"{horizon(3):g}; at most {MAX_DURATION:g}; a video has at most "
+                        f"{MAX_FRAMES} frames)")
     p.add_argument("--fps", type=float, default=round(1 / TS),
                    help=f"frames per second of the video (default {round(1 / TS)}, one per "
                         f"sample period)")
@@ -58,8 +63,8 @@ def add_parser(sub):
     p.add_argument("--size", default="640x480", metavar="WxH",
                    help="frame size of one panel in pixels (default 640x480)")
     p.add_argument("--ghost", action=argparse.BooleanOptionalAction, default=True,
-                   help="show the simplified-model rollout as a translucent ghost arm "
-                        "(default on)")
+                   help="show the simplified-model rollout (with --links 3 or more: the "
+                        "full N-link model's) as a translucent ghost arm (default on)")
     p.add_argument("--overlay", action=argparse.BooleanOptionalAction, default=True,
                    help="draw time, torques and reward on the frames (default on)")
     p.add_argument("--antialias", action="store_true",
@@ -80,9 +85,14 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args) -> int:
+    links, params = arm_of(args)
+    check_two_link_options(args, links)
+    if args.duration is None:
+        args.duration = horizon(links)
     width, height = parse_size(args.size)
-    x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed)
-    names = args.policy or ["centralized"]
+    x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed, links=links,
+                  speed_max=params.speed_max)
+    names = args.policy or [default_policy(links, args.rule)]
     if len(names) > 2:
         raise ValueError(f"give one or two --policy values (side by side), got {len(names)}")
     steps_for(args.duration)
@@ -101,16 +111,20 @@ def run(args) -> int:
     check_outputs({"--output": out}, creatable=[default])
 
     policies = {label: load_policy(n) for label, n in zip(labels, names)}
-    shown = [args.plant] + (["simplified"] if args.ghost else [])
+    for label, policy in policies.items():
+        check_policy_links(label, policy, links)
+    ghost = "simplified" if links == 2 else "full"
+    shown = [args.plant] + ([ghost] if args.ghost else [])
     if ch is None and not args.compensate:
-        runs = rollout_grid(policies, shown, x0, duration=args.duration)
+        runs = rollout_grid(policies, shown, x0, duration=args.duration,
+                            params=None if links == 2 else params)
     else:
         runs = challenged_rollouts(policies, shown, x0, ch or challenge("none"), seed=args.seed,
                                    compensate=args.compensate, duration=args.duration)
     under = ("" if ch is None else f", {ch.name}") + (", compensated" if args.compensate else "")
     panels = [(f"{label} on {args.plant}{under}"
-               + (" (ghost: simplified)" if args.ghost else ""),
-               runs[(label, args.plant)], runs.get((label, "simplified")) if args.ghost else None)
+               + (f" (ghost: {ghost})" if args.ghost else ""),
+               runs[(label, args.plant)], runs.get((label, ghost)) if args.ghost else None)
               for label in policies]
     if out.parent == default:
         output_dir()                             # the default folder, made on demand
@@ -120,7 +134,7 @@ def run(args) -> int:
     n = frame_count(args.duration / args.speed, args.fps)
     t0 = time.perf_counter()
     with Renderer(width=width, height=height, ghost=args.ghost, overlay=args.overlay,
-                  samples=4 if args.antialias else 0) as r:
+                  samples=4 if args.antialias else 0, params=params) as r:
         frames = trajectory_frames(r, panels, fps=args.fps, speed=args.speed,
                                    duration=args.duration)
         bar = tqdm(frames, total=n, unit="frame", desc=f"render {out.name}",
@@ -130,6 +144,7 @@ def run(args) -> int:
     result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(names),
               "height": height, "video_seconds": count / args.fps,
               "render_seconds": seconds, "policies": labels, "plant": args.plant,
+              **({} if links == 2 else {"links": links, "rule": args.rule}),
               "ghost": args.ghost, "x0": x0.tolist(),
               "challenge": None if ch is None else ch.as_dict(), "compensate": args.compensate,
               "seed": args.seed}
