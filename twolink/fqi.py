@@ -6,7 +6,9 @@ The transitions f(c_m, u_j) of every (bin centre, action) pair are computed once
 stored as the membership matrix T of shape (N_X * N_U, N_X): as a scipy CSR matrix
 (:func:`transition_matrix`, for peers and references) or in the fixed-width layout the
 compiled sweeps read (:class:`TransitionTable`, at most 2**d memberships per row; K models
-side by side for the robust sweeps: :class:`RobustTable`).
+side by side for the robust sweeps: :class:`RobustTable`). The weights are float64, the
+reference, or float32 on request (:data:`WEIGHTS`: a third fewer bytes, Q within the
+weights' round-off).
 Sweeps are synchronous (Q_{l+1} from Q_l, as printed) or serial (each Q(m, u) overwritten
 at once, bins in Matlab's column-major order, as ApproxRL's ``fuzzyqi.m`` can run them).
 ``tests/reference_fqi.py`` holds the plain loop of Alg. 1 and the scipy sweep this is
@@ -27,6 +29,19 @@ from twolink.parameters import DELTA, GAMMA
 
 SWEEPS = ("synchronous", "serial")
 ROBUST_MODES = ("worst", "mean")
+#: Precisions of the fixed-width tables' weights: ``float64`` (the reference: each row summed
+#: in index order, Q equal to the scipy path bit for bit) or ``float32`` (opt-in: each
+#: membership rounded once to float32, a third fewer bytes per entry; the products and sums
+#: stay float64 in index order, so Q moves by the weights' round-off only, below
+#: delta / 100 on the paper's problems: ``tests/test_fast_sweeps.py``).
+WEIGHTS = ("float64", "float32")
+
+
+def check_weights(weights: str) -> np.dtype:
+    """The numpy dtype of a :data:`WEIGHTS` name, or a ValueError naming the choices."""
+    if not isinstance(weights, str) or weights not in WEIGHTS:
+        raise ValueError(f"unknown weights {weights!r}; choose one of {', '.join(WEIGHTS)}")
+    return np.dtype(weights)
 
 
 def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
@@ -46,11 +61,14 @@ def transition_matrix(grid: Grid, next_points: np.ndarray) -> sp.csr_matrix:
 
 
 def _checked_layout(table, axes: str) -> None:
-    """Store ``table.index`` as contiguous int32 and ``table.weight`` as float64 of one
-    shape with the axes named in ``axes``. The compiled sweeps do not check bounds, so a
-    table whose bin indices would read outside V is refused here."""
+    """Store ``table.index`` as contiguous int32 and ``table.weight`` as float64 (float32
+    weights stay float32, :data:`WEIGHTS`) of one shape with the axes named in ``axes``.
+    The compiled sweeps do not check bounds, so a table whose bin indices would read
+    outside V is refused here."""
     index = np.ascontiguousarray(table.index, dtype=np.int32)
-    weight = np.ascontiguousarray(table.weight, dtype=float)
+    weight = np.asarray(table.weight)
+    weight = np.ascontiguousarray(weight, dtype=np.float32 if weight.dtype == np.float32
+                                  else float)
     if index.ndim != axes.count(",") + 1 or index.shape != weight.shape:
         raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
                          f"{axes} shape")
@@ -63,9 +81,10 @@ def _checked_layout(table, axes: str) -> None:
 @dataclasses.dataclass(frozen=True)
 class TransitionTable:
     """T in fixed width: row m * N_U + j lists the bins m~ with mu_m~(f(c_m, u_j)) > 0
-    in increasing order (``index``, int32) and their memberships (``weight``), padded
-    with zero weights to the widest row; ``state_shape`` is the grid's shape when known
-    (serial sweeps visit the bins in its column-major order)."""
+    in increasing order (``index``, int32) and their memberships (``weight``, float64 or
+    float32: :data:`WEIGHTS`), padded with zero weights to the widest row; ``state_shape``
+    is the grid's shape when known (serial sweeps visit the bins in its column-major
+    order)."""
 
     index: np.ndarray
     weight: np.ndarray
@@ -88,6 +107,18 @@ class TransitionTable:
     def nbytes(self) -> int:
         return self.index.nbytes + self.weight.nbytes
 
+    @property
+    def weights(self) -> str:
+        """The weights' precision, a :data:`WEIGHTS` name."""
+        return self.weight.dtype.name
+
+    def astype(self, weights: str) -> "TransitionTable":
+        """This table with its weights in ``weights`` (:data:`WEIGHTS`): itself when they
+        are already, a copy rounded to float32; float32 weights cannot be made float64
+        again (their lost digits would pass for the reference's), a ValueError."""
+        weight = _weights_as(self.weight, check_weights(weights).name)
+        return self if weight is self.weight else dataclasses.replace(self, weight=weight)
+
     def tocsr(self) -> sp.csr_matrix:
         rows = np.repeat(np.arange(self.shape[0]), self.index.shape[1])
         t = sp.csr_matrix((self.weight.reshape(-1), (rows, self.index.reshape(-1))),
@@ -96,9 +127,11 @@ class TransitionTable:
         return t
 
 
-def fixed_width(transitions: sp.spmatrix, state_shape: Optional[tuple] = None
-                ) -> TransitionTable:
-    """The :class:`TransitionTable` of a sparse T (summed duplicates, zeros dropped)."""
+def fixed_width(transitions: sp.spmatrix, state_shape: Optional[tuple] = None, *,
+                weights: str = "float64") -> TransitionTable:
+    """The :class:`TransitionTable` of a sparse T (summed duplicates, zeros dropped), its
+    weights in ``weights`` (:data:`WEIGHTS`)."""
+    dtype = check_weights(weights)
     t = sp.csr_matrix(transitions, dtype=float, copy=True)
     t.sum_duplicates()
     t.eliminate_zeros()
@@ -108,20 +141,23 @@ def fixed_width(transitions: sp.spmatrix, state_shape: Optional[tuple] = None
     rows = np.repeat(np.arange(n_rows), counts)
     cols = np.arange(t.nnz) - np.repeat(t.indptr[:-1], counts)
     index = np.zeros((n_rows, width), dtype=np.int32)
-    weight = np.zeros((n_rows, width))
+    weight = np.zeros((n_rows, width), dtype=dtype)
     index[rows, cols] = t.indices
     weight[rows, cols] = t.data
     _pad_with_first(index, counts)
     return TransitionTable(index, weight, n_states, _shape(state_shape, n_states))
 
 
-def transition_table(grid: Grid, next_points: np.ndarray) -> TransitionTable:
+def transition_table(grid: Grid, next_points: np.ndarray, *,
+                     weights: str = "float64") -> TransitionTable:
     """T of :func:`transition_matrix` written straight into the fixed-width layout by a
     compiled pass over the points (equal entry for entry, bit for bit, to
-    ``fixed_width(transition_matrix(...))``)."""
+    ``fixed_width(transition_matrix(...), weights=weights)``); ``weights="float32"``
+    rounds each membership once, as it is written (:data:`WEIGHTS`)."""
+    dtype = check_weights(weights)
     n_x, n_u, d = _check_points(grid, next_points)
     index = np.empty((n_x * n_u, 2 ** d), dtype=np.int32)
-    weight = np.empty((n_x * n_u, 2 ** d))
+    weight = np.empty((n_x * n_u, 2 ** d), dtype=dtype)
     width = _membership_rows(grid, next_points, index, weight)
     if width < 2 ** d:
         index = np.ascontiguousarray(index[:, :width])
@@ -148,7 +184,8 @@ def _membership_rows(grid: Grid, next_points: np.ndarray, index: np.ndarray,
 class RobustTable:
     """The K models' T side by side, as the robust sweeps read them: row m * N_U + j of
     model k is ``index[row, k]``/``weight[row, k]`` (rows, K, width), each model's row as
-    in :class:`TransitionTable` (increasing bins, zero-weight padding)."""
+    in :class:`TransitionTable` (increasing bins, zero-weight padding, float64 or float32
+    weights)."""
 
     index: np.ndarray
     weight: np.ndarray
@@ -162,6 +199,15 @@ class RobustTable:
         return self.index.shape[1]
 
     @property
+    def nbytes(self) -> int:
+        return self.index.nbytes + self.weight.nbytes
+
+    @property
+    def weights(self) -> str:
+        """The weights' precision, a :data:`WEIGHTS` name."""
+        return self.weight.dtype.name
+
+    @property
     def nnz(self) -> int:
         return int(np.count_nonzero(self.weight))
 
@@ -170,10 +216,13 @@ class RobustTable:
         return TransitionTable(self.index[:, k], self.weight[:, k], self.n_states)
 
 
-def robust_table(grid: Grid, next_points: Sequence[np.ndarray]) -> RobustTable:
+def robust_table(grid: Grid, next_points: Sequence[np.ndarray], *,
+                 weights: str = "float64") -> RobustTable:
     """The :class:`RobustTable` of K models' points (each (N_X, N_U, d) on ``grid``),
     memberships written straight into place by the compiled pass (no per-model tables, no
-    copy): each model's rows equal :func:`transition_table`'s bit for bit."""
+    copy): each model's rows equal :func:`transition_table`'s (with the same ``weights``)
+    bit for bit."""
+    dtype = check_weights(weights)
     if len(next_points) == 0:
         raise ValueError("need the points of at least one model")
     shapes = {_check_points(grid, p) for p in next_points}
@@ -181,7 +230,7 @@ def robust_table(grid: Grid, next_points: Sequence[np.ndarray]) -> RobustTable:
         raise ValueError(f"the models' points differ in shape: {sorted(shapes)}")
     n_x, n_u, d = shapes.pop()
     index = np.empty((n_x * n_u, len(next_points), 2 ** d), dtype=np.int32)
-    weight = np.empty((n_x * n_u, len(next_points), 2 ** d))
+    weight = np.empty((n_x * n_u, len(next_points), 2 ** d), dtype=dtype)
     width = max(_membership_rows(grid, p, index[:, k], weight[:, k])
                 for k, p in enumerate(next_points))
     if width < 2 ** d:
@@ -195,6 +244,12 @@ def _check_points(grid: Grid, next_points: np.ndarray) -> tuple:
         raise ValueError(f"next_points of shape {next_points.shape} do not match a grid "
                          f"of {grid.size} bins over {len(grid.axes)} dimensions")
     return n_x, n_u, d
+
+
+def _check_not_widened(have: np.dtype, want: np.dtype) -> None:
+    if want.itemsize > have.itemsize:
+        raise ValueError(f"a table of {have.name} weights cannot give {want.name} sweeps: "
+                         f"build it with weights={want.name!r}")
 
 
 def _pad_with_first(index: np.ndarray, counts: np.ndarray) -> None:
@@ -228,7 +283,8 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
                       max_iterations: int = 10000, min_iterations: int = 0,
                       callback: Optional[Callable[[int, float], None]] = None,
                       sweeps: str = "synchronous",
-                      state_shape: Optional[tuple] = None) -> QIterationResult:
+                      state_shape: Optional[tuple] = None,
+                      weights: Optional[str] = None) -> QIterationResult:
     """Sweeps of Alg. 1 from Q_0 = 0 until max|Q_l - Q_{l-1}| <= delta.
 
     ``rewards`` has shape (N_X, N_U): rho(c_m, u_j). ``sweeps="synchronous"`` computes
@@ -237,9 +293,11 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
     actions inner, each update using the max over actions of the current Q. Serial sweeps
     need the grid's shape: from a :func:`transition_table` or as ``state_shape``.
     ``min_iterations`` forces at least that many sweeps (for benchmarks doing equal work);
-    ``callback(l, change)`` is called after each sweep.
+    ``callback(l, change)`` is called after each sweep. ``weights`` (:data:`WEIGHTS`) is
+    the precision the sweeps read T in: None, the table's own (a sparse T: float64);
+    ``"float32"`` rounds a float64 table's weights first.
     """
-    table, rewards = _check(transitions, rewards, gamma, delta, state_shape)
+    table, rewards = _check(transitions, rewards, gamma, delta, state_shape, weights)
     if sweeps not in SWEEPS:
         raise ValueError(f"unknown sweeps {sweeps!r}; choose one of {', '.join(SWEEPS)}")
     n_x, n_u = rewards.shape
@@ -296,15 +354,16 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
                              rewards: Sequence[np.ndarray], *, mode: str = "worst",
                              gamma: float = GAMMA, delta: float = DELTA,
                              max_iterations: int = 10000, min_iterations: int = 0,
-                             callback: Optional[Callable[[int, float], None]] = None
-                             ) -> QIterationResult:
+                             callback: Optional[Callable[[int, float], None]] = None,
+                             weights: Optional[str] = None) -> QIterationResult:
     """Synchronous sweeps of Alg. 1 over K models at once, from Q_0 = 0:
 
     Q_{l+1}(m, u) = min_k (``mode="worst"``) or mean_k (``"mean"``) of
     rho_k(c_m, u) + gamma sum_m~ T_k[(m, u), m~] max_u~ Q_l(m~, u~),
 
     one transition matrix and one reward table (N_X, N_U) per model k, all on one grid;
-    ``transitions`` is the K matrices or tables, or a :class:`RobustTable` of all K.
+    ``transitions`` is the K matrices or tables, or a :class:`RobustTable` of all K;
+    ``weights`` as in :func:`fuzzy_q_iteration`.
     """
     if mode not in ROBUST_MODES:
         raise ValueError(f"unknown robust mode {mode!r}; choose one of {', '.join(ROBUST_MODES)}")
@@ -313,11 +372,11 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
         raise ValueError(f"need one reward table per transition matrix, got "
                          f"{n_models} matrices and {len(rewards)} reward tables")
     if isinstance(transitions, RobustTable):
-        index, weight = transitions.index, transitions.weight
+        index, weight = transitions.index, _weights_as(transitions.weight, weights)
         shape = (index.shape[0], transitions.n_states)
         checked = [_check_rewards(shape, r, gamma, delta) for r in rewards]
     else:
-        pairs = [_check(t, r, gamma, delta, None) for t, r in zip(transitions, rewards)]
+        pairs = [_check(t, r, gamma, delta, None, weights) for t, r in zip(transitions, rewards)]
         checked = [r for _, r in pairs]
     shapes = {r.shape for r in checked}
     if len(shapes) != 1:
@@ -326,7 +385,11 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
     if not isinstance(transitions, RobustTable):
         width = max(t.index.shape[1] for t, _ in pairs)
         index = np.empty((n_x * n_u, n_models, width), dtype=np.int32)
-        weight = np.zeros((n_x * n_u, n_models, width))
+        dtypes = sorted({t.weight.dtype.name for t, _ in pairs})
+        if len(dtypes) != 1:
+            raise ValueError(f"the models' tables mix {' and '.join(dtypes)} weights: pass "
+                             f"weights= to sweep them in one precision")
+        weight = np.zeros((n_x * n_u, n_models, width), dtype=dtypes[0])
         for k, (t, _) in enumerate(pairs):
             w = t.index.shape[1]
             index[:, k, :w], weight[:, k, :w] = t.index, t.weight
@@ -358,16 +421,29 @@ def _check_rewards(shape: tuple, rewards, gamma, delta) -> np.ndarray:
     return rewards
 
 
-def _check(transitions, rewards, gamma, delta, state_shape) -> tuple:
-    """(TransitionTable, rewards as float (N_X, N_U)), or a clear error."""
+def _weights_as(weight: np.ndarray, weights: Optional[str]) -> np.ndarray:
+    """``weight`` in the precision ``weights`` names (None: as it is)."""
+    if weights is None:
+        return weight
+    dtype = check_weights(weights)
+    if dtype == weight.dtype:
+        return weight
+    _check_not_widened(weight.dtype, dtype)
+    return weight.astype(dtype)
+
+
+def _check(transitions, rewards, gamma, delta, state_shape, weights=None) -> tuple:
+    """(TransitionTable in ``weights``, rewards as float (N_X, N_U)), or a clear error."""
+    if weights is not None:
+        check_weights(weights)
     rewards = _check_rewards(transitions.shape, rewards, gamma, delta)
     n_x = rewards.shape[0]
     if isinstance(transitions, TransitionTable):
         if state_shape is not None:
             transitions = dataclasses.replace(transitions,
                                               state_shape=_shape(state_shape, n_x))
-        return transitions, rewards
+        return (transitions if weights is None else transitions.astype(weights)), rewards
     if not sp.issparse(transitions):
         raise TypeError(f"transitions must be a scipy sparse matrix or a TransitionTable, "
                         f"got {type(transitions).__name__}")
-    return fixed_width(transitions, state_shape), rewards
+    return fixed_width(transitions, state_shape, weights=weights or "float64"), rewards

@@ -5,6 +5,15 @@ m * N_U + j listing the bins m~ with mu_m~(f(c_m, u_j)) > 0 in increasing order 
 padded with zero weights: every row of (12)-(13) has at most 2**d memberships, so no
 row pointers are needed. Each row is summed in index order from 0.0, as scipy's CSR
 product sums a canonical matrix, so the sweeps give the scipy path's Q bit for bit.
+``weight`` may also be float32 (numba compiles the kernels once per precision): each
+product is then float64(w) * V and the sum stays float64 in index order, so Q differs
+from the reference by the weights' round-off only.
+
+Why the sums stay in index order: on the paper's centralized problem (T in the L3
+cache) a sweep is bound by the three loads per entry (index, weight, gathered V), not
+by the dependent additions nor by the bytes; vectorised reorderings (gathers, partial
+sums) measured slower here, float32 weights about even. ``benchmarks/synthesis.py``
+measures those variants beside these kernels (``sweep_variants``).
 
 The kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once ``min_done``
 sweeps are done) and write each sweep's change into ``history``; they return the
