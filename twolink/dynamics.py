@@ -253,18 +253,19 @@ def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
     # LDL^T of M_uu (symmetric positive definite) in place, a loop over the free joints.
     u = len(free)
     low = [[m[free[i], free[j]] for j in range(u)] for i in range(u)]
+    scaled = [[None] * u for _ in range(u)]      # low[i][k] * diag[k]
     diag = [None] * u
     for j in range(u):
         d = low[j][j]
         for k in range(j):
-            d -= low[j][k] * low[j][k] * diag[k]
+            d -= scaled[j][k] * low[j][k]
         diag[j] = low[j][j] = d
         for i in range(j + 1, u):
             v = low[i][j]
             for k in range(j):
-                v -= low[i][k] * low[j][k] * diag[k]
-            v /= d
-            low[i][j] = v        # (a scalar when the batch is empty)
+                v -= scaled[i][k] * low[j][k]
+            scaled[i][j] = v     # (a scalar when the batch is empty)
+            low[i][j] = v / d
     z = [np.broadcast_to(r, batch).copy() for r in rhs]
     for i in range(u):
         for k in range(i):
