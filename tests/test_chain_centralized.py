@@ -103,8 +103,10 @@ def test_the_estimate_before_any_work():
 
 
 def test_refused_over_the_cap_with_the_estimate():
-    with pytest.raises(ValueError, match=r"^centralized 4-link synthesis needs about \d.* "
-                                         r"GiB \(Q-table 30 GiB .*over the cap of") as err:
+    with pytest.raises(ValueError, match=r"^centralized 4-link synthesis needs about 662 GiB "
+                                         r"\(Q-table 30 GiB for 4\.03e\+09 Q-values, T 571 GiB "
+                                         r"factored, 11\.3 TiB as a plain sparse matrix; up to "
+                                         r"[\d.]+ days of CPU\), over the cap of ") as err:
         synthesize_centralized(chain(4))
     assert "\n" not in str(err.value)
     assert check_size(3, max_bytes=2**31) == estimate(3)
@@ -116,6 +118,8 @@ def test_refused_over_the_cap_with_the_estimate():
     (lambda: estimate(7), "links must be a whole number from 2 to 6"),
     (lambda: estimate(3, refine=0), "refine must be a positive whole number"),
     (lambda: check_size(2, max_bytes=-1), "max_bytes must be a positive whole number"),
+    (lambda: estimate(3, gamma=1.0), r"gamma must lie in \(0, 1\)"),
+    (lambda: synthesize_centralized(TABLE_I, delta=0.0), r"delta must lie in \(0, 0.5\)"),
     (lambda: synthesize_centralized({"links": 3}), "p must be ArmParameters or"),
     (lambda: factored_problem(chain(3), grid(2)), "a 3-link grid needs axes"),
 ])

@@ -51,12 +51,12 @@ MAX_BYTES = int(MEMORY_SHARE * _physical_memory())
 #: (slice bin, action) pairs integrated at once: bounds the model's working set.
 BLOCK_PAIRS = 1 << 15
 
-# Rates measured on the development machine (2 cores, numpy RK4, one idle core), for the
-# time estimate only: seconds per (slice bin, action) pair and link squared of the RK4 over
-# Ts, per stored membership of building the table, per membership read in a sweep.
-_RK4_SECONDS = 2.0e-6
-_TABLE_SECONDS = 4.0e-9
-_SWEEP_SECONDS = 1.0e-9
+# CPU rates measured on the development machine (N = 3 tapered, 2-core, numpy RK4), for
+# the time estimate only: seconds per (slice bin, action) pair and link squared of the RK4
+# over Ts, per stored membership of building the table, per membership read in a sweep.
+_RK4_SECONDS = 0.7e-6
+_TABLE_SECONDS = 3.7e-8
+_SWEEP_SECONDS = 0.94e-9
 # Bytes per pair alive while a block is integrated and its memberships computed.
 _BLOCK_BYTES_PER_PAIR = 4096
 
@@ -69,9 +69,10 @@ class Estimate:
     memberships per row), ``dense_bytes`` T as index + weight pairs (12 bytes each),
     ``stored_bytes`` the factored table actually built, ``q_bytes`` one Q-table (float64),
     ``peak_bytes`` everything alive at once (Q twice, V twice, the rewards, the table and
-    one block of transitions); ``sweeps_bound`` the most sweeps Alg. 1 can take
-    (gamma**(l-1) * 0.5 <= delta) and ``seconds`` the time at that bound, from rates
-    measured on the development machine (an upper estimate; N = 2 and 3 stop far sooner).
+    one block of transitions; the interpreter's own 0.2 GiB come on top); ``sweeps_bound`` the most sweeps Alg. 1 can take
+    (gamma**(l-1) * 0.5 <= delta) and ``seconds`` the CPU time at that bound, from rates
+    measured on the development machine (an upper estimate: N = 2 stops after 78 sweeps,
+    N = 3 after about 100; the sweeps share two threads, so wall time can be half).
     """
 
     links: int
@@ -120,6 +121,7 @@ def estimate(links: int, refine: int = 1, *, gamma: float = GAMMA,
     grid refined ``refine`` times (pure arithmetic, no allocation)."""
     n = check_links(links)
     refine = _check_refine(refine)
+    _check_gamma_delta(gamma, delta)
     angles = len(fuzzy.ANGLE_BINS_DEG) * refine
     speeds = (len(fuzzy.SPEED_BINS_DEG) - 1) * refine + 1
     states = angles ** n * speeds ** n
@@ -138,25 +140,45 @@ def estimate(links: int, refine: int = 1, *, gamma: float = GAMMA,
                     bound, seconds)
 
 
-def _gib(b: int) -> str:
-    g = b / 2 ** 30
-    return f"{g:.3g}" if g < 1000 else f"{g:.3e}"
+def _check_gamma_delta(gamma, delta) -> None:
+    if not isinstance(gamma, (int, float)) or not 0.0 < gamma < 1.0:
+        raise ValueError(f"gamma must lie in (0, 1), got {gamma!r}")
+    if not isinstance(delta, (int, float)) or not 0.0 < delta < abs(REWARD_OTHER):
+        raise ValueError(f"delta must lie in (0, {abs(REWARD_OTHER)}), got {delta!r}")
 
 
-def check_size(links: int, refine: int = 1, max_bytes: Optional[int] = None) -> Estimate:
+def _duration(seconds: float) -> str:
+    for unit, size in (("years", 365.25 * 86400.0), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+def _size(b: int) -> str:
+    """Bytes in GiB, TiB, PiB or EiB, three digits."""
+    for unit in ("GiB", "TiB", "PiB"):
+        if b < 1000 * 2 ** 30:
+            return f"{b / 2 ** 30:.3g} {unit}"
+        b /= 1024
+    return f"{b / 2 ** 30:.3g} EiB"
+
+
+def check_size(links: int, refine: int = 1, max_bytes: Optional[int] = None, *,
+               gamma: float = GAMMA, delta: float = DELTA) -> Estimate:
     """:func:`estimate`, or a ValueError with it when its peak exceeds ``max_bytes``
     (default :data:`MAX_BYTES`)."""
     cap = MAX_BYTES if max_bytes is None else max_bytes
     if isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap <= 0:
         raise ValueError(f"max_bytes must be a positive whole number, got {max_bytes!r}")
-    est = estimate(links, refine)
+    est = estimate(links, refine, gamma=gamma, delta=delta)
     if est.peak_bytes > cap:
         raise ValueError(
-            f"centralized {est.links}-link synthesis needs about {_gib(est.peak_bytes)} GiB "
-            f"(Q-table {_gib(est.q_bytes)} GiB for {est.q_values:.3g} Q-values, T "
-            f"{_gib(est.stored_bytes)} GiB factored, {_gib(est.dense_bytes)} GiB as a plain "
-            f"sparse matrix), over the cap of {_gib(int(cap))} GiB; use the decentralized "
-            f"agents, or raise the cap (max_bytes) on a larger machine")
+            f"centralized {est.links}-link synthesis needs about {_size(est.peak_bytes)} "
+            f"(Q-table {_size(est.q_bytes)} for {est.q_values:.3g} Q-values, T "
+            f"{_size(est.stored_bytes)} factored, {_size(est.dense_bytes)} as a plain "
+            f"sparse matrix; up to {_duration(est.seconds)} of CPU), over the cap of "
+            f"{_size(int(cap))}; use the decentralized agents, or raise the cap "
+            f"(max_bytes) on a larger machine")
     return est
 
 
@@ -225,7 +247,7 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
     N >= 3 it exceeds what a policy file may hold)."""
     if not isinstance(p, (ArmParameters, ChainParameters)):
         raise ValueError(f"p must be ArmParameters or ChainParameters, got {type(p).__name__}")
-    est = check_size(p.links, refine, max_bytes)
+    est = check_size(p.links, refine, max_bytes, gamma=gamma, delta=delta)
     threads = default_threads() if threads is None else threads
     wall0, cpu0 = time.perf_counter(), time.process_time()
     g = grid(p.links, refine)
