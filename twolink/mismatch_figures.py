@@ -1,6 +1,7 @@
 """Figures of the model-mismatch report: one-step error heat maps, closed-loop success and
-settle times, robustness curves. Each policy keeps one colour in every figure (its place
-in the registry), whatever the subset of policies or the order results arrived in."""
+settle times, robustness curves, and the N-link section's table. Each policy keeps one
+colour in every figure (its place in the registry), whatever the subset of policies or the
+order results arrived in."""
 from __future__ import annotations
 
 import math
@@ -165,3 +166,31 @@ def robust_figure(section: dict, settle: dict, path: Path) -> str:
                  "compensated", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)
+
+
+def chain_markdown(section: dict, command: str) -> str:
+    """The N-link section (:func:`twolink.chain_mismatch.measure`) as Markdown: per policy
+    and plant the successes with their 95 % interval and the median settle time."""
+    from twolink.formatting import format_rate
+
+    n, plants = section["links"], section["plants"]
+    lines = [f"# Model mismatch, {n}-link arm ({section['rule']} links)", "",
+             f"`{command}`", "",
+             f"Closed loop from {section['poses']} random poses at rest (angles uniform in "
+             f"[-pi, pi), seed {section['seed']}, never tuned on), {section['duration']:g} s "
+             f"horizon, success = settled in every link's goal band 1 s before the end. The "
+             f"policies were synthesised on the full {n}-link model; MuJoCo runs the "
+             f"generated {n}-link MJCF.", "",
+             "| policy | " + " | ".join(f"success on {p}" for p in plants)
+             + " | " + " | ".join(f"median settle on {p} [s]" for p in plants)
+             + " | same outcome | max RMS gap (angle rad, speed rad/s) |",
+             "|---" * (2 * len(plants) + 3) + "|"]
+    for label, by in section["results"].items():
+        gap = section["gap"][label]
+        rates = [format_rate(by[p]["successes"], by[p]["runs"]) for p in plants]
+        settle = ["never" if by[p]["median_settle"] is None else f"{by[p]['median_settle']:.2f}"
+                  for p in plants]
+        lines.append(f"| {label} | " + " | ".join(rates) + " | " + " | ".join(settle)
+                     + f" | {gap['same_outcome']}/{section['poses']} | "
+                     f"{gap['angle_rms']:.3g}, {gap['speed_rms']:.3g} |")
+    return "\n".join(lines) + "\n"

@@ -5,7 +5,9 @@ sweep cell, the random plants per joint size, the robust section (random plants 
 challenge level, its evaluation set and the seed its plants and noise are drawn from) and
 the throughput batch. ``full`` is the committed report (32 random plants per joint size
 and per challenge level, all 65 states); ``quick`` is the CI form (5 states per cell,
-fewer sizes, 4 plants per joint size and per level: its margins are coarse).
+fewer sizes, 4 plants per joint size and per level: its margins are coarse). The N-link
+section (``twolink mismatch --links N``) takes from the plan only its number of random
+poses, drawn from :data:`CHAIN_SEED`.
 """
 from __future__ import annotations
 
@@ -24,6 +26,9 @@ UNITS = {"parameter": "relative change", "joint": "relative change (each paramet
 #: Seed of the robust section's plants and noise. Chosen once for the report and used for
 #: nothing else: no policy, compensator or challenge level was tuned on it.
 ROBUST_SEED = 9_061_127
+#: Seed of the N-link section's random poses (:func:`twolink.metrics.random_poses`). Chosen
+#: once for the report and used for nothing else: no construction was tuned on it.
+CHAIN_SEED = 7_311_011
 #: Curves of the robustness analysis, in report order: one per parameter, then the rest.
 CURVES = tuple(f"parameter:{n}" for n in PERTURBABLE) + FAMILIES[1:]
 
@@ -44,6 +49,7 @@ class Plan:
     throughput_samples: int
     throughput_repeats: int
     throughput_policy: str = "centralized_full"
+    chain_poses: int = 64              # random poses at rest of the N-link section
 
     def cells(self, policies: Iterable[str]) -> list[Cell]:
         """Every sweep cell, the nominal one first, per policy in the order given."""
@@ -74,7 +80,7 @@ PLANS = {p.name: p for p in (
          {"parameter": (-0.5, 0.5), "joint": (0.2,), "noise": (2.0,), "delay": (1.0,),
           "torque_limit": (-0.5,)},
          joint_draws=4, robust_plants=4, robust_states="quick", robust_seed=ROBUST_SEED,
-         throughput_rows=130, throughput_samples=20, throughput_repeats=2),
+         throughput_rows=130, throughput_samples=20, throughput_repeats=2, chain_poses=8),
 )}
 
 
@@ -87,7 +93,8 @@ def plan(name: str) -> Plan:
 
 
 def report_order(policies: Iterable[str]) -> tuple[str, ...]:
-    """Policies without repeats, shipped ones in registry order, then any others as given."""
+    """Policies without repeats, shipped two-link ones in registry order, then any others
+    as given."""
     names = list(dict.fromkeys(policies))
     rank = {n: i for i, n in enumerate(TWO_LINK)}
     return tuple(sorted(names, key=lambda n: (rank.get(n, len(rank)), names.index(n))))

@@ -4,6 +4,9 @@ Open-loop error of (11) and (6) against MuJoCo, the closed-loop gap of every pol
 every plant, the policies synthesised on (6), robustness sweeps on MuJoCo, and every policy
 under every challenge level with and without run-time compensation, written as Markdown +
 JSON + figures under renders/mismatch/ (renders/mismatch-quick/ with --quick).
+With --links N (3 to 6) a short N-link section instead: each N-link policy on the numpy
+full N-link model and on MuJoCo from random poses at rest, success k/n with 95 % Wilson
+intervals and median settle times, under renders/mismatch-<N>link/.
 """
 from __future__ import annotations
 
@@ -12,13 +15,16 @@ import json
 import sys
 from pathlib import Path
 
+from twolink.artifacts import write_json, write_text
 from twolink.challenges import LEVELS, challenge
+from twolink.commands.rollout import (_label, add_arm_options, arm_of, check_policy_links,
+                                      default_policy, horizon)
 from twolink.mismatch import build
 from twolink.formatting import format_rate
-from twolink.mismatch_plan import PLANS, plan
+from twolink.mismatch_plan import CHAIN_SEED, PLANS, plan
 from twolink.mismatch_report import summary, write
 from twolink.policy import load_policy
-from twolink.registry import SHIPPED
+from twolink.registry import TWO_LINK
 from twolink.resources import output_dir
 from twolink.sweep_store import SweepFile
 from twolink.sweeps import EXECUTORS
@@ -36,9 +42,10 @@ def add_parser(sub):
     p.add_argument("--out", type=Path, default=None,
                    help="report folder (default renders/mismatch, or renders/mismatch-quick); "
                         "one run at a time per folder, which resumes from its sweep.jsonl")
-    p.add_argument("--policies", nargs="+", default=list(SHIPPED), metavar="POLICY",
+    p.add_argument("--policies", nargs="+", default=None, metavar="POLICY",
                    help=f"shipped policy names, reported in registry order "
-                        f"(default: {' '.join(SHIPPED)})")
+                        f"(default: {' '.join(TWO_LINK)}); with --links N: N-link policies, "
+                        f"shipped names or .npz files (default: the shipped one)")
     p.add_argument("--executor", choices=EXECUTORS, default="local",
                    help="where sweep cells run: this process, local worker processes "
                         "(default) or a Ray cluster")
@@ -52,9 +59,11 @@ def add_parser(sub):
                         "compensator (the paper's policies only as they are)")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the robust section's plants and noise (default: the "
-                        "plan's, never tuned on)")
+                        "plan's, never tuned on); with --links N: of the random poses "
+                        f"(default {CHAIN_SEED}, never tuned on)")
     p.add_argument("--robust", action=argparse.BooleanOptionalAction, default=True,
                    help="measure the robust section (default on)")
+    add_arm_options(p)
     p.add_argument("--json", action="store_true",
                    help="print success rates, open-loop errors and margins as JSON")
     return p
@@ -70,14 +79,72 @@ def _robust_args(args) -> list:
     return out
 
 
+def _chain_section(args, links: int, params) -> int:
+    """``twolink mismatch --links N`` (N >= 3): the N-link section, checked before any work
+    or file."""
+    from twolink.chain_mismatch import measure
+    from twolink.mismatch_figures import chain_markdown
+
+    chosen = plan(args.plan)
+    two_link = [o for o, given in (("--challenge", args.challenge is not None),
+                                   ("--no-robust", not args.robust),
+                                   ("--executor", args.executor != "local"),
+                                   ("--address", args.address is not None),
+                                   ("--workers", args.workers is not None)) if given]
+    if two_link:
+        raise ValueError(f"{', '.join(two_link)} apply to the two-link report only; the "
+                         f"{links}-link section takes --plan, --policies, --seed, --rule, "
+                         f"--out and --json")
+    seed = CHAIN_SEED if args.seed is None else args.seed
+    if seed < 0:
+        raise ValueError(f"--seed must be a non-negative whole number, got {seed}")
+    names = list(dict.fromkeys(args.policies or [default_policy(links, args.rule)]))
+    labels = [_label(n) for n in names]
+    if len(set(labels)) < len(labels):
+        raise ValueError("two --policies values share a label (a file's stem); rename one")
+    policies = {label: load_policy(n) for label, n in zip(labels, names)}
+    for label, policy in policies.items():
+        check_policy_links(label, policy, links)
+    suffix = "" if args.rule == "tapered" else f"-{args.rule}"
+    suffix += "" if chosen.name == "full" else f"-{chosen.name}"
+    out = args.out or output_dir(create=False) / f"mismatch-{links}link{suffix}"
+    if not out.parent.is_dir() and out.parent != output_dir(create=False):
+        raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
+    section = measure(policies, params, poses=chosen.chain_poses, seed=seed,
+                      duration=horizon(links))
+    command = (f"twolink mismatch --links {links}"
+               + ("" if args.rule == "tapered" else f" --rule {args.rule}")
+               + ("" if chosen.name == "full" else f" --plan {chosen.name}")
+               + ("" if args.policies is None else " --policies " + " ".join(names))
+               + ("" if args.seed is None else f" --seed {seed}"))
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "report.json", {"command": command, **section})
+    write_text(out / "report.md", chain_markdown(section, command))
+    if args.json:
+        print(json.dumps(section, indent=2))
+        return 0
+    for label, by in section["results"].items():
+        print(f"{label:26s} " + "  ".join(
+            f"{pl} {format_rate(r['successes'], r['runs']):<24s} median settle "
+            + ("never" if r["median_settle"] is None else f"{r['median_settle']:.2f} s")
+            for pl, r in by.items()))
+    print(f"wrote {out / 'report.md'}")
+    return 0
+
+
 def run(args) -> int:
+    links, params = arm_of(args)
+    if links != 2:
+        return _chain_section(args, links, params)
+    if args.policies is None:
+        args.policies = list(TWO_LINK)
     chosen = plan(args.plan)
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
     if args.address and args.executor != "ray":
         raise ValueError("--address needs --executor ray")
     for name in args.policies:                       # fail before anything is written
-        load_policy(name)
+        check_policy_links(name, load_policy(name), 2)
     levels = None if args.challenge is None else [challenge(n).name for n in args.challenge]
     if not args.robust and (args.challenge is not None or args.seed is not None):
         raise ValueError("--challenge and --seed choose what the robust section measures; "
