@@ -21,9 +21,10 @@ from benchmarks.common import (Row, available_ram_bytes, best_time, copy_bandwid
                                interleaved_best, peak_bytes, total_ram_bytes)
 from twolink import synthesis as core
 from twolink.fqi import (TransitionTable, fuzzy_q_iteration, fuzzy_q_iteration_robust,
-                         transition_matrix, transition_table)
+                         robust_table, transition_matrix, transition_table)
 from twolink.integrate import sample_step_compiled
 from twolink.parameters import DELTA, GAMMA, TABLE_I
+from twolink.policy import TIE_TOLERANCE, greedy_indices
 from twolink.reward import centralized_reward
 
 SECTION = "synthesis"
@@ -113,6 +114,106 @@ def _no_op(*args, **kwargs):
     return None
 
 
+# --------------------------------------------------------------------------- sweep variants
+# Reorderings of the row sums that the package does not ship, measured beside its kernels
+# (twolink.fqi_kernel) to say what each buys: the same fused sweep (V = max_u Q,
+# Q' = rho + gamma T V, the change), only the row sum differs. Not cached, compiled on
+# first use (outside the timings).
+def _variant(row_sum):
+    """A synchronous sweep kernel around ``row_sum(index, weight, row, v)``; it runs
+    exactly ``n`` sweeps and returns the last change (Q_n in ``q_next`` when n is odd)."""
+    import numba
+
+    @numba.njit(nogil=True)
+    def sweeps(index, weight, r, q, q_next, v, v_next, gamma, n):
+        n_rows = index.shape[0]
+        n_x = v.shape[0]
+        n_u = n_rows // n_x
+        change = 0.0
+        for _ in range(n):
+            change = 0.0
+            for m in range(n_x):
+                best = -np.inf
+                for j in range(n_u):
+                    row = m * n_u + j
+                    new = r[row] + gamma * row_sum(index, weight, row, v)
+                    d = abs(new - q[row])
+                    if d > change:
+                        change = d
+                    q_next[row] = new
+                    if new > best:
+                        best = new
+                v_next[m] = best
+            q, q_next = q_next, q
+            v, v_next = v_next, v
+        return change
+    return sweeps
+
+
+def _row_sums():
+    """name -> row sum: "vectorised" lets the compiler reassociate the row (it vectorises
+    with gathers), "4 partial sums" keeps four independent accumulators, "stream only"
+    reads the index and weight, vectorised, without gathering V (the table's bytes
+    alone: a floor, not a sweep)."""
+    import numba
+
+    @numba.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
+    def vectorised(index, weight, row, v):
+        s = 0.0
+        for k in range(index.shape[1]):
+            s += weight[row, k] * v[index[row, k]]
+        return s
+
+    @numba.njit(nogil=True)
+    def partial4(index, weight, row, v):
+        s0 = s1 = s2 = s3 = 0.0
+        width = index.shape[1]
+        k = 0
+        while k + 3 < width:
+            s0 += weight[row, k] * v[index[row, k]]
+            s1 += weight[row, k + 1] * v[index[row, k + 1]]
+            s2 += weight[row, k + 2] * v[index[row, k + 2]]
+            s3 += weight[row, k + 3] * v[index[row, k + 3]]
+            k += 4
+        while k < width:
+            s0 += weight[row, k] * v[index[row, k]]
+            k += 1
+        return (s0 + s1) + (s2 + s3)
+
+    @numba.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
+    def stream(index, weight, row, v):
+        s = 0.0
+        for k in range(index.shape[1]):
+            s += weight[row, k] * index[row, k]
+        return s * 1e-300
+
+    return {"vectorised": vectorised, "4 partial sums": partial4, "stream only": stream}
+
+
+_VARIANTS: dict = {}
+
+
+def sweep_variants() -> dict:
+    """The variant kernels by name (compiled once per process)."""
+    if not _VARIANTS:
+        _VARIANTS.update({name: _variant(f) for name, f in _row_sums().items()})
+    return _VARIANTS
+
+
+def _variant_run(kernel, table: TransitionTable, rewards: np.ndarray, n: int):
+    """A callable running ``n`` sweeps of ``kernel`` from Q_0 = 0 on ``table``; returns Q_n."""
+    r = np.ascontiguousarray(rewards, dtype=float).reshape(-1)
+    n_x = rewards.shape[0]
+
+    def go():
+        q, q_next = np.zeros(r.size), np.empty(r.size)
+        v, v_next = np.zeros(n_x), np.empty(n_x)
+        kernel(table.index, table.weight, r, q, q_next, v, v_next, GAMMA, n)
+        return (q_next if n % 2 else q).reshape(rewards.shape)
+
+    return go
+
+
 # --------------------------------------------------------------------------- measurements
 def _synthesis(problem_fn):
     """Build the problem and T (fixed-width table), then run Alg. 1 to convergence."""
@@ -143,11 +244,12 @@ def compiled_centralized(problem, p=TABLE_I):
     return nxt, centralized_reward(nxt)
 
 
-def _centralized_end_to_end(problem, p=TABLE_I):
-    """Centralized synthesis with the compiled transitions: (seconds, result)."""
+def _centralized_end_to_end(problem, p=TABLE_I, weights="float64"):
+    """Centralized synthesis with the compiled transitions and a table of ``weights``:
+    (seconds, result)."""
     t0 = time.perf_counter()
     nxt, rewards = compiled_centralized(problem, p)
-    table = transition_table(problem.grid, nxt)
+    table = transition_table(problem.grid, nxt, weights=weights)
     result = fuzzy_q_iteration(table, rewards)
     return time.perf_counter() - t0, result
 
@@ -199,6 +301,18 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
             raise RuntimeError(f"forced {n} sweeps, did {res.iterations}")
         return res
 
+    # The opt-in float32 weights, and the row-sum variants the package does not ship.
+    table32 = transition_table(problem.grid, problem.next_points, weights="float32")
+
+    def ours32():
+        return fuzzy_q_iteration(table32, problem.rewards, delta=1e-300, min_iterations=n,
+                                 max_iterations=n)
+
+    variants = {f"{vname}, {tb.weights}": _variant_run(kernel, tb, problem.rewards, n)
+                for vname, kernel in sweep_variants().items() for tb in (table, table32)}
+    for fn in variants.values():
+        fn()                                                # compile outside the timings
+
     t0 = time.perf_counter()
     qe_solve, qe_sweeps = quantecon_solver(trans, problem.rewards, n)
     v_qe, sigma_qe = qe_solve()                            # first call compiles (numba)
@@ -215,9 +329,10 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     def copy_n():
         return sum(copy() for _ in range(copies))
 
-    best, out = interleaved_best({"ours": ours, "quantecon": qe_sweeps,
+    best, out = interleaved_best({"ours": ours, "ours_float32": ours32, "quantecon": qe_sweeps,
                                   "quantecon_solve": qe_solve, "mdptoolbox": mdp_solve,
-                                  "copy": copy_n},
+                                  "copy": copy_n,
+                                  **{f"variant: {k}": fn for k, fn in variants.items()}},
                                  sweep_repeats or repeats)
     res_n = out["ours"]
     # QuantEcon's policy is greedy in one more sweep, Q_{n+1} = rho + gamma T V_n.
@@ -266,27 +381,67 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
                 "ties count as agreement" + ("; its policy is greedy in Q_{n+1}"
                                              if peer == "quantecon" else "")),
         ]
+    # float32 weights and the variants, from the same interleaved run
+    per_sweep["float32"] = best["ours_float32"] / n
+    moved32 = sweep_bytes(table32)
+    gbs32 = moved32 / per_sweep["float32"] / 1e9
+    dq32 = float(np.max(np.abs(out["ours_float32"].q - res_n.q)))
+    rows += [
+        Row(sec, "float32 weights: time per sweep", per_sweep["float32"] * 1e3, "ms",
+            f"fqi weights='float32' (opt-in); float64 / float32 = "
+            f"{per_sweep['ours'] / per_sweep['float32']:.2f}x"),
+        Row(sec, "float32 weights: bytes per sweep", moved32 / 2**20, "MiB",
+            "T (int32 index + float32 weight) + rho + Q + Q' + V + V'"),
+        Row(sec, "float32 weights: sweep bandwidth", gbs32, "GB/s"),
+        Row(sec, "float32 weights: sweep / copy bandwidth", gbs32 / copy_gbs, "share"),
+        Row(sec, "quantecon / ours float32 per sweep", per_sweep["quantecon"]
+            / per_sweep["float32"], "x", ">1: ours faster"),
+        Row(sec, "float32 agreement max|dQ|", dq32, "abs",
+            f"after the same {n} sweeps; target < delta/100 = {DELTA / 100:g}"),
+    ]
+    summary_variants = {}
+    for key in variants:
+        t = best[f"variant: {key}"] / n
+        dq = float(np.max(np.abs(out[f"variant: {key}"] - res_n.q)))
+        summary_variants[key] = {"per_sweep": t, "max_dq": dq}
+        what = ("not a sweep: T's bytes without the V gathers" if key.startswith("stream")
+                else f"max|dQ| {dq:.2g}")
+        rows.append(Row(sec, f"variant {key}: time per sweep", t * 1e3, "ms",
+                        f"ours / variant = {per_sweep['ours'] / t:.2f}x; {what}"))
     summary = {"q_size": int(result.q.size), "iterations": n,
                "total": t_model + t_matrix + t_sweeps, "per_sweep": per_sweep,
                "agreement": checks, "peak_bytes": mem, "sweep_bytes": moved,
-               "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs}
+               "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs,
+               "float32": {"sweep_bytes": moved32, "sweep_gbs": gbs32, "max_dq": dq32},
+               "variants": summary_variants}
     if name == "centralized":
         nxt, rewards = compiled_centralized(problem)
         if not (np.array_equal(nxt, problem.next_points)
                 and np.array_equal(rewards, problem.rewards)):
             raise RuntimeError("compiled transitions differ from the package's")
-        ends = [_centralized_end_to_end(problem) for _ in range(max(1, repeats))]
+        ends, ends32 = [], []
+        for _ in range(max(1, repeats)):                   # interleaved
+            ends.append(_centralized_end_to_end(problem))
+            ends32.append(_centralized_end_to_end(problem, weights="float32"))
         t_rk4, _ = best_time(lambda: compiled_centralized(problem), max(1, repeats))
         end, res_end = min(ends, key=lambda e: e[0])
+        end32, res32 = min(ends32, key=lambda e: e[0])
         if not np.array_equal(res_end.q, result.q):
             raise RuntimeError("end-to-end synthesis with compiled transitions differs")
+        moved_bins = int(np.sum(greedy_indices(res32.q) != greedy_indices(result.q)))
         rows += [
             Row(sec, "model transitions, compiled RK4", t_rk4, "s",
                 "integrate.sample_step_compiled + rewards; bit-equal to the numpy path"),
             Row(sec, "total synthesis, compiled transitions", end, "s",
                 f"compiled RK4 + table + sweeps, best of {len(ends)}; same Q bit for bit"),
+            Row(sec, "total synthesis, compiled transitions, float32", end32, "s",
+                f"compiled RK4 + float32 table + sweeps, best of {len(ends32)}; "
+                f"{res32.iterations} sweeps, max|dQ| {np.max(np.abs(res32.q - result.q)):.2g}, "
+                f"{moved_bins} greedy bins moved (tie tolerance {TIE_TOLERANCE:g}); "
+                f"target 0.05 s"),
         ]
         summary["total_compiled"] = end
+        summary["total_compiled_float32"] = end32
     return rows, summary
 
 
@@ -311,7 +466,12 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
         Row(sec, "paper / ours centralized time", 18300.0 / c["total"], "x",
             "paper: ~18300 s CPU, Matlab 7.1, Centrino Duo 1.83 GHz"),
         Row(sec, f"fastest peer ({fastest}) / ours per sweep, centralized",
-            c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x", ">= 1 is the target"),
+            c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x", ">= 1.5 is the target"),
+        Row(sec, f"fastest peer ({fastest}) / ours float32 per sweep, centralized",
+            c["per_sweep"][fastest] / c["per_sweep"]["float32"], "x",
+            ">= 1.5 is the target (issue 13)"),
+        Row(sec, "float32 sweep / copy bandwidth, centralized",
+            c["float32"]["sweep_gbs"] / c["copy_gbs"], "share", ">= 0.7 is the target"),
     ]
     r, summaries["worst_case"] = bench_worst_case(8, repeats=repeats)
     rows += r
@@ -360,7 +520,28 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
             raise RuntimeError(f"robust Q-iteration ({mode}) did not converge")
         return (t1 - t0, t2 - t1), res, tables
 
-    runs = [synthesize() for _ in range(max(1, repeats))]
+    def in_place(weights):
+        """As ``twolink.synthesis.solve_robust`` builds it: the K models' memberships
+        written side by side by ``robust_table`` (no per-model tables, no copy)."""
+        t0 = time.perf_counter()
+        points, rewards = [], []
+        for p in models:
+            nxt, r = compiled_centralized(problem, p)
+            points.append(nxt)
+            rewards.append(r)
+        table = robust_table(problem.grid, points, weights=weights)
+        t1 = time.perf_counter()
+        res = fuzzy_q_iteration_robust(table, rewards, mode="worst")
+        t2 = time.perf_counter()
+        if not res.converged:
+            raise RuntimeError(f"robust Q-iteration ({weights}) did not converge")
+        return (t1 - t0, t2 - t1), res, table
+
+    runs, fast = [], {"float64": [], "float32": []}
+    for _ in range(max(1, repeats)):                       # interleaved
+        runs.append(synthesize())
+        for w in fast:
+            fast[w].append(in_place(w))
     t_build = min(r[0][0] for r in runs)
     t_sweeps = min(r[0][1] for r in runs)
     total = min(sum(r[0]) for r in runs)
@@ -383,9 +564,37 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
         Row(sec, "total robust synthesis (mean)", min(sum(r[0]) for r in mean_runs), "s",
             f"best of {len(mean_runs)}"),
     ]
-    return rows, {"k": k, "total": total, "sweeps_seconds": t_sweeps,
-                  "iterations": res.iterations, "per_sweep": per_sweep,
-                  "sweep_gbs": moved / per_sweep / 1e9}
+    summary = {"k": k, "total": total, "sweeps_seconds": t_sweeps,
+               "iterations": res.iterations, "per_sweep": per_sweep,
+               "sweep_gbs": moved / per_sweep / 1e9}
+    for w, wruns in fast.items():
+        _, res_w, table = wruns[-1]
+        w_build = min(r[0][0] for r in wruns)
+        w_sweeps = min(r[0][1] for r in wruns)
+        w_total = min(sum(r[0]) for r in wruns)
+        w_moved = table.nbytes + 8 * k * table.index.shape[0] \
+            + sweep_bytes(tables[0]) - tables[0].nbytes
+        w_per = w_sweeps / res_w.iterations
+        dq = float(np.max(np.abs(res_w.q - res.q)))
+        bins = int(np.sum(greedy_indices(res_w.q) != greedy_indices(res.q)))
+        tag = f"robust_table, {w}"
+        rows += [
+            Row(sec, f"{tag}: transitions + table", w_build, "s",
+                "compiled RK4 + rewards + memberships written side by side"),
+            Row(sec, f"{tag}: sweeps (worst)", w_sweeps, "s",
+                f"{res_w.iterations} sweeps, {w_per * 1e3:.2f} ms each, "
+                f"{w_moved / 2**20:.0f} MiB at {w_moved / w_per / 1e9:.1f} GB/s"),
+            Row(sec, f"{tag}: total robust synthesis (worst)", w_total, "s",
+                f"best of {len(wruns)}, interleaved; target 0.5 s"),
+            Row(sec, f"{tag}: agreement max|dQ|", dq, "abs",
+                f"against the per-model tables' Q; {bins} greedy bins moved "
+                f"(tie tolerance {TIE_TOLERANCE:g})"),
+        ]
+        summary[w] = {"total": w_total, "build": w_build, "sweeps_seconds": w_sweeps,
+                      "iterations": res_w.iterations, "per_sweep": w_per,
+                      "sweep_bytes": w_moved, "sweep_gbs": w_moved / w_per / 1e9,
+                      "max_dq": dq, "greedy_bins_moved": bins}
+    return rows, summary
 
 
 def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row], dict]:

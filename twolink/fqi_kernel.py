@@ -157,7 +157,8 @@ def membership_rows(points, centers, sizes, circular, index, weight):
     increasing order, zero-padded; returns each row's count. ``centers`` (d, max size)
     holds every axis's centres (row a: the first ``sizes[a]``), as :class:`twolink.fuzzy.Axis`
     computes them: the same operations in the same order, so the weights are equal bit for
-    bit to :meth:`twolink.fuzzy.Grid.memberships`."""
+    bit to :meth:`twolink.fuzzy.Grid.memberships` (a float32 ``weight`` gets each product
+    rounded once, as it is stored)."""
     n_rows, d = points.shape
     two_pi = 2.0 * np.pi
     lo = np.empty(d, dtype=np.int64)
