@@ -217,3 +217,9 @@ def test_two_link_reports_ignore_n_link_policies(tmp_path, capsys):
     else:            # none shipped yet: the default is refused with the way to make one
         line = _refused(capsys, tmp_path, "rollout", "--links", 3, "--no-save")
         assert "twolink synthesize decentralized --links 3" in line
+
+
+def test_reproduce_takes_two_link_policies_only():
+    from twolink.reproduce import reproduce
+    with pytest.raises(ValueError, match=r"two-link arm; 'decentralized_3link' is not one"):
+        reproduce(1.0, policies=("centralized", "decentralized_3link"))

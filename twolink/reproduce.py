@@ -23,7 +23,7 @@ from twolink.metrics import (evaluation_set, stalled_at_band_edge, success, summ
 from twolink.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.plants import make_plant
 from twolink.policy import Policy
-from twolink.registry import PAPER_POLICIES, SHIPPED
+from twolink.registry import PAPER_POLICIES, SHIPPED, TWO_LINK
 from twolink.rollout import Trajectory, rollout
 from twolink.synthesis import centralized_problem, synthesize
 
@@ -104,8 +104,13 @@ def check_duration(duration: float) -> float:
 def reproduce(duration: float = HORIZON, *, policies=PAPER_POLICIES,
               progress: bool = False) -> Reproduction:
     """Synthesise ``policies`` (registry names) as the registry says, run each from the
-    paper's x0 and over the evaluation set on every plant of :data:`PLANTS`."""
+    paper's x0 and over the evaluation set on every plant of :data:`PLANTS`: the paper's
+    two-link arm, so only two-link policies (:data:`twolink.registry.TWO_LINK`)."""
     check_duration(duration)
+    other = [name for name in policies if name not in TWO_LINK]
+    if other:
+        raise ValueError(f"reproduce runs the paper's two-link arm; {other[0]!r} is not one "
+                         f"of its shipped policies ({', '.join(TWO_LINK)})")
     x0 = np.asarray(PAPER_X0, dtype=float)
     res = Reproduction(list(PAPER_X0), duration, {}, {}, {}, integration_report())
     with make_plant("simplified") as simplified, make_plant("mujoco") as mj:

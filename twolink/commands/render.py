@@ -40,7 +40,8 @@ def add_parser(sub):
                        description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     p.add_argument("--policy", action="append", metavar="NAME|FILE",
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
-                        f"give two for a side-by-side video (default: centralized)")
+                        f"give two for a side-by-side video (default: centralized; with "
+                        f"--links N the shipped N-link policy)")
     p.add_argument("--plant", choices=PLANTS, default="mujoco",
                    help="plant whose rollout is shown (default mujoco)")
     p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)

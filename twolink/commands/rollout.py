@@ -115,9 +115,11 @@ def add_parser(sub):
                                    "one line style per plant).")
     p.add_argument("--policy", action="append", metavar="NAME|FILE",
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
-                        f"repeat to overlay (default: centralized)")
+                        f"repeat to overlay (default: centralized; with --links N the shipped "
+                        f"N-link policy)")
     p.add_argument("--plant", action="append", choices=PLANTS,
-                   help="plant to run on; repeat to overlay (default: mujoco)")
+                   help="plant to run on; repeat to overlay (default: mujoco; simplified "
+                        "is the two-link model (11) only)")
     p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)
     p.add_argument("--degrees", action="store_true",
                    help="read --x0 angles in degrees and speeds in deg/s")
