@@ -1,5 +1,6 @@
 """`twolink scaling`: Table II extended to N links (measurement, report, command)."""
 import json
+import os
 
 import numpy as np
 import pytest
@@ -100,6 +101,11 @@ def test_report_files_and_targets(two_link_rows, tmp_path):
     k = two_link_rows[1].evaluation.horizons["5"]["successes"]
     assert format_rate(k, 6) in tables(report)
     assert paths["figure"].read_bytes()[:4] == b"\x89PNG"
+    # Sweeps per agent, agent N first, also from the JSON read back (its keys are sorted).
+    shipped = load_policy("decentralized_full")
+    sweeps = " / ".join(str(a.info["iterations"]) for a in shipped.agents)
+    assert [a.name for a in shipped.agents] == ["agent2", "agent1"]
+    assert f"| {sweeps} |" in markdown(json.loads(paths["json"].read_text()), "x")
     # Targets: met or missed on the rate of the row they name.
     def cell(k):
         return {"successes": k, "n": 64, "rate": k / 64, "median_settle": 2.0,
@@ -150,3 +156,10 @@ def test_command_writes_the_report(tmp_path, capsys):
         (2, "centralized", "run"), (2, "decentralized", "run")]
     assert report["options"]["max_bytes"] == 2 * GIB and report["options"]["poses"] == 2
     assert sorted(p.name for p in out.iterdir()) == sorted(FILES.values())
+
+
+def test_fresh_process_hands_back_errors_and_deaths():
+    with pytest.raises(ValueError, match="poses must be a whole number"):
+        scaling._in_fresh_process(scaling.check_poses, (0,))
+    with pytest.raises(scaling._ProcessDied, match="exit code 3 before answering"):
+        scaling._in_fresh_process(os._exit, (3,))

@@ -31,8 +31,6 @@ import multiprocessing
 import os
 import time
 import tracemalloc
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from typing import Optional
 
 import numpy as np
@@ -151,7 +149,8 @@ def check_peak_method(method: str) -> str:
 class Synthesis:
     """One synthesis, measured: the whole call's wall and CPU seconds (CPU of every
     thread of the process), its peak memory and how that was measured, the Q-values and
-    non-zeros of T over all agents, and per agent its Q size, non-zeros and sweeps."""
+    non-zeros of T over all agents, and per agent (in synthesis order: agent N first) its
+    name, Q size, non-zeros and sweeps."""
 
     wall_seconds: float
     cpu_seconds: float
@@ -159,13 +158,13 @@ class Synthesis:
     peak_method: str
     q_values: int
     nnz: int
-    agents: dict
+    agents: list
     construction: str
     matches_shipped_policy: Optional[bool] = None
 
     @property
     def sweeps(self) -> dict:
-        return {name: a["sweeps"] for name, a in self.agents.items()}
+        return {a["name"]: a["sweeps"] for a in self.agents}
 
 
 @dataclasses.dataclass
@@ -266,7 +265,7 @@ def _policy(links: int, rule: str, scheme: str, max_bytes: int):
 
 def _agent_info(agent) -> dict:
     info = agent.info
-    return {"q_size": int(agent.q.size),
+    return {"name": agent.name, "q_size": int(agent.q.size),
             "nnz": int(info.get("transition_nnz", info.get("nnz", 0))),
             "sweeps": int(info["iterations"]),
             "seconds": float(info.get("seconds", float("nan")))}
@@ -330,11 +329,11 @@ def synthesize_measured(links: int, rule: str, scheme: str, *, max_bytes: int,
         cpu0, t0 = time.process_time(), time.perf_counter()
         policy, how = _policy(links, rule, scheme, max_bytes)
         wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
-    agents = {a.name: _agent_info(a) for a in policy.agents}
+    agents = [_agent_info(a) for a in policy.agents]
     shipped = matches_shipped(f"{scheme}_full", policy) if links == 2 else None
     return policy, Synthesis(wall, cpu, int(mem["bytes"]), peak,
-                             sum(a["q_size"] for a in agents.values()),
-                             sum(a["nnz"] for a in agents.values()), agents, how, shipped)
+                             sum(a["q_size"] for a in agents),
+                             sum(a["nnz"] for a in agents), agents, how, shipped)
 
 
 def truncated(traj: Trajectory, duration: float) -> Trajectory:
@@ -406,16 +405,56 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
             return row
     args = (links, rule, scheme, poses, seed, max_bytes, peak, peak == "process")
     try:
-        if peak == "process":
-            ctx = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(1, mp_context=ctx) as pool:
-                row.synthesis, row.evaluation = pool.submit(_cell, *args).result()
-        else:
-            row.synthesis, row.evaluation = _cell(*args)
-    except (BrokenProcessPool, MemoryError) as exc:
+        cell = _in_fresh_process(_cell, args) if peak == "process" else _cell(*args)
+        row.synthesis, row.evaluation = cell
+    except (_ProcessDied, MemoryError) as exc:
         row.status = "failed"
-        row.note = f"failed: {type(exc).__name__}: {exc}".strip()
+        row.note = f"failed: {type(exc).__name__.lstrip('_')}: {exc}"
     return row
+
+
+class _ProcessDied(RuntimeError):
+    """The fresh process of a cell ended without an answer (killed, out of memory)."""
+
+
+def _child(conn, fn, args) -> None:
+    try:
+        answer = ("ok", fn(*args))
+    except BaseException as exc:             # noqa: BLE001 - handed to the parent
+        answer = ("error", exc)
+    try:
+        conn.send(answer)
+    except Exception:                        # an exception that does not pickle
+        conn.send(("error", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}")))
+    finally:
+        conn.close()
+
+
+def _in_fresh_process(fn, args):
+    """``fn(*args)`` in a freshly spawned process; its exception re-raised here. The
+    process is ended if this one is interrupted or terminated."""
+    ctx = multiprocessing.get_context("spawn")
+    receive, send = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(send, fn, args), daemon=True)
+    proc.start()
+    send.close()
+    try:
+        try:
+            status, value = receive.recv()
+        except EOFError:
+            proc.join()
+            code = proc.exitcode
+            why = f"signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+            raise _ProcessDied(f"the synthesis process ended with {why} before answering"
+                               + (" (killed: out of memory?)" if code == -9 else "")) from None
+    finally:
+        if proc.is_alive():
+            proc.terminate()
+        proc.join()
+        receive.close()
+    if status == "error":
+        raise value
+    return value
 
 
 def plan(links=tuple(range(MIN_LINKS, MAX_LINKS + 1)), rules=LINK_RULES, *,

@@ -66,7 +66,7 @@ def _line(row: dict, short: float, long: float) -> list:
         if est.get("peak_bytes"):
             peak += f" (est. {size(est['peak_bytes'])})"
         time = f"{seconds(s['wall_seconds'])} / {seconds(s['cpu_seconds'])}"
-        sweeps = " / ".join(str(a["sweeps"]) for a in s["agents"].values())
+        sweeps = " / ".join(str(a["sweeps"]) for a in s["agents"])
     else:
         q = count(est["q_values"]) if "q_values" in est else "—"
         nnz = f"≈ {count(est['nnz'])} (est.)" if "nnz" in est else "—"
@@ -106,14 +106,24 @@ def target_lines(report: dict) -> list:
     return out
 
 
+def _shipped(report: dict) -> str:
+    got = [r["synthesis"]["matches_shipped_policy"] for r in report["rows"]
+           if r["links"] == 2 and r.get("synthesis")]
+    if not got:
+        return ""
+    return "; equal to the shipped files bit for bit" if all(got) else \
+        "; **not** equal to the shipped files"
+
+
 def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
     """The report as Markdown: what was measured and how, the tables, the targets."""
     o = report["options"]
     prov = report["provenance"]
-    method = {"process": "the growth of the peak resident set (ru_maxrss) of a fresh "
-                         "process over its resident set just before the synthesis (after "
-                         "the imports and a warm-up two-link synthesis that loads the "
-                         "compiled kernels)",
+    method = {"process": "measured in a fresh process per synthesis: the growth of its "
+                         "peak resident set (VmHWM, reset through /proc/self/clear_refs "
+                         "after `malloc_trim`) over its resident set just before the "
+                         "synthesis, after the imports and a warm-up two-link "
+                         "decentralized synthesis that loads the compiled kernels",
               "tracemalloc": "tracemalloc's peak during the synthesis (numpy arrays and "
                              "Python objects; numba's own allocations are not seen)"}
     lines = [
@@ -142,11 +152,13 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         "its estimate." + (" Quick run: centralized N ≥ 3 is not synthesised."
                            if o["quick"] else ""),
         "- **N = 2** rows are the registry's `centralized_full` and `decentralized_full` "
-        "(synthesised on the full model (6), the same for both rules); the paper's own "
-        "Table II figures for the simplified model (11) are in `twolink reproduce`.", "",
+        "(synthesised on the full model (6), measured once: Table I whatever the rule"
+        f"{_shipped(report)}); the paper's own Table II figures for the simplified model "
+        "(11) are in `twolink reproduce`.", "",
         tables(report), "",
         f"![scaling]({figure})", "",
         "## Targets (issue 11)", "",
+        *([f"Quick run ({o['poses']} poses): indicative only.", ""] if o["quick"] else []),
         *(target_lines(report) or ["- none of the targeted rows was measured"]), "",
         f"Machine: {prov.get('cpu_count')} CPUs ({prov.get('processor') or prov['machine']}), "
         f"{size(o['machine_bytes'])}; twolink {prov['twolink_version']}, MuJoCo "
@@ -210,8 +222,10 @@ def figure(report: dict, path) -> Path:
         ax.set_title(f"{title} ({rule0} links; hollow: estimate, not run)", fontsize=9)
         ax.set_ylabel(unit)
         ax.legend(fontsize=7)
-    for rule in o["rules"]:
-        for scheme in SCHEMES:
+    markers = ("o", "s", "D")
+    for ri, rule in enumerate(o["rules"]):
+        for si, scheme in enumerate(SCHEMES):
+            shift = 0.05 * (2 * si - 1) + 0.025 * ri
             for long, style in ((True, _RULE_STYLES[rule]), (False, ":")):
                 pts = []
                 for r in _rows(report, rule):
@@ -228,11 +242,10 @@ def figure(report: dict, path) -> Path:
                 n, rate, lo, hi = (np.array(v) for v in zip(*pts))
                 err = [np.maximum(0, rate - lo), np.maximum(0, hi - rate)]
                 what = "row's horizon" if long else f"{o['horizon_short']:g} s"
-                c.errorbar(n + (0.05 if scheme == "decentralized" else -0.05), rate,
-                           yerr=err if long else None, fmt="o" if long else "x", ls=style,
+                c.errorbar(n + shift, rate, yerr=err if long else None,
+                           fmt=markers[ri % len(markers)] if long else "x", ls=style,
                            color=_COLORS[scheme], capsize=3, ms=5, lw=1,
-                           alpha=1.0 if long else 0.6,
-                           label=f"{scheme}, {rule}, {what}")
+                           alpha=1.0 if long else 0.6, label=f"{scheme}, {rule}, {what}")
     c.set_ylim(-0.03, 1.05)
     c.set_ylabel("success rate [95 % Wilson]")
     c.set_title(f"success on MuJoCo, {o['poses']} poses ({o['horizon_short']:g} s for "
