@@ -13,7 +13,7 @@ from twolink.fqi import transition_matrix
 from twolink.fqi_factored import FactoredTable, factored_q_iteration
 from twolink.integrate import sample_step
 from twolink.parameters import DELTA, GAMMA, TABLE_I, chain
-from twolink.policy import TIE_TOLERANCE, greedy_indices, load_policy
+from twolink.policy import TIE_TOLERANCE, Policy, greedy_indices, load_policy
 from twolink.reward import centralized_reward
 
 
@@ -61,7 +61,7 @@ def test_factored_sweep_equals_a_plain_sparse_t(links):
     np.testing.assert_array_equal(one.q, result.q)
 
 
-def test_two_links_give_the_shipped_centralized_full():
+def test_two_links_give_the_shipped_centralized_full(tmp_path):
     shipped = load_policy("centralized_full").agents[0]
     pol = synthesize_centralized(TABLE_I)
     agent = pol.agents[0]
@@ -77,6 +77,9 @@ def test_two_links_give_the_shipped_centralized_full():
     assert pol.meta["parameters"] == TABLE_I.as_dict() and pol.meta["model"] == "full"
     assert set(pol.meta["timings"]) >= {"model_seconds", "table_seconds", "sweep_seconds",
                                         "cpu_seconds"}
+    assert pol.meta["bytes"]["stored_bytes"] == estimate(2).stored_bytes
+    back = Policy.load(pol.save(tmp_path / "centralized_2.npz"))
+    np.testing.assert_array_equal(back.agents[0].q, agent.q)
 
 
 def test_the_problem_of_three_links():
@@ -121,6 +124,7 @@ def test_refused_over_the_cap_with_the_estimate():
     (lambda: estimate(3, gamma=1.0), r"gamma must lie in \(0, 1\)"),
     (lambda: synthesize_centralized(TABLE_I, delta=0.0), r"delta must lie in \(0, 0.5\)"),
     (lambda: synthesize_centralized({"links": 3}), "p must be ArmParameters or"),
+    (lambda: synthesize_centralized(TABLE_I, threads=0), "threads must be a positive"),
     (lambda: factored_problem(chain(3), grid(2)), "a 3-link grid needs axes"),
 ])
 def test_bad_input_is_one_clear_line(call, message):

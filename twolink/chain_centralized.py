@@ -249,6 +249,8 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
         raise ValueError(f"p must be ArmParameters or ChainParameters, got {type(p).__name__}")
     est = check_size(p.links, refine, max_bytes, gamma=gamma, delta=delta)
     threads = default_threads() if threads is None else threads
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     g = grid(p.links, refine)
     table, rewards, clocks = factored_problem(p, g, progress=progress)
