@@ -29,6 +29,7 @@ from twolink.registry import SHIPPED
 from twolink.resources import output_dir
 from twolink.robustness_study import challenged_rollouts, check_horizon, level
 from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
+from twolink.tasks import horizon         # the default duration: 5 s, 8 s beyond two links
 from twolink.trajectory_io import save_csv, save_npz
 
 _X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
@@ -166,16 +167,6 @@ def challenge_of(args):
     ch = level(args.challenge, delay=args.delay, angle_noise_deg=args.angle_noise)
     check_horizon(ch, args.duration)
     return ch
-
-
-def horizon(links: int) -> float:
-    """The default duration of a run of an arm of ``links`` links: the paper's 5 s for
-    two, 8 s for more (the tapered links' torque limits need it)."""
-    return HORIZON if links == 2 else _CHAIN_HORIZON
-
-
-#: The default duration of an arm of three or more links (seconds).
-_CHAIN_HORIZON = 8.0
 
 
 def parse_x0(values, *, degrees: bool = False, seed: int = 0, links: int = 2,
