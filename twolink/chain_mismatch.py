@@ -17,6 +17,7 @@ import numpy as np
 from twolink.metrics import random_poses, settle_time, success, trajectory_gap, wilson_interval
 from twolink.parameters import ChainParameters
 from twolink.plants import make_plant
+from twolink.policy import check_links_match
 from twolink.rollout import rollout
 
 #: The plants compared, the model the policies were synthesised on first.
@@ -39,9 +40,7 @@ def measure(policies: dict, params: ChainParameters, *, poses: int, seed: int,
     if not policies:
         raise ValueError("no policies to measure")
     for label, policy in policies.items():
-        if getattr(policy, "links", 2) != links:
-            raise ValueError(f"policy {label} is for a {policy.links}-link arm, the arm has "
-                             f"{links} links")
+        check_links_match(policy, links, name=label)
     x0 = random_poses(links, poses, seed)
     results, gaps = {}, {}
     for label, policy in policies.items():

@@ -24,7 +24,7 @@ from twolink.parameters import (HORIZON, LINK_RULES, MAX_LINKS, MIN_LINKS, PAPER
                                 chain, check_links, state_names)
 from twolink.plants import MAX_ANGLE, PLANTS, SPEED_BOUND, check_states
 from twolink.plots import fig3
-from twolink.policy import load_policy, shipped_policies
+from twolink.policy import check_links_match, load_policy, shipped_policies
 from twolink.registry import SHIPPED
 from twolink.resources import output_dir
 from twolink.robustness_study import challenged_rollouts, check_horizon, level
@@ -71,8 +71,7 @@ def default_policy(links: int, rule: str) -> str:
     if links == 2:
         return "centralized"
     for name, entry in SHIPPED.items():
-        if (getattr(entry, "links", 2), getattr(entry, "rule", "tapered")) == (links, rule) \
-                and entry.file.is_file():
+        if (entry.links, entry.rule) == (links, rule) and entry.file.is_file():
             return name
     extra = "" if rule == LINK_RULES[0] else f" --rule {rule}"
     raise ValueError(f"no policy for a {links}-link arm ({rule} links) is shipped; give "
@@ -81,12 +80,11 @@ def default_policy(links: int, rule: str) -> str:
 
 
 def check_policy_links(label: str, policy, links: int) -> None:
-    """A ValueError naming both numbers if ``policy`` is for an arm of other than
-    ``links`` links."""
-    have = getattr(policy, "links", 2)
-    if have != links:
-        raise ValueError(f"policy {label} is for a {have}-link arm, but the arm has {links} "
-                         f"links (--links {links})")
+    """:func:`twolink.policy.check_links_match`'s one line, naming the option."""
+    try:
+        check_links_match(policy, links, name=label)
+    except ValueError as exc:
+        raise ValueError(f"{exc} (--links {links})") from None
 
 
 def check_two_link_options(args, links: int) -> None:
