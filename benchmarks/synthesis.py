@@ -609,12 +609,32 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         t0, c0 = time.perf_counter(), time.process_time()
         pol = core.synthesize("centralized", model="full", robust="worst", draws=k,
                               spread=0.2, seed=ROBUST_SEED)
-        return time.perf_counter() - t0, pol.agents[0].info, time.process_time() - c0
+        return (time.perf_counter() - t0, pol.agents[0].info, time.process_time() - c0,
+                pol.agents[0].q)
+
+    def mirror(k, weights):
+        """``solve_robust``'s steps through the public pieces, the tables in ``weights``:
+        (seconds, Q, sweeps, (model, table, sweep seconds))."""
+        t0 = time.perf_counter()
+        problems = [core.centralized_problem(m, model="full", compiled=True)
+                    for m in core.parameter_draws(TABLE_I, k, 0.2, ROBUST_SEED)]
+        t1 = time.perf_counter()
+        table = robust_table(problems[0].grid, [pr.next_points for pr in problems],
+                             weights=weights)
+        t2 = time.perf_counter()
+        res = fuzzy_q_iteration_robust(table, [pr.rewards for pr in problems], mode="worst")
+        t3 = time.perf_counter()
+        return t3 - t0, res.q, res.iterations, (t1 - t0, t2 - t1, t3 - t2)
 
     once(2)                                   # loads the compiled kernels
+    mirror(2, "float32")
     rows, summary = [], {}
     for k in draws:
-        runs = [once(k) for _ in range(max(1, repeats))]
+        runs, fast = [], {"float64": [], "float32": []}
+        for _ in range(max(1, repeats)):                   # interleaved
+            runs.append(once(k))
+            for w in fast:
+                fast[w].append(mirror(k, w))
         best = min(r[0] for r in runs)
         part = {name: min(r[1][name] for r in runs)
                 for name in ("model_seconds", "table_seconds", "sweep_seconds")}
@@ -634,6 +654,24 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         ]
         summary[k] = {"total": best, "cpu": min(r[2] for r in runs), "iterations": sweeps,
                       **part}
+        q64 = fast["float64"][-1][1]
+        if not np.array_equal(q64, runs[-1][3]):
+            raise RuntimeError("the mirrored robust synthesis differs from synthesize()")
+        for w, wruns in fast.items():
+            w_best = min(r[0] for r in wruns)
+            split = [min(r[3][i] for r in wruns) for i in range(3)]
+            dq = float(np.max(np.abs(wruns[-1][1] - q64)))
+            bins = int(np.sum(greedy_indices(wruns[-1][1]) != greedy_indices(q64)))
+            rows.append(Row(sec, f"{w} tables: total (problems + robust_table + sweeps)",
+                            w_best, "s",
+                            f"best of {len(wruns)}, interleaved with synthesize(); models "
+                            f"{split[0]:.3f} s, table {split[1]:.3f} s, {wruns[-1][2]} sweeps "
+                            f"{split[2]:.3f} s; max|dQ| vs float64 {dq:.2g}, {bins} greedy "
+                            f"bins moved"))
+            summary[k][w] = {"total": w_best, "model_seconds": split[0],
+                             "table_seconds": split[1], "sweep_seconds": split[2],
+                             "iterations": wruns[-1][2], "max_dq": dq,
+                             "greedy_bins_moved": bins}
     return rows, summary
 
 
