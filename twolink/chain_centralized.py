@@ -215,8 +215,8 @@ def factored_problem(p, g: Optional[fuzzy.Grid] = None, *, progress: bool = Fals
               disable=None if progress else True, mininterval=0.25) as bar:
         for r0 in range(0, n_slice, step):
             t0, c0 = time.perf_counter(), time.process_time()
-            x = np.concatenate([np.zeros((len(rest[r0:r0 + step]), 1)), rest[r0:r0 + step]],
-                               axis=1)
+            block = rest[r0:r0 + step]
+            x = np.concatenate([np.zeros((len(block), 1)), block], axis=1)
             y = sample_step(accel, params, x[:, None, :], acts[None, :, :])
             first = wrap_angle(theta1[None, None, :] + y[..., :1])      # (n, N_U, B)
             inside = link_in_band(first, y[..., n:n + 1])
