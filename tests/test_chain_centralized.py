@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from reference_fqi import fuzzy_q_iteration_reference
 from twolink import dynamics, fuzzy
 from twolink.chain_centralized import (actions, check_size, estimate,
                                        factored_problem, grid, synthesize_centralized)
@@ -59,6 +60,21 @@ def test_factored_sweep_equals_a_plain_sparse_t(links):
     assert np.ptp(q_ref) > 1.0          # the goal is reached from some bins, not from others
     one = factored_q_iteration(table, rewards, threads=1)
     np.testing.assert_array_equal(one.q, result.q)
+
+
+def test_two_links_follow_alg1_as_printed():
+    """The factored sweep against the plain loop of Alg. 1 with memberships from (13)
+    (tests/reference_fqi.py), every centre integrated as it is."""
+    p = chain(2)
+    g = _coarse(2)
+    acts = actions(p)
+    nxt = sample_step(dynamics.full_acceleration, p.as_arm(), g.centers()[:, None, :],
+                      acts[None, :, :])
+    q_ref, sweeps = fuzzy_q_iteration_reference(g, nxt, centralized_reward(nxt))
+    table, rewards, _ = factored_problem(p, g)
+    result = factored_q_iteration(table, rewards)
+    assert result.iterations == sweeps
+    np.testing.assert_allclose(result.q, q_ref, rtol=0, atol=1e-12)
 
 
 def test_two_links_give_the_shipped_centralized_full(tmp_path):
