@@ -17,10 +17,13 @@ How an agent reads its transitions (:class:`Construction`, recorded in the polic
 * ``speed_context`` - the context includes dtheta_{i+1} (otherwise link i + 1 starts
   each transition at rest);
 * ``extra_speed_bins`` - two more speed bins at +-6 deg/s on the agents' own speed axes
-  (``own``), on the context speed axes (``context``), on both, or on none;
-* ``lock_inner`` - which agents hold their inner joints 1..i-1 fixed in their transition
-  model: ``none`` (the two-link reading: inner links free and at rest), ``middle`` (every
-  agent but the outermost) or ``all``;
+  (``own``), on the context speed axes (``context``), on both, on every axis but the
+  outermost agent's own (``inner``), or on none;
+* ``lock_inner`` - which inner joints an agent holds fixed in its transition model:
+  ``none`` (the two-link reading: inner links free and at rest), ``middle`` (every agent
+  but the outermost holds all of its inner joints 1..i-1), ``near`` (every agent but the
+  outermost holds its inner neighbour's joint i-1 only; the others stay free at rest) or
+  ``all`` (every agent holds joints 1..i-1);
 * ``beyond`` - the links i + 2..N start each transition at rest at angle 0 and either
   move freely without torque (``rest``) or are held rigid to link i + 1 (``locked``).
 
@@ -52,9 +55,9 @@ from twolink.reward import agent_reward
 from twolink.synthesis import CONTEXTS, Problem, _levels, _step, check_sweeps, solve
 
 #: Which speed axes get the two extra bins at +-:data:`EXTRA_SPEED_DEG`.
-EXTRA_BINS = ("none", "own", "context", "both")
+EXTRA_BINS = ("none", "own", "context", "both", "inner")
 #: Which agents hold their inner joints fixed in their transition model.
-LOCKS = ("none", "middle", "all")
+LOCKS = ("none", "middle", "all", "near")
 #: What the links beyond the context link do during an agent's transition.
 BEYOND = ("rest", "locked")
 #: The extra speed bins (deg/s), one on each side of zero.
@@ -94,7 +97,7 @@ TWO_LINK_DEFAULT = Construction()
 #: The default construction for three links and more (chosen on development seeds,
 #: ``scripts/chain_study.py``).
 CHAIN_DEFAULT = Construction(context="propagated", speed_context=True,
-                             extra_speed_bins="both", lock_inner="middle", beyond="rest")
+                             extra_speed_bins="inner", lock_inner="near", beyond="rest")
 
 
 def construction(links: int, **options) -> Construction:
@@ -118,20 +121,22 @@ def agent_grid(i: int, p: ChainParameters, c: Construction) -> fuzzy.Grid:
     """Agent i's fuzzy grid over (theta_i, dtheta_i[, theta_{i+1}, [dtheta_{i+1},]
     tau_{i+1}]); the torque axis is the three torque values of link i + 1."""
     n = p.links
+    extra = c.extra_speed_bins
     axes = [fuzzy.angle_axis(f"theta{i}"),
-            _speed_axis(f"dtheta{i}", c.extra_speed_bins in ("own", "both"))]
+            _speed_axis(f"dtheta{i}", extra in ("own", "both") or (extra == "inner" and i < n))]
     if i < n:
         axes.append(fuzzy.angle_axis(f"theta{i + 1}"))
         if c.speed_context:
-            axes.append(_speed_axis(f"dtheta{i + 1}", c.extra_speed_bins in ("context", "both")))
+            axes.append(_speed_axis(f"dtheta{i + 1}", extra in ("context", "both", "inner")))
         axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i])))
     return fuzzy.Grid(tuple(axes))
 
 
 def locked_joints(i: int, links: int, c: Construction) -> tuple:
     """The joints agent i's transition model holds fixed, as a boolean per joint."""
-    inner = c.lock_inner == "all" or (c.lock_inner == "middle" and i < links)
-    return tuple((j < i and inner) or (j > i + 1 and c.beyond == "locked")
+    inner = c.lock_inner == "all" or (c.lock_inner in ("middle", "near") and i < links)
+    first = i - 1 if c.lock_inner == "near" else 1
+    return tuple((first <= j < i and inner) or (j > i + 1 and c.beyond == "locked")
                  for j in range(1, links + 1))
 
 

@@ -53,7 +53,8 @@ class ShippedPolicy:
 ROBUST_SEED = 2006
 
 #: Every shipped policy, in report order: the paper's three, the two on (6), the two
-#: robust ones (worst case over K = 8 models within +-20 %, on (6)).
+#: robust ones (worst case over K = 8 models within +-20 %, on (6)), then the three-link
+#: agents (issue 11).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
                   "the centralized policy (16) on the simplified model (11)"),
@@ -73,6 +74,10 @@ SHIPPED = {p.name: p for p in (
                   "the decentralized agents (18) on (6), each the worst case over 8 models "
                   "within +-20 %, frozen context",
                   robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
+    ShippedPolicy("decentralized_3link", "decentralized", "full", "propagated", False,
+                  "one agent per joint of the three-link tapered arm (twolink.chain_agents) "
+                  "on its full model: the middle agent holds joint 1, propagated context "
+                  "with the neighbour's speed", links=3, rule="tapered"),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
