@@ -14,12 +14,14 @@ import time
 import warnings
 from unittest import mock
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 
 from benchmarks.common import (Row, available_ram_bytes, best_time, copy_bandwidth,
                                interleaved_best, peak_bytes, total_ram_bytes)
 from twolink import synthesis as core
+from twolink._numba import cache_wanted
 from twolink.fqi import (TransitionTable, fuzzy_q_iteration, fuzzy_q_iteration_robust,
                          robust_table, transition_matrix, transition_table)
 from twolink.integrate import sample_step_compiled
@@ -117,98 +119,96 @@ def _no_op(*args, **kwargs):
 # --------------------------------------------------------------------------- sweep variants
 # Reorderings of the row sums that the package does not ship, measured beside its kernels
 # (twolink.fqi_kernel) to say what each buys: the same fused sweep (V = max_u Q,
-# Q' = rho + gamma T V, the change), only the row sum differs. Not cached, compiled on
-# first use (outside the timings).
-def _variant(row_sum):
-    """A synchronous sweep kernel around ``row_sum(index, weight, row, v)``; it runs
-    exactly ``n`` sweeps and returns the last change (Q_n in ``q_next`` when n is odd)."""
-    import numba
+# Q' = rho + gamma T V, the change), only the row sum differs.
+_REASSOC = {"reassoc", "nsz", "contract"}
+_CACHE = cache_wanted(__file__)
 
-    @numba.njit(nogil=True)
-    def sweeps(index, weight, r, q, q_next, v, v_next, gamma, n):
-        n_rows = index.shape[0]
-        n_x = v.shape[0]
-        n_u = n_rows // n_x
+
+@numba.njit(nogil=True, cache=_CACHE, fastmath=_REASSOC)
+def _row_vectorised(index, weight, row, v):
+    """The row in any order: the compiler reassociates and vectorises it (with gathers)."""
+    s = 0.0
+    for k in range(index.shape[1]):
+        s += weight[row, k] * v[index[row, k]]
+    return s
+
+
+@numba.njit(nogil=True, cache=_CACHE)
+def _row_partial4(index, weight, row, v):
+    """Four independent accumulators (entries k mod 4), added pairwise at the end."""
+    s0 = s1 = s2 = s3 = 0.0
+    width = index.shape[1]
+    k = 0
+    while k + 3 < width:
+        s0 += weight[row, k] * v[index[row, k]]
+        s1 += weight[row, k + 1] * v[index[row, k + 1]]
+        s2 += weight[row, k + 2] * v[index[row, k + 2]]
+        s3 += weight[row, k + 3] * v[index[row, k + 3]]
+        k += 4
+    while k < width:
+        s0 += weight[row, k] * v[index[row, k]]
+        k += 1
+    return (s0 + s1) + (s2 + s3)
+
+
+@numba.njit(nogil=True, cache=_CACHE, fastmath=_REASSOC)
+def _row_stream(index, weight, row, v):
+    """Index and weight read, vectorised, without gathering V: the table's bytes alone
+    (a floor, not a sweep)."""
+    s = 0.0
+    for k in range(index.shape[1]):
+        s += weight[row, k] * index[row, k]
+    return s * 1e-300
+
+
+#: The variants by name, as :func:`_variant_sweeps` numbers them.
+VARIANTS = ("vectorised", "4 partial sums", "stream only")
+
+
+@numba.njit(nogil=True, cache=_CACHE)
+def _variant_sweeps(variant, index, weight, r, q, q_next, v, v_next, gamma, n):
+    """Exactly ``n`` synchronous sweeps with the row sum of ``VARIANTS[variant]`` (a branch
+    the compiler hoists out of the loops); Q_n ends in ``q_next`` when n is odd."""
+    n_rows = index.shape[0]
+    n_x = v.shape[0]
+    n_u = n_rows // n_x
+    change = 0.0
+    for _ in range(n):
         change = 0.0
-        for _ in range(n):
-            change = 0.0
-            for m in range(n_x):
-                best = -np.inf
-                for j in range(n_u):
-                    row = m * n_u + j
-                    new = r[row] + gamma * row_sum(index, weight, row, v)
-                    d = abs(new - q[row])
-                    if d > change:
-                        change = d
-                    q_next[row] = new
-                    if new > best:
-                        best = new
-                v_next[m] = best
-            q, q_next = q_next, q
-            v, v_next = v_next, v
-        return change
-    return sweeps
+        for m in range(n_x):
+            best = -np.inf
+            for j in range(n_u):
+                row = m * n_u + j
+                if variant == 0:
+                    s = _row_vectorised(index, weight, row, v)
+                elif variant == 1:
+                    s = _row_partial4(index, weight, row, v)
+                else:
+                    s = _row_stream(index, weight, row, v)
+                new = r[row] + gamma * s
+                d = abs(new - q[row])
+                if d > change:
+                    change = d
+                q_next[row] = new
+                if new > best:
+                    best = new
+            v_next[m] = best
+        q, q_next = q_next, q
+        v, v_next = v_next, v
+    return change
 
 
-def _row_sums():
-    """name -> row sum: "vectorised" lets the compiler reassociate the row (it vectorises
-    with gathers), "4 partial sums" keeps four independent accumulators, "stream only"
-    reads the index and weight, vectorised, without gathering V (the table's bytes
-    alone: a floor, not a sweep)."""
-    import numba
-
-    @numba.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
-    def vectorised(index, weight, row, v):
-        s = 0.0
-        for k in range(index.shape[1]):
-            s += weight[row, k] * v[index[row, k]]
-        return s
-
-    @numba.njit(nogil=True)
-    def partial4(index, weight, row, v):
-        s0 = s1 = s2 = s3 = 0.0
-        width = index.shape[1]
-        k = 0
-        while k + 3 < width:
-            s0 += weight[row, k] * v[index[row, k]]
-            s1 += weight[row, k + 1] * v[index[row, k + 1]]
-            s2 += weight[row, k + 2] * v[index[row, k + 2]]
-            s3 += weight[row, k + 3] * v[index[row, k + 3]]
-            k += 4
-        while k < width:
-            s0 += weight[row, k] * v[index[row, k]]
-            k += 1
-        return (s0 + s1) + (s2 + s3)
-
-    @numba.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
-    def stream(index, weight, row, v):
-        s = 0.0
-        for k in range(index.shape[1]):
-            s += weight[row, k] * index[row, k]
-        return s * 1e-300
-
-    return {"vectorised": vectorised, "4 partial sums": partial4, "stream only": stream}
-
-
-_VARIANTS: dict = {}
-
-
-def sweep_variants() -> dict:
-    """The variant kernels by name (compiled once per process)."""
-    if not _VARIANTS:
-        _VARIANTS.update({name: _variant(f) for name, f in _row_sums().items()})
-    return _VARIANTS
-
-
-def _variant_run(kernel, table: TransitionTable, rewards: np.ndarray, n: int):
-    """A callable running ``n`` sweeps of ``kernel`` from Q_0 = 0 on ``table``; returns Q_n."""
+def _variant_run(name: str, table: TransitionTable, rewards: np.ndarray, n: int):
+    """A callable running ``n`` sweeps of variant ``name`` from Q_0 = 0 on ``table``;
+    returns Q_n."""
+    variant = VARIANTS.index(name)
     r = np.ascontiguousarray(rewards, dtype=float).reshape(-1)
     n_x = rewards.shape[0]
 
     def go():
         q, q_next = np.zeros(r.size), np.empty(r.size)
         v, v_next = np.zeros(n_x), np.empty(n_x)
-        kernel(table.index, table.weight, r, q, q_next, v, v_next, GAMMA, n)
+        _variant_sweeps(variant, table.index, table.weight, r, q, q_next, v, v_next, GAMMA, n)
         return (q_next if n % 2 else q).reshape(rewards.shape)
 
     return go
@@ -308,8 +308,8 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         return fuzzy_q_iteration(table32, problem.rewards, delta=1e-300, min_iterations=n,
                                  max_iterations=n)
 
-    variants = {f"{vname}, {tb.weights}": _variant_run(kernel, tb, problem.rewards, n)
-                for vname, kernel in sweep_variants().items() for tb in (table, table32)}
+    variants = {f"{vname}, {tb.weights}": _variant_run(vname, tb, problem.rewards, n)
+                for vname in VARIANTS for tb in (table, table32)}
     for fn in variants.values():
         fn()                                                # compile outside the timings
 

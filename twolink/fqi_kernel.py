@@ -13,7 +13,7 @@ Why the sums stay in index order: on the paper's centralized problem (T in the L
 cache) a sweep is bound by the three loads per entry (index, weight, gathered V), not
 by the dependent additions nor by the bytes; vectorised reorderings (gathers, partial
 sums) measured slower here, float32 weights about even. ``benchmarks/synthesis.py``
-measures those variants beside these kernels (``sweep_variants``).
+measures those variants beside these kernels (``VARIANTS``).
 
 The kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once ``min_done``
 sweeps are done) and write each sweep's change into ``history``; they return the
