@@ -14,6 +14,8 @@ before; more links are :func:`twolink.parameters.chain`. Episodes last
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from twolink.challenges import Challenge, challenge as challenge_named
@@ -200,12 +202,16 @@ def check_challenge(challenge, **separate) -> Challenge | None:
     return challenge_named(challenge)
 
 
+@functools.lru_cache(maxsize=None)
+def _indices(links: int, key: str) -> list:
+    names = state_names(links)
+    return [names.index(c) for c in observation_names(links)[key]]
+
+
 def observe(x: np.ndarray, key: str) -> np.ndarray:
     """The observation ``key`` of :func:`observation_names` from states x (..., 2N)."""
     x = np.asarray(x)
-    n = x.shape[-1] // 2
-    names = state_names(n)
-    return x[..., [names.index(c) for c in observation_names(n)[key]]]
+    return x[..., _indices(x.shape[-1] // 2, key)]
 
 
 def check_policy_links(policy, links: int) -> None:
