@@ -235,7 +235,12 @@ def refusal(est: dict, max_bytes: int) -> Optional[str]:
     need = est["peak_bytes"]
     if need <= max_bytes:
         return None
-    return f"refused: needs {need / _GIB:.1f} GiB > cap {max_bytes / _GIB:.1f} GiB"
+    return f"refused: needs {_gib(need)} GiB > cap {_gib(max_bytes)} GiB"
+
+
+def _gib(b: int) -> str:
+    g = b / _GIB
+    return f"{g:.1f}" if g < 1000 else f"{g:.2g}"
 
 
 def params_of(links: int, rule: str):
@@ -418,6 +423,8 @@ class _ProcessDied(RuntimeError):
 
 
 def _child(conn, fn, args) -> None:
+    import threading
+    tqdm.set_lock(threading.RLock())         # no multiprocessing lock for a silent bar
     try:
         answer = ("ok", fn(*args))
     except BaseException as exc:             # noqa: BLE001 - handed to the parent

@@ -22,8 +22,8 @@ _RULE_STYLES = {"Table I": "-", "tapered": "-", "copied": "--"}
 
 
 def count(n) -> str:
-    """A whole number with thin groups: 16 003 008."""
-    return f"{int(n):,}".replace(",", " ")
+    """A whole number with groups of three, 16 003 008; from 10^12 on as 1.05e+18."""
+    return f"{int(n):,}".replace(",", " ") if n < 1e12 else f"{n:.3g}"
 
 
 def size(b) -> str:

@@ -26,7 +26,7 @@ def add_parser(sub):
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--quick", action="store_true",
                    help=f"N <= {QUICK_MAX_LINKS}, {QUICK_POSES} poses, no centralized "
-                        f"synthesis beyond two links (about two minutes)")
+                        f"synthesis beyond two links (under a minute on an idle 2-core machine)")
     p.add_argument("--links", type=int, nargs="+", metavar="N", default=None,
                    help=f"arm sizes, {MIN_LINKS} to {MAX_LINKS} (default all; "
                         f"{MIN_LINKS} to {QUICK_MAX_LINKS} with --quick)")
