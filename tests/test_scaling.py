@@ -135,6 +135,7 @@ def test_peak_measured_in_a_fresh_process():
     (["--max-memory", "nan"], "--max-memory must be more than 0"),
     (["--rules", "diagonal"], "unknown link rule 'diagonal'"),
     (["--quick", "--links", "5"], "quick runs go up to 4 links"),
+    (["--seed", "-1"], "seed must be a whole number from 0"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, tmp_path, capsys):
     out = tmp_path / "out"

@@ -72,6 +72,7 @@ PEAK_METHODS = ("process", "tracemalloc")
 STATUSES = ("run", "refused", "not run (quick)", "failed")
 
 _GIB = 2.0**30
+_MAX_SEED = 2**63 - MAX_LINKS
 
 
 def horizon(links: int) -> float:
@@ -134,6 +135,13 @@ def check_max_bytes(max_bytes) -> int:
         raise ValueError(f"the memory cap must be more than 0 and at most this machine's "
                          f"{total / _GIB:.1f} GiB, got {shown}")
     return int(max_bytes)
+
+
+def check_seed(seed) -> int:
+    """An evaluation seed: a whole number from 0 (N links draw from seed + N)."""
+    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < _MAX_SEED:
+        raise ValueError(f"seed must be a whole number from 0 to {_MAX_SEED - 1}, got {seed}")
+    return int(seed)
 
 
 def check_peak_method(method: str) -> str:
@@ -486,9 +494,7 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
         links = range(MIN_LINKS, (QUICK_MAX_LINKS if quick else MAX_LINKS) + 1)
     cells = plan(links, rules, quick=quick)
     poses = check_poses((QUICK_POSES if quick else DEFAULT_POSES) if poses is None else poses)
-    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2**32 - MAX_LINKS:
-        raise ValueError(f"seed must be a whole number from 0 to {2**32 - MAX_LINKS - 1}, "
-                         f"got {seed}")
+    seed = check_seed(seed)
     max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
     check_peak_method(peak)
     rows = []

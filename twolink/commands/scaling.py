@@ -14,9 +14,10 @@ from pathlib import Path
 from twolink.artifacts import check_outputs
 from twolink.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
 from twolink.resources import output_dir
-from twolink.scaling import (DEFAULT_POSES, EVAL_SEED, MAX_POSES, PEAK_METHODS, QUICK_MAX_LINKS,
-                             QUICK_POSES, check_link_list, check_max_bytes, check_poses,
-                             check_rules, default_max_bytes, machine_bytes, plan, scaling)
+from twolink.scaling import (DEFAULT_POSES, EVAL_SEED, MAX_POSES, PEAK_METHODS,
+                             QUICK_MAX_LINKS, QUICK_POSES, check_link_list, check_max_bytes,
+                             check_poses, check_rules, check_seed, default_max_bytes,
+                             machine_bytes, plan, scaling)
 from twolink.scaling_report import FILES, tables, target_lines, write
 
 
@@ -87,6 +88,7 @@ def run(args) -> int:
     check_rules(args.rules)
     if args.poses is not None:
         check_poses(args.poses)
+    check_seed(args.seed)
     max_bytes = _max_bytes(args.max_memory)
     plan(args.links or [MIN_LINKS], args.rules, quick=args.quick)
     out = args.out or output_dir() / ("scaling-quick" if args.quick else "scaling")
