@@ -281,7 +281,7 @@ def _agent_info(agent) -> dict:
     return {"name": agent.name, "q_size": int(agent.q.size),
             "nnz": int(info.get("transition_nnz", info.get("nnz", 0))),
             "sweeps": int(info["iterations"]),
-            "seconds": float(info.get("seconds", float("nan")))}
+            "seconds": float(info["seconds"]) if "seconds" in info else None}
 
 
 def _status_bytes(key: str) -> int:
