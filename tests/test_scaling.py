@@ -75,6 +75,7 @@ def test_two_link_rows_are_the_shipped_full_model_policies(two_link_rows):
         s = row.synthesis
         assert row.status == "run" and row.rule == "Table I"
         assert s.q_values == sizes[row.scheme] and s.matches_shipped_policy is True
+        assert s.shipped_policy == f"{row.scheme}_full"
         shipped = load_policy(f"{row.scheme}_full")
         assert s.sweeps == {a.name: a.info["iterations"] for a in shipped.agents}
         assert 0 < s.peak_bytes < 512 * 2**20 and s.peak_method == "tracemalloc"
@@ -98,6 +99,8 @@ def test_report_files_and_targets(two_link_rows, tmp_path):
     assert json.loads(paths["json"].read_text())["rows"][2]["status"] == "refused"
     md = paths["markdown"].read_text()
     assert "`twolink scaling --test`" in md and refused.note in md and "9 324" in md
+    assert ("the rows of `centralized_full`, `decentralized_full` equal the committed files "
+            "bit for bit") in md
     k = two_link_rows[1].evaluation.horizons["5"]["successes"]
     assert format_rate(k, 6) in tables(report)
     assert paths["figure"].read_bytes()[:4] == b"\x89PNG"

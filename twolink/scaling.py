@@ -158,7 +158,8 @@ class Synthesis:
     """One synthesis, measured: the whole call's wall and CPU seconds (CPU of every
     thread of the process), its peak memory and how that was measured, the Q-values and
     non-zeros of T over all agents, and per agent (in synthesis order: agent N first) its
-    name, Q size, non-zeros and sweeps."""
+    name, Q size, non-zeros and sweeps; whether the policy equals the shipped file it
+    rebuilds (:func:`shipped_counterpart`; None if there is none) bit for bit."""
 
     wall_seconds: float
     cpu_seconds: float
@@ -169,6 +170,7 @@ class Synthesis:
     agents: list
     construction: str
     matches_shipped_policy: Optional[bool] = None
+    shipped_policy: Optional[str] = None
 
     @property
     def sweeps(self) -> dict:
@@ -257,6 +259,17 @@ def params_of(links: int, rule: str):
     return TABLE_I if check_links(links) == 2 else chain(links, rule)
 
 
+def shipped_counterpart(links: int, rule: str, scheme: str) -> Optional[str]:
+    """The registry's shipped policy that a cell rebuilds, if any: ``centralized_full`` /
+    ``decentralized_full`` for two links, else a nominal (not robust) entry of the same
+    kind, links and rule on the full model (``decentralized_3link``)."""
+    if links == 2:
+        return f"{scheme}_full"
+    return next((name for name, e in SHIPPED.items()
+                 if (e.links, e.rule, e.kind, e.model, e.robust)
+                 == (links, rule, scheme, "full", None)), None)
+
+
 def _policy(links: int, rule: str, scheme: str, max_bytes: int):
     """The policy of one cell and a line saying how it was built."""
     if links == 2:
@@ -343,10 +356,11 @@ def synthesize_measured(links: int, rule: str, scheme: str, *, max_bytes: int,
         policy, how = _policy(links, rule, scheme, max_bytes)
         wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     agents = [_agent_info(a) for a in policy.agents]
-    shipped = matches_shipped(f"{scheme}_full", policy) if links == 2 else None
+    name = shipped_counterpart(links, rule, scheme)
+    shipped = None if name is None else matches_shipped(name, policy)
     return policy, Synthesis(wall, cpu, int(mem["bytes"]), peak,
                              sum(a["q_size"] for a in agents),
-                             sum(a["nnz"] for a in agents), agents, how, shipped)
+                             sum(a["nnz"] for a in agents), agents, how, shipped, name)
 
 
 def truncated(traj: Trajectory, duration: float) -> Trajectory:
