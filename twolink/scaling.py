@@ -511,6 +511,7 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
     seed = check_seed(seed)
     max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
     check_peak_method(peak)
+    load_before = os.getloadavg()
     rows = []
     with tqdm(cells, desc="scaling", unit=" rows", disable=None if progress else True) as bar:
         for n, rule, scheme in bar:
@@ -520,7 +521,8 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
     options = {"links": sorted({c[0] for c in cells}), "rules": list(check_rules(rules)),
                "quick": quick, "poses": poses, "seed": int(seed), "max_bytes": max_bytes,
                "machine_bytes": machine_bytes(), "peak_method": peak,
-               "horizon_short": HORIZON, "horizon_long": LONG_HORIZON}
+               "horizon_short": HORIZON, "horizon_long": LONG_HORIZON,
+               "load_average": {"before": list(load_before), "after": list(os.getloadavg())}}
     return Scaling(rows, options)
 
 

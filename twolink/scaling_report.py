@@ -122,6 +122,14 @@ def _shipped(report: dict) -> list:
                f"(or the files are missing)" if other else "") + "."]
 
 
+def _load(o: dict) -> str:
+    load = o.get("load_average")
+    if not load:
+        return ""
+    return (f", shared: load average {load['before'][0]:.1f} (1 min) before the run, "
+            f"{load['after'][0]:.1f} after")
+
+
 def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
     """The report as Markdown: what was measured and how, the tables, the targets."""
     o = report["options"]
@@ -150,9 +158,10 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         f"(`metrics.random_poses(N, {o['poses']}, {o['seed']} + N)`), with counts and "
         f"95 % Wilson intervals: settled (every link within 5° and 0.1 rad/s) at least "
         f"1 s before the end. The horizon is {o['horizon_short']:g} s for N = 2 (the "
-        f"paper's) and {o['horizon_long']:g} s for N ≥ 3 (the tapered outer links have "
-        f"half the torque of the link before; the {o['horizon_short']:g} s success is "
-        "the first seconds of the same runs). Median settle time over all poses at the "
+        f"paper's) and {o['horizon_long']:g} s for N ≥ 3 (a tapered link has half the "
+        "torque of the link before it; copied links make the inner motors turn a heavier "
+        f"chain); the {o['horizon_short']:g} s success is the first seconds of the same "
+        "runs. Median settle time over all poses at the "
         "row's horizon (\"never\" when more than half never settle).",
         f"- **Centralized cap**: {size(o['max_bytes'])} of estimated peak "
         f"(this machine: {size(o['machine_bytes'])}); above it a row is refused with "
@@ -169,7 +178,7 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         *([f"Quick run ({o['poses']} poses): indicative only.", ""] if o["quick"] else []),
         *(target_lines(report) or ["- none of the targeted rows was measured"]), "",
         f"Machine: {prov.get('cpu_count')} CPUs ({prov.get('processor') or prov['machine']}), "
-        f"{size(o['machine_bytes'])}; twolink {prov['twolink_version']}, MuJoCo "
+        f"{size(o['machine_bytes'])}{_load(o)}; twolink {prov['twolink_version']}, MuJoCo "
         f"{prov['mujoco_version']}, numpy {prov['numpy_version']}, Python {prov['python']}.",
         ""]
     return "\n".join(lines)
