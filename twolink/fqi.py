@@ -31,9 +31,12 @@ SWEEPS = ("synchronous", "serial")
 ROBUST_MODES = ("worst", "mean")
 #: Precisions of the fixed-width tables' weights: ``float64`` (the reference: each row summed
 #: in index order, Q equal to the scipy path bit for bit) or ``float32`` (opt-in: each
-#: membership rounded once to float32, a third fewer bytes per entry; the products and sums
+#: membership rounded once to float32, a third less memory for T; the products and sums
 #: stay float64 in index order, so Q moves by the weights' round-off only, below
-#: delta / 100 on the paper's problems: ``tests/test_fast_sweeps.py``).
+#: delta / 100 on the paper's problems: ``tests/test_fast_sweeps.py``). float32 saves
+#: memory more than time: with T in the cache a sweep is bound by instructions per entry
+#: and the conversion adds one; with T streamed from memory it gains a little (README,
+#: *Performance*).
 WEIGHTS = ("float64", "float32")
 
 
