@@ -1,11 +1,14 @@
-"""The opt-in float32 weights (twolink.fqi.WEIGHTS) against the float64 reference path.
+"""The opt-in fast paths of twolink.fqi against the float64 one-thread reference: float32
+weights (WEIGHTS) and sweeps split over threads.
 
 float32 tables are the float64 tables rounded once; the sweeps read them with float64
 products and sums in index order, so they equal the scipy sweep over the rounded T bit
 for bit, and differ from the reference Q by the weights' round-off: below delta / 100 on
-the paper's problems. Greedy actions: see ``test_float32_greedy_actions``.
+the paper's problems. Greedy actions: see ``test_float32_greedy_actions``. Threads change
+nothing: each row is summed as with one thread.
 """
 import dataclasses
+import os
 
 import numpy as np
 import pytest
@@ -196,3 +199,39 @@ def test_unknown_or_widened_weights_are_refused():
     with pytest.raises(ValueError, match="mix float32 and float64 weights"):
         fuzzy_q_iteration_robust([t32, t64], [p.rewards, p.rewards])
     assert fqi.check_weights("float32") == np.float32
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="threads=2 needs two cores")
+@pytest.mark.parametrize("weights", WEIGHTS)
+def test_threaded_sweeps_equal_one_thread_bit_for_bit(problems, weights):
+    """Bins split over two threads: every row is summed as with one, so Q, the changes and
+    the sweep count are the same bit for bit (plain and robust sweeps)."""
+    p = problems["agent1 frozen"]
+    t = transition_table(p.grid, p.next_points, weights=weights)
+    one = fuzzy_q_iteration(t, p.rewards)
+    seen = []
+    two = fuzzy_q_iteration(t, p.rewards, threads=2, callback=lambda ell, ch: seen.append(ch))
+    assert two.iterations == one.iterations and seen == list(one.history)
+    np.testing.assert_array_equal(two.q, one.q)
+    np.testing.assert_array_equal(two.history, one.history)
+    models = _coarse_models(3)
+    both = robust_table(models[0].grid, [m.next_points for m in models], weights=weights)
+    for mode in ("worst", "mean"):
+        a = fuzzy_q_iteration_robust(both, [m.rewards for m in models], mode=mode)
+        b = fuzzy_q_iteration_robust(both, [m.rewards for m in models], mode=mode, threads=2)
+        assert a.iterations == b.iterations
+        np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_bad_thread_counts_are_refused():
+    p = _coarse_models(1)[0]
+    t = transition_table(p.grid, p.next_points)
+    cores = os.cpu_count() or 1
+    for bad in (0, -1, 2.0, True, cores + 1, 10**9):
+        with pytest.raises(ValueError, match=rf"^threads must be a whole number in \[1, {cores}\]"):
+            fuzzy_q_iteration(t, p.rewards, threads=bad)
+        with pytest.raises(ValueError, match="threads must be a whole number"):
+            fuzzy_q_iteration_robust([t], [p.rewards], threads=bad)
+    if cores >= 2:
+        with pytest.raises(ValueError, match="serial sweeps .* cannot be split over threads"):
+            fuzzy_q_iteration(t, p.rewards, sweeps="serial", threads=2)

@@ -8,7 +8,8 @@ stored as the membership matrix T of shape (N_X * N_U, N_X): as a scipy CSR matr
 compiled sweeps read (:class:`TransitionTable`, at most 2**d memberships per row; K models
 side by side for the robust sweeps: :class:`RobustTable`). The weights are float64, the
 reference, or float32 on request (:data:`WEIGHTS`: a third fewer bytes, Q within the
-weights' round-off).
+weights' round-off). Synchronous and robust sweeps can split their bins over threads
+(``threads=``; the same Q bit for bit).
 Sweeps are synchronous (Q_{l+1} from Q_l, as printed) or serial (each Q(m, u) overwritten
 at once, bins in Matlab's column-major order, as ApproxRL's ``fuzzyqi.m`` can run them).
 ``tests/reference_fqi.py`` holds the plain loop of Alg. 1 and the scipy sweep this is
@@ -17,7 +18,10 @@ checked against.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
@@ -287,7 +291,7 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
                       callback: Optional[Callable[[int, float], None]] = None,
                       sweeps: str = "synchronous",
                       state_shape: Optional[tuple] = None,
-                      weights: Optional[str] = None) -> QIterationResult:
+                      weights: Optional[str] = None, threads: int = 1) -> QIterationResult:
     """Sweeps of Alg. 1 from Q_0 = 0 until max|Q_l - Q_{l-1}| <= delta.
 
     ``rewards`` has shape (N_X, N_U): rho(c_m, u_j). ``sweeps="synchronous"`` computes
@@ -298,11 +302,17 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
     ``min_iterations`` forces at least that many sweeps (for benchmarks doing equal work);
     ``callback(l, change)`` is called after each sweep. ``weights`` (:data:`WEIGHTS`) is
     the precision the sweeps read T in: None, the table's own (a sparse T: float64);
-    ``"float32"`` rounds a float64 table's weights first.
+    ``"float32"`` rounds a float64 table's weights first. ``threads`` > 1 splits each
+    synchronous sweep's bins over that many threads (the same Q bit for bit; serial
+    sweeps are sequential by definition).
     """
     table, rewards = _check(transitions, rewards, gamma, delta, state_shape, weights)
     if sweeps not in SWEEPS:
         raise ValueError(f"unknown sweeps {sweeps!r}; choose one of {', '.join(SWEEPS)}")
+    threads = check_threads(threads)
+    if sweeps == "serial" and threads > 1:
+        raise ValueError("serial sweeps overwrite Q in order and cannot be split over "
+                         "threads: use threads=1")
     n_x, n_u = rewards.shape
     if sweeps == "serial":
         if table.state_shape is None:
@@ -319,9 +329,51 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
             return fqi_kernel.synchronous_sweeps(table.index, table.weight, r, q, q_next, v,
                                                  v_next, gamma, delta, history, done, step,
                                                  min_iterations)
-    return _iterate(kernel, (n_x, n_u), in_place=sweeps == "serial", delta=delta,
-                    max_iterations=max_iterations, min_iterations=min_iterations,
-                    callback=callback)
+
+        def rows(q, q_next, v, v_next, lo, hi):
+            return fqi_kernel.synchronous_rows(table.index, table.weight, r, q, q_next, v,
+                                               v_next, gamma, lo, hi)
+    with _pool(threads) as pool:
+        run = _threaded(rows, pool, n_x, threads, delta, min_iterations) if threads > 1 \
+            else kernel
+        return _iterate(run, (n_x, n_u), in_place=sweeps == "serial", delta=delta,
+                        max_iterations=max_iterations, min_iterations=min_iterations,
+                        callback=callback)
+
+
+def check_threads(threads) -> int:
+    """``threads`` as an int in [1, this machine's cores], or a ValueError."""
+    cores = max(1, os.cpu_count() or 1)
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) \
+            or not 1 <= threads <= cores:
+        raise ValueError(f"threads must be a whole number in [1, {cores}] (this machine's "
+                         f"cores), got {threads!r}")
+    return int(threads)
+
+
+def _pool(threads: int):
+    return ThreadPoolExecutor(max_workers=threads) if threads > 1 else nullcontext()
+
+
+def _threaded(rows, pool, n_x: int, threads: int, delta: float, min_iterations: int):
+    """A sweep kernel for :func:`_iterate` that runs ``rows(q, q_next, v, v_next, lo, hi)``
+    (a compiled one-sweep kernel over the bins [lo, hi), releasing the GIL) on ``threads``
+    disjoint ranges of bins at once, the change the largest of theirs."""
+    cuts = np.linspace(0, n_x, threads + 1).astype(int)
+
+    def kernel(q, q_next, v, v_next, history, done, step):
+        n = 0
+        while n < step:
+            parts = pool.map(lambda k, q=q, q_next=q_next, v=v, v_next=v_next:
+                             rows(q, q_next, v, v_next, cuts[k], cuts[k + 1]), range(threads))
+            change = max(parts)
+            q, q_next, v, v_next = q_next, q, v_next, v
+            history[done + n] = change
+            n += 1
+            if change <= delta and done + n >= min_iterations:
+                break
+        return n
+    return kernel
 
 
 def _iterate(kernel, shape, *, in_place: bool, delta: float, max_iterations: int,
@@ -358,7 +410,8 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
                              gamma: float = GAMMA, delta: float = DELTA,
                              max_iterations: int = 10000, min_iterations: int = 0,
                              callback: Optional[Callable[[int, float], None]] = None,
-                             weights: Optional[str] = None) -> QIterationResult:
+                             weights: Optional[str] = None, threads: int = 1
+                             ) -> QIterationResult:
     """Synchronous sweeps of Alg. 1 over K models at once, from Q_0 = 0:
 
     Q_{l+1}(m, u) = min_k (``mode="worst"``) or mean_k (``"mean"``) of
@@ -366,8 +419,9 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
 
     one transition matrix and one reward table (N_X, N_U) per model k, all on one grid;
     ``transitions`` is the K matrices or tables, or a :class:`RobustTable` of all K;
-    ``weights`` as in :func:`fuzzy_q_iteration`.
+    ``weights`` and ``threads`` as in :func:`fuzzy_q_iteration`.
     """
+    threads = check_threads(threads)
     if mode not in ROBUST_MODES:
         raise ValueError(f"unknown robust mode {mode!r}; choose one of {', '.join(ROBUST_MODES)}")
     n_models = transitions.models if isinstance(transitions, RobustTable) else len(transitions)
@@ -399,12 +453,21 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
             index[:, k, w:] = t.index[:, :1]
     r = np.stack([rr.reshape(-1) for rr in checked], axis=1)
 
+    worst = mode == "worst"
+
     def kernel(q, q_next, v, v_next, history, done, step):
         return fqi_kernel.robust_sweeps(index, weight, r, q, q_next, v, v_next, gamma, delta,
-                                        history, done, step, min_iterations, mode == "worst")
-    return _iterate(kernel, (n_x, n_u), in_place=False, delta=delta,
-                    max_iterations=max_iterations, min_iterations=min_iterations,
-                    callback=callback)
+                                        history, done, step, min_iterations, worst)
+
+    def rows(q, q_next, v, v_next, lo, hi):
+        return fqi_kernel.robust_rows(index, weight, r, q, q_next, v, v_next, gamma, worst,
+                                      lo, hi)
+    with _pool(threads) as pool:
+        run = _threaded(rows, pool, n_x, threads, delta, min_iterations) if threads > 1 \
+            else kernel
+        return _iterate(run, (n_x, n_u), in_place=False, delta=delta,
+                        max_iterations=max_iterations, min_iterations=min_iterations,
+                        callback=callback)
 
 
 def _check_rewards(shape: tuple, rewards, gamma, delta) -> np.ndarray:

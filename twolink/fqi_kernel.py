@@ -33,35 +33,46 @@ _jit = njit(__file__)
 
 
 @_jit
+def synchronous_rows(index, weight, rewards, q, q_next, v, v_next, gamma, m_start, m_stop):
+    """One synchronous sweep of the bins [m_start, m_stop): Q'(m, j) = rho + gamma
+    sum_k w V(idx) into ``q_next``, max_j Q'(m, j) into ``v_next``; returns the largest
+    |Q' - Q| among them. Disjoint ranges may run in parallel threads (``nogil``); each row
+    is summed the same way whatever the split, so Q does not depend on it."""
+    n_rows, width = index.shape
+    n_u = n_rows // v.shape[0]
+    change = 0.0
+    for m in range(m_start, m_stop):
+        best = -np.inf
+        for j in range(n_u):
+            row = m * n_u + j
+            s = 0.0
+            for k in range(width):
+                s += weight[row, k] * v[index[row, k]]
+            new = rewards[row] + gamma * s
+            d = abs(new - q[row])
+            if d > change:
+                change = d
+            q_next[row] = new
+            if new > best:
+                best = new
+        v_next[m] = best
+    return change
+
+
+@_jit
 def synchronous_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta,
                        history, start, sweeps, min_done):
-    """Synchronous sweeps: Q'(m, j) = rho + gamma sum_k w V(idx), V = max_u Q, fused.
+    """Synchronous sweeps: Q'(m, j) = rho + gamma sum_k w V(idx), V = max_u Q, fused
+    (:func:`synchronous_rows` over all bins).
 
     ``q`` (rows,) holds Q_start and ``v`` (N_X,) max_u Q_start; ``q_next`` and
     ``v_next`` are scratch. The arrays swap roles every sweep: after an odd number of
     sweeps the newest Q and V are in ``q_next`` and ``v_next``.
     """
-    n_rows, width = index.shape
     n_x = v.shape[0]
-    n_u = n_rows // n_x
     done = 0
     while done < sweeps:
-        change = 0.0
-        for m in range(n_x):
-            best = -np.inf
-            for j in range(n_u):
-                row = m * n_u + j
-                s = 0.0
-                for k in range(width):
-                    s += weight[row, k] * v[index[row, k]]
-                new = rewards[row] + gamma * s
-                d = abs(new - q[row])
-                if d > change:
-                    change = d
-                q_next[row] = new
-                if new > best:
-                    best = new
-            v_next[m] = best
+        change = synchronous_rows(index, weight, rewards, q, q_next, v, v_next, gamma, 0, n_x)
         q, q_next = q_next, q
         v, v_next = v_next, v
         history[start + done] = change
@@ -107,42 +118,51 @@ def serial_sweeps(index, weight, rewards, q, v, order, gamma, delta, history,
 
 
 @_jit
+def robust_rows(index, weight, rewards, q, q_next, v, v_next, gamma, worst, m_start, m_stop):
+    """One synchronous sweep over K models of the bins [m_start, m_stop), as
+    :func:`synchronous_rows`: ``index``/``weight`` (rows, K, width) (a row's K models side
+    by side, one stream through memory), ``rewards`` (rows, K); Q'(m, j) = min_k
+    (``worst``) or mean_k of rho_k + gamma T_k V (the mean as the sum over k in order,
+    divided by K). Returns the largest |Q' - Q| among them."""
+    n_rows, n_models, width = index.shape
+    n_u = n_rows // v.shape[0]
+    change = 0.0
+    for m in range(m_start, m_stop):
+        best = -np.inf
+        for j in range(n_u):
+            row = m * n_u + j
+            acc = np.inf if worst else 0.0
+            for c in range(n_models):
+                s = 0.0
+                for k in range(width):
+                    s += weight[row, c, k] * v[index[row, c, k]]
+                val = rewards[row, c] + gamma * s
+                if worst:
+                    if val < acc:
+                        acc = val
+                else:
+                    acc += val
+            new = acc if worst else acc / n_models
+            d = abs(new - q[row])
+            if d > change:
+                change = d
+            q_next[row] = new
+            if new > best:
+                best = new
+        v_next[m] = best
+    return change
+
+
+@_jit
 def robust_sweeps(index, weight, rewards, q, q_next, v, v_next, gamma, delta, history,
                   start, sweeps, min_done, worst):
-    """Synchronous sweeps over K models: ``index``/``weight`` (rows, K, width) (a row's
-    K models side by side, one stream through memory),
-    ``rewards`` (rows, K); Q'(m, j) = min_k (``worst``) or mean_k of rho_k + gamma T_k V
-    (the mean as the sum over k in order, divided by K). The arrays swap roles as in
-    :func:`synchronous_sweeps`."""
-    n_rows, n_models, width = index.shape
+    """Synchronous sweeps over K models (:func:`robust_rows` over all bins); the arrays
+    swap roles as in :func:`synchronous_sweeps`."""
     n_x = v.shape[0]
-    n_u = n_rows // n_x
     done = 0
     while done < sweeps:
-        change = 0.0
-        for m in range(n_x):
-            best = -np.inf
-            for j in range(n_u):
-                row = m * n_u + j
-                acc = np.inf if worst else 0.0
-                for c in range(n_models):
-                    s = 0.0
-                    for k in range(width):
-                        s += weight[row, c, k] * v[index[row, c, k]]
-                    val = rewards[row, c] + gamma * s
-                    if worst:
-                        if val < acc:
-                            acc = val
-                    else:
-                        acc += val
-                new = acc if worst else acc / n_models
-                d = abs(new - q[row])
-                if d > change:
-                    change = d
-                q_next[row] = new
-                if new > best:
-                    best = new
-            v_next[m] = best
+        change = robust_rows(index, weight, rewards, q, q_next, v, v_next, gamma, worst, 0,
+                             n_x)
         q, q_next = q_next, q
         v, v_next = v_next, v
         history[start + done] = change
