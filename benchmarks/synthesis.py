@@ -10,6 +10,7 @@ values are checked against ours before any time is compared.
 from __future__ import annotations
 
 import contextlib
+import os
 import time
 import warnings
 from unittest import mock
@@ -31,6 +32,8 @@ from twolink.reward import centralized_reward
 
 SECTION = "synthesis"
 SCALING = "scaling"
+#: Threads of the threaded sweeps measured beside the one-thread reference (fqi threads=).
+THREADS = max(1, min(2, os.cpu_count() or 1))
 
 
 # --------------------------------------------------------------------------- problems
@@ -244,13 +247,13 @@ def compiled_centralized(problem, p=TABLE_I):
     return nxt, centralized_reward(nxt)
 
 
-def _centralized_end_to_end(problem, p=TABLE_I, weights="float64"):
-    """Centralized synthesis with the compiled transitions and a table of ``weights``:
-    (seconds, result)."""
+def _centralized_end_to_end(problem, p=TABLE_I, weights="float64", threads=1):
+    """Centralized synthesis with the compiled transitions, a table of ``weights`` and
+    sweeps on ``threads``: (seconds, result)."""
     t0 = time.perf_counter()
     nxt, rewards = compiled_centralized(problem, p)
     table = transition_table(problem.grid, nxt, weights=weights)
-    result = fuzzy_q_iteration(table, rewards)
+    result = fuzzy_q_iteration(table, rewards, threads=threads)
     return time.perf_counter() - t0, result
 
 
@@ -308,6 +311,10 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         return fuzzy_q_iteration(table32, problem.rewards, delta=1e-300, min_iterations=n,
                                  max_iterations=n)
 
+    def ours_threads():
+        return fuzzy_q_iteration(table, problem.rewards, delta=1e-300, min_iterations=n,
+                                 max_iterations=n, threads=THREADS)
+
     variants = {f"{vname}, {tb.weights}": _variant_run(vname, tb, problem.rewards, n)
                 for vname in VARIANTS for tb in (table, table32)}
     for fn in variants.values():
@@ -329,7 +336,8 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     def copy_n():
         return sum(copy() for _ in range(copies))
 
-    best, out = interleaved_best({"ours": ours, "ours_float32": ours32, "quantecon": qe_sweeps,
+    best, out = interleaved_best({"ours": ours, "ours_float32": ours32,
+                                  "ours_threads": ours_threads, "quantecon": qe_sweeps,
                                   "quantecon_solve": qe_solve, "mdptoolbox": mdp_solve,
                                   "copy": copy_n,
                                   **{f"variant: {k}": fn for k, fn in variants.items()}},
@@ -399,6 +407,18 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         Row(sec, "float32 agreement max|dQ|", dq32, "abs",
             f"after the same {n} sweeps; target < delta/100 = {DELTA / 100:g}"),
     ]
+    per_sweep["threads"] = best["ours_threads"] / n
+    if not np.array_equal(out["ours_threads"].q, res_n.q):
+        raise RuntimeError("threaded sweeps differ from one thread")
+    rows += [
+        Row(sec, f"{THREADS} threads: time per sweep", per_sweep["threads"] * 1e3, "ms",
+            f"fqi threads={THREADS} (opt-in; bins split, same Q bit for bit); one / "
+            f"{THREADS} threads = {per_sweep['ours'] / per_sweep['threads']:.2f}x"),
+        Row(sec, f"quantecon / ours {THREADS} threads per sweep", per_sweep["quantecon"]
+            / per_sweep["threads"], "x", ">1: ours faster (QuantEcon runs one thread)"),
+        Row(sec, f"{THREADS} threads: sweep bandwidth", moved / per_sweep["threads"] / 1e9,
+            "GB/s", f"share of the copy: {moved / per_sweep['threads'] / 1e9 / copy_gbs:.2f}"),
+    ]
     summary_variants = {}
     for key in variants:
         t = best[f"variant: {key}"] / n
@@ -419,13 +439,17 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         if not (np.array_equal(nxt, problem.next_points)
                 and np.array_equal(rewards, problem.rewards)):
             raise RuntimeError("compiled transitions differ from the package's")
-        ends, ends32 = [], []
+        ends, ends32, ends_threads = [], [], []
         for _ in range(max(1, repeats)):                   # interleaved
             ends.append(_centralized_end_to_end(problem))
             ends32.append(_centralized_end_to_end(problem, weights="float32"))
+            ends_threads.append(_centralized_end_to_end(problem, threads=THREADS))
         t_rk4, _ = best_time(lambda: compiled_centralized(problem), max(1, repeats))
         end, res_end = min(ends, key=lambda e: e[0])
         end32, res32 = min(ends32, key=lambda e: e[0])
+        end_threads, res_threads = min(ends_threads, key=lambda e: e[0])
+        if not np.array_equal(res_threads.q, result.q):
+            raise RuntimeError("end-to-end synthesis with threads differs")
         if not np.array_equal(res_end.q, result.q):
             raise RuntimeError("end-to-end synthesis with compiled transitions differs")
         moved_bins = int(np.sum(greedy_indices(res32.q) != greedy_indices(result.q)))
@@ -439,7 +463,11 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
                 f"{res32.iterations} sweeps, max|dQ| {np.max(np.abs(res32.q - result.q)):.2g}, "
                 f"{moved_bins} greedy bins moved (tie tolerance {TIE_TOLERANCE:g}); "
                 f"target 0.05 s"),
+            Row(sec, f"total synthesis, compiled transitions, {THREADS} threads", end_threads,
+                "s", f"compiled RK4 + table + sweeps on {THREADS} threads, best of "
+                f"{len(ends_threads)}; same Q bit for bit; target 0.05 s"),
         ]
+        summary["total_compiled_threads"] = end_threads
         summary["total_compiled"] = end
         summary["total_compiled_float32"] = end32
     return rows, summary
@@ -472,6 +500,9 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
             ">= 1.5 is the target (issue 13)"),
         Row(sec, "float32 sweep / copy bandwidth, centralized",
             c["float32"]["sweep_gbs"] / c["copy_gbs"], "share", ">= 0.7 is the target"),
+        Row(sec, f"fastest peer ({fastest}) / ours {THREADS} threads per sweep, centralized",
+            c["per_sweep"][fastest] / c["per_sweep"]["threads"], "x",
+            ">= 1.5 is the target (the peer runs one thread)"),
     ]
     r, summaries["worst_case"] = bench_worst_case(8, repeats=repeats)
     rows += r
@@ -520,7 +551,7 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
             raise RuntimeError(f"robust Q-iteration ({mode}) did not converge")
         return (t1 - t0, t2 - t1), res, tables
 
-    def in_place(weights):
+    def in_place(weights, threads=1):
         """As ``twolink.synthesis.solve_robust`` builds it: the K models' memberships
         written side by side by ``robust_table`` (no per-model tables, no copy)."""
         t0 = time.perf_counter()
@@ -531,17 +562,18 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
             rewards.append(r)
         table = robust_table(problem.grid, points, weights=weights)
         t1 = time.perf_counter()
-        res = fuzzy_q_iteration_robust(table, rewards, mode="worst")
+        res = fuzzy_q_iteration_robust(table, rewards, mode="worst", threads=threads)
         t2 = time.perf_counter()
         if not res.converged:
             raise RuntimeError(f"robust Q-iteration ({weights}) did not converge")
         return (t1 - t0, t2 - t1), res, table
 
-    runs, fast = [], {"float64": [], "float32": []}
+    threaded = f"float64, {THREADS} threads"
+    runs, fast = [], {"float64": [], "float32": [], threaded: []}
     for _ in range(max(1, repeats)):                       # interleaved
         runs.append(synthesize())
         for w in fast:
-            fast[w].append(in_place(w))
+            fast[w].append(in_place("float64", THREADS) if w == threaded else in_place(w))
     t_build = min(r[0][0] for r in runs)
     t_sweeps = min(r[0][1] for r in runs)
     total = min(sum(r[0]) for r in runs)
@@ -612,9 +644,9 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         return (time.perf_counter() - t0, pol.agents[0].info, time.process_time() - c0,
                 pol.agents[0].q)
 
-    def mirror(k, weights):
-        """``solve_robust``'s steps through the public pieces, the tables in ``weights``:
-        (seconds, Q, sweeps, (model, table, sweep seconds))."""
+    def mirror(k, weights, threads=1):
+        """``solve_robust``'s steps through the public pieces, the tables in ``weights``,
+        the sweeps on ``threads``: (seconds, Q, sweeps, (model, table, sweep seconds))."""
         t0 = time.perf_counter()
         problems = [core.centralized_problem(m, model="full", compiled=True)
                     for m in core.parameter_draws(TABLE_I, k, 0.2, ROBUST_SEED)]
@@ -622,7 +654,8 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         table = robust_table(problems[0].grid, [pr.next_points for pr in problems],
                              weights=weights)
         t2 = time.perf_counter()
-        res = fuzzy_q_iteration_robust(table, [pr.rewards for pr in problems], mode="worst")
+        res = fuzzy_q_iteration_robust(table, [pr.rewards for pr in problems], mode="worst",
+                                       threads=threads)
         t3 = time.perf_counter()
         return t3 - t0, res.q, res.iterations, (t1 - t0, t2 - t1, t3 - t2)
 
@@ -630,11 +663,13 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
     mirror(2, "float32")
     rows, summary = [], {}
     for k in draws:
-        runs, fast = [], {"float64": [], "float32": []}
+        threaded = f"float64, {THREADS} threads"
+        runs, fast = [], {"float64": [], "float32": [], threaded: []}
         for _ in range(max(1, repeats)):                   # interleaved
             runs.append(once(k))
             for w in fast:
-                fast[w].append(mirror(k, w))
+                fast[w].append(mirror(k, "float64", THREADS) if w == threaded
+                               else mirror(k, w))
         best = min(r[0] for r in runs)
         part = {name: min(r[1][name] for r in runs)
                 for name in ("model_seconds", "table_seconds", "sweep_seconds")}
@@ -662,7 +697,7 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
             split = [min(r[3][i] for r in wruns) for i in range(3)]
             dq = float(np.max(np.abs(wruns[-1][1] - q64)))
             bins = int(np.sum(greedy_indices(wruns[-1][1]) != greedy_indices(q64)))
-            rows.append(Row(sec, f"{w} tables: total (problems + robust_table + sweeps)",
+            rows.append(Row(sec, f"robust_table, {w}: total (problems + table + sweeps)",
                             w_best, "s",
                             f"best of {len(wruns)}, interleaved with synthesize(); models "
                             f"{split[0]:.3f} s, table {split[1]:.3f} s, {wruns[-1][2]} sweeps "
