@@ -223,3 +223,19 @@ def test_reproduce_takes_two_link_policies_only():
     from twolink.reproduce import reproduce
     with pytest.raises(ValueError, match=r"two-link arm; 'decentralized_3link' is not one"):
         reproduce(1.0, policies=("centralized", "decentralized_3link"))
+
+
+def test_synthesize_three_links_gives_the_shipped_policy(tmp_path, capsys, monkeypatch):
+    from twolink.commands.synthesize import chain_file_name
+    shipped_file = SHIPPED["decentralized_3link"].file
+    assert chain_file_name("decentralized", 3, "tapered") == shipped_file.name
+    assert chain_file_name("decentralized", 4, "copied", "frozen") == \
+        "decentralized_4link_copied_frozen.npz"
+    monkeypatch.chdir(tmp_path)
+    code, out, err = _run(capsys, "synthesize", "decentralized", "--links", 3, "--json")
+    assert code == 0, err
+    rep = json.loads(out)
+    assert (rep["path"], rep["links"], rep["rule"]) == ("decentralized_3link.npz", 3, "tapered")
+    assert list(rep["agents"]) == ["agent3", "agent2", "agent1"]
+    made, shipped = Policy.load(tmp_path / rep["path"]), Policy.load(shipped_file)
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(made.agents, shipped.agents))
