@@ -84,7 +84,7 @@ def check_policy_links(label: str, policy, links: int) -> None:
     try:
         check_links_match(policy, links, name=label)
     except ValueError as exc:
-        raise ValueError(f"{exc} (--links {links})") from None
+        raise ValueError(f"{exc}; give --links {policy.links} for it") from None
 
 
 def check_two_link_options(args, links: int) -> None:
