@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from twolink import chain_agents
-from twolink.chain_agents import (CHAIN_DEFAULT, TWO_LINK_DEFAULT, Construction, agent_grid,
+from twolink.chain_agents import (CHAIN_DEFAULT, CHAIN_DEFAULTS, TWO_LINK_DEFAULT, Construction, agent_grid,
                                   agent_problem, construction, locked_joints,
                                   synthesize_chain, transition_bytes)
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, chain
@@ -39,8 +39,28 @@ def test_three_link_agents_read_their_own_link_and_the_outer_neighbour():
                      2: ("theta2", "dtheta2", "theta3", "dtheta3", "tau3"),
                      1: ("theta1", "dtheta1", "theta2", "dtheta2", "tau2")}
     grid = agent_grid(2, p, c)
-    assert grid.shape == (12, 9, 12, 9, 3)          # +-6 deg/s on both speed axes
-    assert agent_grid(3, p, c).shape == (12, 7)     # but not on the outermost agent's
+    assert grid.shape == (12, 9, 12, 9, 3)   # +-6 deg/s on agent N-1's own and context axes
+    np.testing.assert_allclose(grid.axes[-1].centers, [-p.tau_max[2], 0, p.tau_max[2]])
+    assert sorted(np.rad2deg(grid.axes[1].centers).round(6))[3:6] == [-6.0, 0.0, 6.0]
+    assert agent_grid(1, p, c).shape == (12, 7, 12, 9, 3)
+    assert agent_grid(3, p, c).shape == (12, 7)
+    assert agent_grid(3, chain(4), c).shape == (12, 9, 12, 9, 3)
+    assert agent_grid(2, chain(4), c).shape == (12, 7, 12, 9, 3)
+    assert agent_grid(2, p, construction(3, extra_speed_bins="none")).shape == (12, 7, 12, 7, 3)
+    assert agent_grid(2, p, construction(3, speed_context=False)).names == \
+        ("theta2", "dtheta2", "theta3", "tau3")
+    # the middle agent locks joint 1, the outermost none, agent 1 has no inner joint
+    assert [locked_joints(i, 3, c) for i in (3, 2, 1)] == \
+        [(False, False, False), (True, False, False), (False, False, False)]
+    assert locked_joints(1, 4, construction(4, beyond="locked")) == (False, False, True, True)
+    assert locked_joints(3, 4, c) == (False, True, False, False)
+    assert locked_joints(3, 4, construction(4, lock_inner="middle")) == (True, True, False, False)
+    assert locked_joints(4, 4, construction(4, lock_inner="all")) == (True, True, True, False)
+    # copied links: no speed in the context by default
+    assert construction(3, "copied") == CHAIN_DEFAULTS["copied"]
+    assert agent_grid(2, chain(3, "copied"), CHAIN_DEFAULTS["copied"]).names == \
+        ("theta2", "dtheta2", "theta3", "tau3")
+    assert construction(2, "copied") == TWO_LINK_DEFAULT
     np.testing.assert_allclose(grid.axes[-1].centers, [-p.tau_max[2], 0, p.tau_max[2]])
     assert sorted(np.rad2deg(grid.axes[1].centers).round(6))[3:6] == [-6.0, 0.0, 6.0]
     assert agent_grid(2, p, construction(3, extra_speed_bins="none")).shape == (12, 7, 12, 7, 3)
@@ -65,7 +85,7 @@ def test_shipped_three_link_policy_shapes_and_provenance():
     assert [a.name for a in pol.agents] == ["agent3", "agent2", "agent1"]
     assert [a.outputs for a in pol.agents] == [("tau3",), ("tau2",), ("tau1",)]
     assert pol.q_sizes == {"agent3": 12 * 7 * 3, "agent2": 12 * 9 * 12 * 9 * 3 * 3,
-                           "agent1": 12 * 9 * 12 * 9 * 3 * 3}
+                           "agent1": 12 * 7 * 12 * 9 * 3 * 3}
     meta = pol.meta
     assert meta["links"] == 3 and meta["rule"] == "tapered" and meta["model"] == "full"
     assert meta["parameters"] == chain(3).as_dict()
@@ -138,7 +158,7 @@ def test_memory_estimate_and_refusals():
                                          "propagated"):
         construction(3, context="sideways")
     with pytest.raises(ValueError, match="unknown lock_inner 'some'; choose one of none, "
-                                         "middle, all"):
+                                         "middle, near, all$"):
         Construction(lock_inner="some")
     with pytest.raises(ValueError, match="unknown extra_speed_bins"):
         synthesize_chain(chain(3), extra_speed_bins="many")
@@ -152,6 +172,9 @@ def test_memory_estimate_and_refusals():
         construction(1)
     with pytest.raises(ValueError, match="unknown link rule 'bent'"):
         synthesize("decentralized", links=3, rule="bent")
+    with pytest.raises(ValueError, match="unknown link rule 'bent'; choose one of tapered, "
+                                         "copied"):
+        construction(3, "bent")
     with pytest.raises(ValueError, match="centralized synthesis of a 3-link arm is "
                                          "twolink.chain_centralized"):
         synthesize("centralized", links=3)

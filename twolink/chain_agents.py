@@ -17,8 +17,10 @@ How an agent reads its transitions (:class:`Construction`, recorded in the polic
 * ``speed_context`` - the context includes dtheta_{i+1} (otherwise link i + 1 starts
   each transition at rest);
 * ``extra_speed_bins`` - two more speed bins at +-6 deg/s on the agents' own speed axes
-  (``own``), on the context speed axes (``context``), on both, on every axis but the
-  outermost agent's own (``inner``), or on none;
+  (``own``), on the context speed axes (``context``), on both, on none, on every context
+  speed axis and the own axis of agent N - 1, the outermost agent's neighbour
+  (``neighbour``), or on every context speed axis and the own axes of agents 1 and 2,
+  Table I's links, unless one is the outermost (``base``);
 * ``lock_inner`` - which inner joints an agent holds fixed in its transition model:
   ``none`` (the two-link reading: inner links free and at rest), ``middle`` (every agent
   but the outermost holds all of its inner joints 1..i-1), ``near`` (every agent but the
@@ -34,8 +36,9 @@ transitions go through :func:`twolink.synthesis._step` exactly as
 do. For N >= 3 they come from :func:`twolink.dynamics.chain_acceleration`. Reading an
 agent's transitions as for two links gives a middle agent far too little inertia (its
 outer chain free to swing away, its inner chain free to recoil) and the arm limit-cycles;
-the N >= 3 default locks the inner joints of the middle agents and propagates the
-context with its speed (see ``scripts/chain_study.py``).
+the N >= 3 default has every middle agent hold its inner neighbour's joint, propagates
+the context (with the neighbour's speed for tapered links) and adds the +-6 deg/s bins to
+the context speed axes and to agent N - 1's own (see ``scripts/chain_study.py``).
 """
 from __future__ import annotations
 
@@ -48,16 +51,16 @@ from tqdm import tqdm
 
 from twolink import __version__, dynamics, fuzzy
 from twolink.integrate import SUBSTEPS, sample_step
-from twolink.parameters import (DELTA, GAMMA, TABLE_I, TS, ArmParameters, ChainParameters,
-                                as_chain, check_links, state_names)
+from twolink.parameters import (DELTA, GAMMA, LINK_RULES, TABLE_I, TS, ArmParameters,
+                                ChainParameters, as_chain, check_links, state_names)
 from twolink.policy import Agent, Policy
 from twolink.reward import agent_reward
 from twolink.synthesis import CONTEXTS, Problem, _levels, _step, check_sweeps, solve
 
 #: Which speed axes get the two extra bins at +-:data:`EXTRA_SPEED_DEG`.
-EXTRA_BINS = ("none", "own", "context", "both", "inner")
+EXTRA_BINS = ("none", "own", "context", "both", "base", "neighbour")
 #: Which agents hold their inner joints fixed in their transition model.
-LOCKS = ("none", "middle", "all", "near")
+LOCKS = ("none", "middle", "near", "all")
 #: What the links beyond the context link do during an agent's transition.
 BEYOND = ("rest", "locked")
 #: The extra speed bins (deg/s), one on each side of zero.
@@ -95,15 +98,22 @@ class Construction:
 #: The default construction for two links: the paper's pair (18) on the full model (6).
 TWO_LINK_DEFAULT = Construction()
 #: The default construction for three links and more (chosen on development seeds,
-#: ``scripts/chain_study.py``).
+#: ``scripts/chain_study.py``), for tapered links.
 CHAIN_DEFAULT = Construction(context="propagated", speed_context=True,
-                             extra_speed_bins="inner", lock_inner="near", beyond="rest")
+                             extra_speed_bins="neighbour", lock_inner="near", beyond="rest")
+#: The defaults for three links and more by link rule: copied links (heavy outer chains)
+#: settle more surely without the neighbour's speed in the context (development seeds).
+CHAIN_DEFAULTS = {"tapered": CHAIN_DEFAULT,
+                  "copied": dataclasses.replace(CHAIN_DEFAULT, speed_context=False)}
 
 
-def construction(links: int, **options) -> Construction:
-    """The default construction for an arm of ``links`` links with ``options`` (keywords
-    of :class:`Construction`; None keeps the default) replaced."""
-    base = TWO_LINK_DEFAULT if check_links(links) == 2 else CHAIN_DEFAULT
+def construction(links: int, rule: str = "tapered", **options) -> Construction:
+    """The default construction for an arm of ``links`` links made by ``rule``
+    (:data:`TWO_LINK_DEFAULT` for two links, else :data:`CHAIN_DEFAULTS`) with
+    ``options`` (keywords of :class:`Construction`; None keeps the default) replaced."""
+    if rule not in LINK_RULES:
+        raise ValueError(f"unknown link rule {rule!r}; choose one of {', '.join(LINK_RULES)}")
+    base = TWO_LINK_DEFAULT if check_links(links) == 2 else CHAIN_DEFAULTS[rule]
     unknown = sorted(set(options) - {f.name for f in dataclasses.fields(Construction)})
     if unknown:
         raise ValueError(f"unknown construction option(s) {unknown}")
@@ -123,11 +133,14 @@ def agent_grid(i: int, p: ChainParameters, c: Construction) -> fuzzy.Grid:
     n = p.links
     extra = c.extra_speed_bins
     axes = [fuzzy.angle_axis(f"theta{i}"),
-            _speed_axis(f"dtheta{i}", extra in ("own", "both") or (extra == "inner" and i < n))]
+            _speed_axis(f"dtheta{i}", extra in ("own", "both")
+                        or (extra == "base" and i <= 2 and i < n)
+                        or (extra == "neighbour" and i == n - 1))]
     if i < n:
         axes.append(fuzzy.angle_axis(f"theta{i + 1}"))
         if c.speed_context:
-            axes.append(_speed_axis(f"dtheta{i + 1}", extra in ("context", "both", "inner")))
+            axes.append(_speed_axis(f"dtheta{i + 1}",
+                                    extra in ("context", "both", "base", "neighbour")))
         axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i])))
     return fuzzy.Grid(tuple(axes))
 
@@ -242,14 +255,14 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                      max_bytes: int = MAX_BYTES, progress: bool = False) -> Policy:
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
-    take the default for N links (:func:`construction`: the paper's pair for N = 2,
-    :data:`CHAIN_DEFAULT` beyond). The memory the transitions take is estimated first and
+    take the default for N links and the rule of ``p`` (:func:`construction`: the
+    paper's pair for N = 2, :data:`CHAIN_DEFAULTS` beyond). The memory the transitions take is estimated first and
     refused over ``max_bytes``. The policy's ``meta`` records the links, the parameters,
     the construction, gamma, delta, Ts, the RK4 substeps and every agent's sweeps and
     timings."""
     p = as_chain(p)
     n = p.links
-    c = construction(n, context=context, speed_context=speed_context,
+    c = construction(n, p.rule, context=context, speed_context=speed_context,
                      extra_speed_bins=extra_speed_bins, lock_inner=lock_inner, beyond=beyond)
     check_sweeps(sweeps)
     need = check_size(p, c, max_bytes)
