@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from twolink import chain_agents
-from twolink.chain_agents import (CHAIN_DEFAULT, CHAIN_DEFAULTS, TWO_LINK_DEFAULT, Construction, agent_grid,
+from twolink.chain_agents import (CHAIN_DEFAULT, CHAIN_DEFAULTS, TWO_LINK_DEFAULT,
+                                  Construction, agent_grid,
                                   agent_problem, construction, locked_joints,
                                   synthesize_chain, transition_bytes)
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, chain
@@ -160,6 +161,10 @@ def test_memory_estimate_and_refusals():
     with pytest.raises(ValueError, match="unknown lock_inner 'some'; choose one of none, "
                                          "middle, near, all$"):
         Construction(lock_inner="some")
+    with pytest.raises(ValueError, match="gamma must lie in \\(0, 1\\), got 1.5"):
+        synthesize_chain(chain(3), gamma=1.5)
+    with pytest.raises(ValueError, match="delta must be positive, got nan"):
+        synthesize_chain(chain(3), delta=float("nan"))
     with pytest.raises(ValueError, match="unknown extra_speed_bins"):
         synthesize_chain(chain(3), extra_speed_bins="many")
     with pytest.raises(ValueError, match="speed_context must be True or False"):

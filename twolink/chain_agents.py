@@ -255,16 +255,20 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                      max_bytes: int = MAX_BYTES, progress: bool = False) -> Policy:
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
-    take the default for N links and the rule of ``p`` (:func:`construction`: the
-    paper's pair for N = 2, :data:`CHAIN_DEFAULTS` beyond). The memory the transitions take is estimated first and
-    refused over ``max_bytes``. The policy's ``meta`` records the links, the parameters,
-    the construction, gamma, delta, Ts, the RK4 substeps and every agent's sweeps and
-    timings."""
+    take the default for N links and the rule of ``p`` (:func:`construction`: the paper's
+    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond). The memory the transitions take is
+    estimated first and refused over ``max_bytes``. The policy's ``meta`` records the
+    links, the rule, the parameters, the construction, gamma, delta, Ts, the RK4 substeps
+    and every agent's sweeps and timings."""
     p = as_chain(p)
     n = p.links
     c = construction(n, p.rule, context=context, speed_context=speed_context,
                      extra_speed_bins=extra_speed_bins, lock_inner=lock_inner, beyond=beyond)
     check_sweeps(sweeps)
+    if not (isinstance(gamma, (int, float)) and 0.0 < gamma < 1.0):
+        raise ValueError(f"gamma must lie in (0, 1), got {gamma!r}")
+    if not (isinstance(delta, (int, float)) and delta > 0.0):
+        raise ValueError(f"delta must be positive, got {delta!r}")
     need = check_size(p, c, max_bytes)
     start = time.perf_counter()
     agents = []
