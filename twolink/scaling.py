@@ -237,7 +237,7 @@ def decentralized_estimate(links: int, rule: str) -> dict:
     (:func:`twolink.chain_agents.transition_bytes` of the default construction)."""
     from twolink.chain_agents import construction, transition_bytes
     p = as_chain(params_of(links, rule))
-    return {"peak_bytes": int(transition_bytes(p, construction(p.links)))}
+    return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule)))}
 
 
 def refusal(est: dict, max_bytes: int) -> Optional[str]:
@@ -281,8 +281,10 @@ def _policy(links: int, rule: str, scheme: str, max_bytes: int):
     p = chain(links, rule)
     if scheme == "decentralized":
         from twolink.chain_agents import synthesize_chain
-        return synthesize_chain(p), "one agent per joint on the full N-link model " \
-                                    "(twolink.chain_agents.synthesize_chain)"
+        policy = synthesize_chain(p)
+        c = ", ".join(f"{k}={v}" for k, v in policy.meta.get("construction", {}).items())
+        return policy, f"one agent per joint on the full N-link model " \
+                       f"(twolink.chain_agents.synthesize_chain; {c})"
     from twolink.chain_centralized import synthesize_centralized
     return synthesize_centralized(p, max_bytes=max_bytes), \
         "the centralized policy (16) on the full N-link model " \

@@ -122,6 +122,19 @@ def _shipped(report: dict) -> list:
                f"(or the files are missing)" if other else "") + "."]
 
 
+def _constructions(report: dict) -> list:
+    """A bullet naming how the decentralized agents of N >= 3 links were built, per rule."""
+    how = {}
+    for r in report["rows"]:
+        s = r.get("synthesis")
+        if r["scheme"] == "decentralized" and r["links"] > 2 and s:
+            how.setdefault(r["rule"], s["construction"])
+    if not how:
+        return []
+    return ["- **Decentralized agents, N ≥ 3**: "
+            + "; ".join(f"{rule} links: {text}" for rule, text in how.items()) + "."]
+
+
 def _load(o: dict) -> str:
     load = o.get("load_average")
     if not load:
@@ -171,7 +184,8 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         "(synthesised on the full model (6), measured once: Table I whatever the rule); "
         "the paper's own Table II figures for the simplified model (11) are in "
         "`twolink reproduce`.",
-        *_shipped(report), "",
+        *_shipped(report),
+        *_constructions(report), "",
         tables(report), "",
         f"![scaling]({figure})", "",
         "## Targets (issue 11)", "",
