@@ -17,9 +17,10 @@ fast, four partial sums 0.42x, float32 weights 0.91x (one conversion more per en
 reading T alone, without the gathers, already takes 46 % of a sweep.
 ``benchmarks/synthesis.py`` measures those variants beside these kernels (``VARIANTS``).
 
-The kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once ``min_done``
-sweeps are done) and write each sweep's change into ``history``; they return the
-number done. Callers loop over calls to report progress between them.
+The ``*_sweeps`` kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once
+``min_done`` sweeps are done) and write each sweep's change into ``history``; they return
+the number done. Callers loop over calls to report progress between them. The ``*_rows``
+kernels run one sweep over a range of bins, for threads sharing a sweep.
 """
 from __future__ import annotations
 
