@@ -223,3 +223,57 @@ def test_rule_update_is_the_per_rule_form_acting_as_policy_14():
             learner.step()
             for a, ex in zip(learner.agents, expect):
                 np.testing.assert_allclose(a.theta, ex, rtol=0, atol=1e-9)
+
+
+def test_average_is_an_exponential_average_of_the_same_theta():
+    """``average``: learning is unchanged bit for bit; the policy reads theta_bar, the
+    exponential average with beta = arms / average written as a loop here."""
+    plain_cfg, avg_cfg = _short(update="discrete"), _short(update="discrete", average=20.0)
+    beta = avg_cfg.arms / avg_cfg.average
+    with ModelPlant("full") as plant, Learner(plain_cfg, plant=plant) as plain, \
+            Learner(avg_cfg, plant=plant) as avg:
+        bar = [a.theta.copy() for a in plain.agents]
+        for _ in range(10):
+            plain.step()
+            avg.step()
+            for b, a in zip(bar, plain.agents):
+                b += beta * (a.theta - b)
+        for p, a, b, q in zip(plain.agents, avg.agents, bar, avg.policy().agents):
+            assert np.array_equal(p.theta, a.theta)
+            np.testing.assert_allclose(q.q, b, rtol=0, atol=1e-12)
+            assert np.abs(q.q - a.theta).max() > 1e-3       # not theta itself
+        assert avg.policy().agents[0].info["averaged"] is True
+
+
+def test_averaged_run_resumes_bit_for_bit(tmp_path):
+    cfg = _short(average=50.0)
+    full, _ = _plain_run(cfg)
+    ckpt = tmp_path / "ckpt.npz"
+
+    def stop(e):
+        if e.steps == 64:
+            raise KeyboardInterrupt
+    with ModelPlant("full") as plant, Learner(cfg, plant=plant) as learner:
+        with pytest.raises(KeyboardInterrupt):
+            learner.run(checkpoint=ckpt, on_eval=stop)
+        bar64 = [b.copy() for b in learner.theta_bar]
+    saved = Policy.load(ckpt)
+    assert all(np.array_equal(a.q, b) for a, b in zip(saved.agents, bar64))
+    with ModelPlant("full") as plant, Learner.resume(saved, plant=plant) as learner:
+        learner.run()
+        assert all(np.array_equal(a.theta, f) for a, f in zip(learner.agents, full))
+
+
+def test_init_scale_keeps_the_greedy_policy_and_shrinks_the_values():
+    init = load_policy("decentralized")
+    with ModelPlant("simplified") as plant, \
+            Learner(_short(init_scale=0.5), init=init, plant=plant) as learner:
+        for a, b, c in zip(learner.agents, init.agents, learner.policy().agents):
+            np.testing.assert_array_equal(a.theta, 0.5 * b.q)
+            np.testing.assert_array_equal(c.greedy_actions, b.greedy_actions)
+            assert b.q.min() < -5
+    for bad, message in [({"init_scale": 0.0}, "warm-start scale must be"),
+                         ({"init_scale": 1.5}, "warm-start scale must be"),
+                         ({"average": -1.0}, r"theta average \(control steps\) must be")]:
+        with pytest.raises(ValueError, match=message):
+            _short(**bad).check()

@@ -42,6 +42,18 @@ step (an exploring arm draws its action, or every active bin's action, at random
 ``fql`` draw per active bin), epsilon_t
 decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
 
+Two read-outs against a noisy theta (issue 12). With a constant alpha the entries near
+the goal, which most arms visit, move by min(1, alpha W) ~ 1 in every batched step, so
+theta (and the one greedy action in a near-goal bin that decides every evaluation state)
+follows the last few targets. ``average`` > 0 keeps an exponential average of theta over
+about that many control steps, theta_bar += beta (theta - theta_bar) with
+beta = min(1, arms / average) after every update (iterate averaging, Polyak-Ruppert); the
+saved and evaluated policy (14) reads theta_bar, the learning itself is unchanged (same
+theta bit for bit). ``init_scale`` lambda in (0, 1] starts a warm start from lambda times
+the given Q: every bin's greedy action, hence the policy (14), is the given one, but the
+values are nearer the optimistic 0 of a cold start (Q of (15)/(17) lies in [-25, 0]), so
+that what the given model got wrong is explored rather than trusted.
+
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
 at rest), staggered so that resets spread over time. Every random draw comes from one
 seeded generator, so the same seed gives the same theta bit for bit; checkpoints (policy
@@ -50,6 +62,7 @@ curve, so a resumed run continues exactly as an uninterrupted one.
 """
 from __future__ import annotations
 
+import base64
 import dataclasses
 import math
 import time
@@ -96,6 +109,8 @@ class LearnConfig:
     episode: int = 100                # sample periods per episode
     eval_every: int = 0               # control steps; 0: steps / 20
     gamma: float = GAMMA
+    average: float = 0.0              # control steps of the policy's theta average; 0: none
+    init_scale: float = 1.0           # a warm start begins at init_scale * the given Q
 
     def check(self) -> "LearnConfig":
         """This configuration, or a ValueError naming the first bad field."""
@@ -120,6 +135,8 @@ class LearnConfig:
         _real(self.epsilon, "epsilon", 0.0, 1.0)
         _real(self.epsilon_final, "final epsilon", 0.0, 1.0)
         _real(self.gamma, "gamma", 0.0, 1.0, open_high=True)
+        _real(self.average, "theta average (control steps)", 0.0, float(MAX_STEPS))
+        _real(self.init_scale, "warm-start scale", 0.0, 1.0, open_low=True)
         return self
 
     @property
@@ -275,7 +292,10 @@ class Learner:
         self.init_label = None
         if init is not None:
             _warm_start(self.agents, init, config.learner)
+            for a in self.agents:
+                a.theta *= config.init_scale
             self.init_label = str(init.meta.get("source", init.kind))
+        self.theta_bar = [a.theta.copy() for a in self.agents] if config.average else None
         self.rng = np.random.default_rng(config.seed)
         n = config.arms
         self.x = self._random_poses(n)
@@ -384,6 +404,10 @@ class Learner:
         nxt = self.plant.step(self.x, tau)
         rewards = [a.reward(nxt) for a in self.agents]
         self.update(chosen, rewards, self._values(nxt), self.alpha())
+        if self.theta_bar is not None:
+            beta = min(1.0, self.config.arms / self.config.average)
+            for bar, a in zip(self.theta_bar, self.agents):
+                bar += beta * (a.theta - bar)
         self.clock += 1
         done = self.clock >= self.config.episode
         self.x = nxt
@@ -395,11 +419,15 @@ class Learner:
 
     # -- results
     def policy(self, *, resume: bool = False) -> Policy:
-        """The greedy policy (14) of the current theta, with its provenance; ``resume``
-        adds what :meth:`resume` needs (the generator, the arms, the curve)."""
+        """The greedy policy (14) of the current theta (of its average theta_bar when
+        ``average`` is set), with its provenance; ``resume`` adds what :meth:`resume` needs
+        (the generator, the arms, the curve and, with an average, theta itself)."""
         kind = policy_kind(self.config.learner)
-        agents = [Agent(a.name, a.grid, a.actions, a.theta.copy(), a.outputs,
-                        {"learned": True, "link_reward": a.link}) for a in self.agents]
+        read = self.theta_bar or [a.theta for a in self.agents]
+        agents = [Agent(a.name, a.grid, a.actions, q.copy(), a.outputs,
+                        {"learned": True, "link_reward": a.link,
+                         "averaged": bool(self.theta_bar)})
+                  for a, q in zip(self.agents, read)]
         info = {"config": self.config.as_dict(), "steps": self.steps_done,
                 "iterations": self.iteration, "init": self.init_label,
                 "exploration": f"epsilon-greedy ({self.config.update}), epsilon "
@@ -409,6 +437,8 @@ class Learner:
         if resume:
             info["resume"] = {"rng": self.rng.bit_generator.state,
                               "x": self.x.tolist(), "clock": self.clock.tolist()}
+            if self.theta_bar is not None:       # the policy holds theta_bar; theta here
+                info["resume"]["theta"] = {a.name: _pack(a.theta) for a in self.agents}
         meta = {"model": "mujoco (online learning)", "gamma": self.config.gamma, "ts": TS,
                 "parameters": TABLE_I.as_dict(), "source": f"learned {self.config.learner}",
                 "twolink_version": __version__, META_KEY: info}
@@ -463,13 +493,17 @@ class Learner:
             config = LearnConfig.from_dict(data)
             self = cls(config, plant=plant, nthread=nthread)
             theirs = {a.name: a for a in policy.agents}
-            for a in self.agents:
+            state = info["resume"]
+            for k, a in enumerate(self.agents):
                 q = theirs[a.name].q
                 if q.shape != a.theta.shape:
                     raise ValueError(f"agent {a.name}: Q of shape {q.shape}, expected "
                                      f"{a.theta.shape}")
-                a.theta = np.array(q, dtype=float)
-            state = info["resume"]
+                if self.theta_bar is None:
+                    a.theta = np.array(q, dtype=float)
+                else:
+                    self.theta_bar[k] = np.array(q, dtype=float)
+                    a.theta = _unpack(state["theta"][a.name], a.theta.shape)
             self.rng.bit_generator.state = state["rng"]
             self.x = np.array(state["x"], dtype=float).reshape(config.arms, 4)
             self.clock = np.array(state["clock"], dtype=np.int64).reshape(config.arms)
@@ -511,6 +545,25 @@ def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarra
     hit = weight > 0
     flat[hit] += np.minimum(1.0, alpha * weight[hit]) * total[hit] / weight[hit]
     return theta
+
+
+def _pack(a: np.ndarray) -> str:
+    """float64 array as base64 text (exact, and half the size of decimal JSON)."""
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f8").tobytes()).decode("ascii")
+
+
+def _unpack(text: str, shape: tuple) -> np.ndarray:
+    try:
+        raw = base64.b64decode(text.encode("ascii"), validate=True)
+    except (ValueError, AttributeError) as exc:
+        raise ValueError(f"malformed learning checkpoint (theta: {exc})") from None
+    if len(raw) != 8 * math.prod(shape):
+        raise ValueError(f"malformed learning checkpoint (theta of {len(raw)} bytes, "
+                         f"expected {8 * math.prod(shape)})")
+    arr = np.frombuffer(raw, dtype="<f8").reshape(shape).astype(float)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("malformed learning checkpoint (theta not finite)")
+    return arr
 
 
 def _greedy(q: np.ndarray) -> np.ndarray:

@@ -63,6 +63,15 @@ def add_parser(sub):
                         "epsilon-greedy per bin; fql: per-bin actions, error against "
                         "sum mu theta[m, a_m] (Jouffe/Glorennec); discrete: plain Q-learning "
                         f"(4) (default {_DEFAULTS.update})")
+    p.add_argument("--average", type=float, default=_DEFAULTS.average, metavar="STEPS",
+                   help="the saved and evaluated policy reads an exponential average of theta "
+                        "over about STEPS control steps (iterate averaging against the noise "
+                        "of a constant alpha; learning itself unchanged); 0: theta itself "
+                        f"(default {_DEFAULTS.average:g})")
+    p.add_argument("--init-scale", type=float, default=_DEFAULTS.init_scale, metavar="LAMBDA",
+                   help="with --init, start from LAMBDA times its Q, in (0, 1]: the same "
+                        "greedy policy, values nearer the optimistic 0 of a cold start "
+                        f"(default {_DEFAULTS.init_scale:g})")
     p.add_argument("--seed", default="0", metavar="S", help="seed of every random draw (default 0)")
     p.add_argument("--alpha", type=float, default=_DEFAULTS.alpha,
                    help=f"learning rate per unit of membership weight, in (0, 1] (default "
@@ -105,12 +114,15 @@ def _config(args) -> LearnConfig:
     if args.independent and args.task != "decentralized":
         raise ValueError("--independent applies to --task decentralized only")
     learner = "independent" if args.independent else args.task
+    if args.init is None and args.init_scale != _DEFAULTS.init_scale:
+        raise ValueError("--init-scale applies to a warm start (--init) only")
     return LearnConfig(
         learner=learner, steps=_count(args.steps) if args.steps else _DEFAULTS.steps,
         arms=_count(args.arms), seed=_count(args.seed), update=args.update,
         alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
         epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
-        episode=_count(args.episode), eval_every=_count(args.eval_every)).check()
+        episode=_count(args.episode), eval_every=_count(args.eval_every),
+        average=args.average, init_scale=args.init_scale).check()
 
 
 def run(args) -> int:
