@@ -11,6 +11,7 @@ can be run a few runs at a time.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -45,6 +46,17 @@ RUNS = {
     "centralized discrete (4) from (11)": ("centralized", "discrete", "centralized"),
     "decentralized discrete (4) cold, alpha halving at 250k":
         ("decentralized", "discrete", None, {"alpha_halflife": 250_000.0}),
+    # issue 12's fixes: the policy reads theta averaged over 200 k steps; a warm start
+    # from half the (11) Q (same greedy policy, values nearer the optimistic 0)
+    "decentralized discrete (4) cold, averaged":
+        ("decentralized", "discrete", None, {"average": 200_000.0}),
+    "decentralized discrete (4) from (11) x 0.5, averaged":
+        ("decentralized", "discrete", "decentralized", {"average": 200_000.0,
+                                                        "init_scale": 0.5}),
+    "decentralized discrete (4) from (11), averaged":
+        ("decentralized", "discrete", "decentralized", {"average": 200_000.0}),
+    "decentralized discrete (4) from (11) x 0.5":
+        ("decentralized", "discrete", "decentralized", {"init_scale": 0.5}),
 }
 #: Model-based policies drawn as horizontal lines.
 BASELINES = ("decentralized", "centralized", "decentralized_full", "centralized_full")
@@ -61,15 +73,17 @@ def other_poses(n: int = OTHER_POSES) -> np.ndarray:
 
 
 def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 5) -> dict:
-    """Control steps per CPU second of raw batched stepping (random torques) and of the
-    decentralized learner (default update), on the same arms, alternating ``repeats``
+    """Control steps per CPU second of raw batched stepping (random torques), of the
+    decentralized learner (default update) and of the same learner with its policy's
+    theta averaged (``average``, issue 12's fix), on the same arms, alternating ``repeats``
     times. CPU time of this process (one MuJoCo thread), so that other work on a shared
     machine does not enter the ratio."""
     rng = np.random.default_rng(seed)
-    raw, learn = [], []
+    raw, learn, averaged = [], [], []
     config = LearnConfig(learner="decentralized", steps=arms * iterations * (repeats + 1),
                          arms=arms, seed=seed)
-    with MujocoPlant(nthread=1) as plant, Learner(config, plant=plant) as learner:
+    with MujocoPlant(nthread=1) as plant, Learner(config, plant=plant) as learner, \
+            Learner(dataclasses.replace(config, average=200_000.0), plant=plant) as avg:
         x = other_poses(arms)
         for _ in range(repeats):
             tau = rng.uniform(-1, 1, (iterations, arms, 2)) * plant.params.tau_max
@@ -77,19 +91,23 @@ def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 5) -
             for k in range(iterations):
                 x = plant.step(x, tau[k])
             raw.append(arms * iterations / (time.process_time() - t0))
-            t0 = time.process_time()
-            for _ in range(iterations):
-                learner.step()
-            learn.append(arms * iterations / (time.process_time() - t0))
-    r, lr = float(np.median(raw)), float(np.median(learn))
+            for who, out in ((learner, learn), (avg, averaged)):
+                t0 = time.process_time()
+                for _ in range(iterations):
+                    who.step()
+                out.append(arms * iterations / (time.process_time() - t0))
+    r, lr, ar = (float(np.median(v)) for v in (raw, learn, averaged))
     return {"arms": arms, "iterations": iterations, "raw_steps_per_s": r,
-            "learn_steps_per_s": lr, "ratio": lr / r, "raw_all": raw, "learn_all": learn}
+            "learn_steps_per_s": lr, "ratio": lr / r, "averaged_steps_per_s": ar,
+            "averaged_ratio": ar / r, "raw_all": raw, "learn_all": learn,
+            "averaged_all": averaged}
 
 
-def run_one(name: str, seed: int, steps: int, arms: int) -> dict:
+def run_one(name: str, seed: int, steps: int, arms: int, eval_every: int = 0) -> dict:
     learner_name, update, init, *more = RUNS[name]
     config = LearnConfig(learner=learner_name, update=update, steps=steps, arms=arms,
-                         seed=seed, eval_every=max(arms, steps // 16), **(more[0] if more else {}))
+                         seed=seed, eval_every=eval_every or max(arms, steps // 16),
+                         **(more[0] if more else {}))
     with Learner(config, init=load_policy(init) if init else None) as learner:
         t0 = time.perf_counter()
         curve = learner.run(on_eval=lambda e: print(
@@ -157,7 +175,9 @@ def report(data: dict) -> str:
         t = data["throughput"]
         lines.append(f"throughput ({t['arms']} arms): raw {t['raw_steps_per_s']:.0f} steps/s, "
                      f"learning {t['learn_steps_per_s']:.0f} steps/s (per CPU second, medians "
-                     f"of {len(t['raw_all'])}), ratio {t['ratio']:.2f}")
+                     f"of {len(t['raw_all'])}), ratio {t['ratio']:.2f}" +
+                     (f"; averaged theta {t['averaged_steps_per_s']:.0f} steps/s, ratio "
+                      f"{t['averaged_ratio']:.2f}" if "averaged_ratio" in t else ""))
     return "\n".join(lines)
 
 
@@ -168,6 +188,8 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=float, default=1e6, help="control steps per run")
     p.add_argument("--arms", type=int, default=256)
     p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    p.add_argument("--eval-every", type=float, default=0, metavar="N",
+                   help="control steps between evaluations (default: steps / 16)")
     p.add_argument("--throughput", type=int, default=0, metavar="ITER",
                    help="also measure throughput over ITER batched steps (0: skip)")
     p.add_argument("--out", type=Path, default=Path("renders/learning"))
@@ -190,7 +212,7 @@ def main(argv=None) -> int:
         data["throughput"] = throughput(args.arms, args.throughput)
     for name in (RUNS if args.runs is None else args.runs):
         for seed in args.seeds:
-            result = run_one(name, seed, int(args.steps), args.arms)
+            result = run_one(name, seed, int(args.steps), args.arms, int(args.eval_every))
             data["runs"] = [r for r in data["runs"]
                             if (r["name"], r["seed"]) != (name, seed)] + [result]
             write_json(store, data)

@@ -53,6 +53,9 @@ def test_resume_continues_to_the_new_total(tmp_path, capsys):
     (["--init", "centralized"], "--init policy is a centralized policy; the decentralized"),
     (["--independent", "--init", "decentralized"], "agent agent1 reads a grid over"),
     (["--init", "nosuch"], "unknown policy 'nosuch'"),
+    (["--init-scale", "0.5"], "--init-scale applies to a warm start (--init) only"),
+    (["--init", "decentralized", "--init-scale", "0"], "warm-start scale must be a number in (0, 1]"),
+    (["--average", "-5"], "theta average (control steps) must be a number"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
     assert _learn(tmp_path, *args) == 2
