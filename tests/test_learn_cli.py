@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from twolink.cli import main
@@ -21,6 +22,7 @@ def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys
     out = json.loads(capsys.readouterr().out)
     assert [e["steps"] for e in out["curve"]] == [0, 16, 32]
     assert out["config"]["seed"] == 3 and out["config"]["learner"] == "decentralized"
+    assert out["config"]["average"] == 200_000.0 and out["config"]["init_scale"] == 1.0
     assert 0 <= out["final"]["successes"] <= out["final"]["n"] == 65
     assert out["model_based"]["policy"] == "decentralized"
     policy = load_policy(str(tmp_path / "run.npz"))
@@ -30,6 +32,16 @@ def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys
     assert "epsilon-greedy" in info["exploration"]
     assert (tmp_path / "run_curve.png").read_bytes()[:4] == b"\x89PNG"
     assert policy([[-1.0, -3.0, 0.0, 0.0]]).shape == (1, 2)
+
+
+def test_warm_start_begins_at_half_the_given_q_unless_told(tmp_path, capsys):
+    init = load_policy("decentralized")
+    for extra, scale in (([], 0.5), (["--init-scale", "1", "--force"], 1.0)):
+        assert _learn(tmp_path, "--init", "decentralized", "--average", "0", "--steps", "8",
+                      "--eval-every", "8", "--json", *extra) == 0
+        assert json.loads(capsys.readouterr().out)["config"]["init_scale"] == scale
+    q = load_policy(str(tmp_path / "run.npz")).agents[0].q     # average 0: theta itself
+    assert 0 < np.abs(q - init.agents[0].q).max() < 5
 
 
 def test_resume_continues_to_the_new_total(tmp_path, capsys):

@@ -19,6 +19,11 @@ from twolink.learning_curves import learning_curves
 from twolink.policy import Policy, load_policy
 
 _DEFAULTS = LearnConfig()
+#: What the command uses unless told otherwise (issue 12, measured in the README): the
+#: policy reads theta averaged over 200 k control steps; a warm start begins at half the
+#: given Q. LearnConfig keeps 0 and 1, so that older checkpoints resume as they ran.
+AVERAGE = 200_000.0
+INIT_SCALE = 0.5
 
 
 def _count(text: str) -> int:
@@ -63,15 +68,15 @@ def add_parser(sub):
                         "epsilon-greedy per bin; fql: per-bin actions, error against "
                         "sum mu theta[m, a_m] (Jouffe/Glorennec); discrete: plain Q-learning "
                         f"(4) (default {_DEFAULTS.update})")
-    p.add_argument("--average", type=float, default=_DEFAULTS.average, metavar="STEPS",
+    p.add_argument("--average", type=float, default=AVERAGE, metavar="STEPS",
                    help="the saved and evaluated policy reads an exponential average of theta "
                         "over about STEPS control steps (iterate averaging against the noise "
                         "of a constant alpha; learning itself unchanged); 0: theta itself "
-                        f"(default {_DEFAULTS.average:g})")
-    p.add_argument("--init-scale", type=float, default=_DEFAULTS.init_scale, metavar="LAMBDA",
+                        f"(default {AVERAGE:g})")
+    p.add_argument("--init-scale", type=float, default=None, metavar="LAMBDA",
                    help="with --init, start from LAMBDA times its Q, in (0, 1]: the same "
                         "greedy policy, values nearer the optimistic 0 of a cold start "
-                        f"(default {_DEFAULTS.init_scale:g})")
+                        f"(default {INIT_SCALE:g}; 1: the given Q as it is)")
     p.add_argument("--seed", default="0", metavar="S", help="seed of every random draw (default 0)")
     p.add_argument("--alpha", type=float, default=_DEFAULTS.alpha,
                    help=f"learning rate per unit of membership weight, in (0, 1] (default "
@@ -114,15 +119,16 @@ def _config(args) -> LearnConfig:
     if args.independent and args.task != "decentralized":
         raise ValueError("--independent applies to --task decentralized only")
     learner = "independent" if args.independent else args.task
-    if args.init is None and args.init_scale != _DEFAULTS.init_scale:
+    if args.init is None and args.init_scale is not None:
         raise ValueError("--init-scale applies to a warm start (--init) only")
+    scale = INIT_SCALE if args.init_scale is None else args.init_scale
     return LearnConfig(
         learner=learner, steps=_count(args.steps) if args.steps else _DEFAULTS.steps,
         arms=_count(args.arms), seed=_count(args.seed), update=args.update,
         alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
         epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
         episode=_count(args.episode), eval_every=_count(args.eval_every),
-        average=args.average, init_scale=args.init_scale).check()
+        average=args.average, init_scale=scale if args.init else 1.0).check()
 
 
 def run(args) -> int:
