@@ -245,8 +245,40 @@ def test_average_is_an_exponential_average_of_the_same_theta():
         assert avg.policy().agents[0].info["averaged"] is True
 
 
+def test_hysteresis_keeps_a_greedy_action_until_beaten_by_the_margin():
+    """``hysteresis``: per bin, the kept action changes only when theta_bar's best beats it
+    by more than the margin (a loop over bins here); the saved policy (14) acts on the
+    kept actions, and its Q is theta_bar but in those rows; learning is unchanged."""
+    margin = 0.01
+    cfg = _short(update="discrete", average=20.0, hysteresis=margin)
+    with ModelPlant("full") as plant, Learner(_short(update="discrete", average=20.0),
+                                              plant=plant) as plain, \
+            Learner(cfg, plant=plant) as hys:
+        kept = [np.zeros(len(a.theta), dtype=int) for a in plain.agents]   # theta = 0: first
+        changed = 0
+        for _ in range(12):
+            plain.step()
+            hys.step()
+            for k, bar in zip(kept, plain.theta_bar):
+                for m in range(len(bar)):
+                    best = int(np.argmax(bar[m]))
+                    if bar[m, best] > bar[m, k[m]] + margin:
+                        changed += k[m] != best
+                        k[m] = best
+        policy = hys.policy()
+        for p, h, k, bar, agent in zip(plain.agents, hys.agents, kept, plain.theta_bar,
+                                       policy.agents):
+            assert np.array_equal(p.theta, h.theta)
+            assert np.array_equal(agent.greedy_actions[:, 0], agent.actions[k, 0])
+            differ = np.flatnonzero(np.any(agent.q != bar, axis=1))
+            assert np.array_equal(differ, np.flatnonzero(k != np.argmax(bar, axis=1)))
+            assert np.abs(agent.q - bar).max() <= margin + 1e-8
+        assert changed > 0                          # kept actions did move
+        assert any(np.any(k != np.argmax(b, axis=1)) for k, b in zip(kept, plain.theta_bar))
+
+
 def test_averaged_run_resumes_bit_for_bit(tmp_path):
-    cfg = _short(average=50.0)
+    cfg = _short(average=50.0, hysteresis=0.2)
     full, _ = _plain_run(cfg)
     ckpt = tmp_path / "ckpt.npz"
 
@@ -257,9 +289,13 @@ def test_averaged_run_resumes_bit_for_bit(tmp_path):
         with pytest.raises(KeyboardInterrupt):
             learner.run(checkpoint=ckpt, on_eval=stop)
         bar64 = [b.copy() for b in learner.theta_bar]
+        kept64 = [k.copy() for k in learner.kept]
+        q64 = [a.q for a in learner.policy().agents]
     saved = Policy.load(ckpt)
-    assert all(np.array_equal(a.q, b) for a, b in zip(saved.agents, bar64))
+    assert all(np.array_equal(a.q, q) for a, q in zip(saved.agents, q64))
     with ModelPlant("full") as plant, Learner.resume(saved, plant=plant) as learner:
+        assert all(np.array_equal(a, b) for a, b in zip(learner.theta_bar, bar64))
+        assert all(np.array_equal(a, b) for a, b in zip(learner.kept, kept64))
         learner.run()
         assert all(np.array_equal(a.theta, f) for a, f in zip(learner.agents, full))
 
@@ -274,6 +310,7 @@ def test_init_scale_keeps_the_greedy_policy_and_shrinks_the_values():
             assert b.q.min() < -5
     for bad, message in [({"init_scale": 0.0}, "warm-start scale must be"),
                          ({"init_scale": 1.5}, "warm-start scale must be"),
-                         ({"average": -1.0}, r"theta average \(control steps\) must be")]:
+                         ({"average": -1.0}, r"theta average \(control steps\) must be"),
+                         ({"hysteresis": -0.1}, "hysteresis margin must be")]:
         with pytest.raises(ValueError, match=message):
             _short(**bad).check()

@@ -52,7 +52,12 @@ saved and evaluated policy (14) reads theta_bar, the learning itself is unchange
 theta bit for bit). ``init_scale`` lambda in (0, 1] starts a warm start from lambda times
 the given Q: every bin's greedy action, hence the policy (14), is the given one, but the
 values are nearer the optimistic 0 of a cold start (Q of (15)/(17) lies in [-25, 0]), so
-that what the given model got wrong is explored rather than trusted.
+that what the given model got wrong is explored rather than trusted. ``hysteresis`` m > 0
+makes the policy's greedy action of each bin sticky: after every update it changes only
+when another action's value (theta_bar, or theta without an average) beats the kept one
+by more than m, so near-ties (measured: agent 1's bins flipping on differences of 0.02)
+stop flipping the policy; the saved Q is the read theta with the kept action raised just
+above its row's best where it trails by at most m.
 
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
 at rest), staggered so that resets spread over time. Every random draw comes from one
@@ -111,6 +116,7 @@ class LearnConfig:
     gamma: float = GAMMA
     average: float = 0.0              # control steps of the policy's theta average; 0: none
     init_scale: float = 1.0           # a warm start begins at init_scale * the given Q
+    hysteresis: float = 0.0           # margin a new greedy action must win by; 0: none
 
     def check(self) -> "LearnConfig":
         """This configuration, or a ValueError naming the first bad field."""
@@ -137,6 +143,7 @@ class LearnConfig:
         _real(self.gamma, "gamma", 0.0, 1.0, open_high=True)
         _real(self.average, "theta average (control steps)", 0.0, float(MAX_STEPS))
         _real(self.init_scale, "warm-start scale", 0.0, 1.0, open_low=True)
+        _real(self.hysteresis, "hysteresis margin", 0.0, 100.0)
         return self
 
     @property
@@ -296,6 +303,7 @@ class Learner:
                 a.theta *= config.init_scale
             self.init_label = str(init.meta.get("source", init.kind))
         self.theta_bar = [a.theta.copy() for a in self.agents] if config.average else None
+        self.kept = [_greedy(q) for q in self._read()] if config.hysteresis else None
         self.rng = np.random.default_rng(config.seed)
         n = config.arms
         self.x = self._random_poses(n)
@@ -408,6 +416,12 @@ class Learner:
             beta = min(1.0, self.config.arms / self.config.average)
             for bar, a in zip(self.theta_bar, self.agents):
                 bar += beta * (a.theta - bar)
+        if self.kept is not None:
+            for kept, q in zip(self.kept, self._read()):
+                g = _greedy(q)
+                rows = np.arange(len(kept))
+                beaten = q[rows, g] > q[rows, kept] + self.config.hysteresis
+                kept[beaten] = g[beaten]
         self.clock += 1
         done = self.clock >= self.config.episode
         self.x = nxt
@@ -423,10 +437,17 @@ class Learner:
         ``average`` is set), with its provenance; ``resume`` adds what :meth:`resume` needs
         (the generator, the arms, the curve and, with an average, theta itself)."""
         kind = policy_kind(self.config.learner)
-        read = self.theta_bar or [a.theta for a in self.agents]
-        agents = [Agent(a.name, a.grid, a.actions, q.copy(), a.outputs,
+        read = [q.copy() for q in self._read()]
+        patched = {}
+        for a, q, kept in zip(self.agents, read, self.kept or [None] * len(read)):
+            if kept is not None:           # the kept action raised just above the row's best
+                rows = np.flatnonzero(_greedy(q) != kept)
+                patched[a.name] = {"rows": rows.tolist(), "values": _pack(q[rows])}
+                q[rows, kept[rows]] = q[rows].max(axis=1) + 4 * TIE_TOLERANCE
+        agents = [Agent(a.name, a.grid, a.actions, q, a.outputs,
                         {"learned": True, "link_reward": a.link,
-                         "averaged": bool(self.theta_bar)})
+                         "averaged": self.theta_bar is not None,
+                         "hysteresis": self.config.hysteresis})
                   for a, q in zip(self.agents, read)]
         info = {"config": self.config.as_dict(), "steps": self.steps_done,
                 "iterations": self.iteration, "init": self.init_label,
@@ -439,10 +460,18 @@ class Learner:
                               "x": self.x.tolist(), "clock": self.clock.tolist()}
             if self.theta_bar is not None:       # the policy holds theta_bar; theta here
                 info["resume"]["theta"] = {a.name: _pack(a.theta) for a in self.agents}
+            if self.kept is not None:            # the read rows before the kept actions
+                info["resume"]["patched"] = patched
+                info["resume"]["kept"] = {a.name: k.tolist()
+                                          for a, k in zip(self.agents, self.kept)}
         meta = {"model": "mujoco (online learning)", "gamma": self.config.gamma, "ts": TS,
                 "parameters": TABLE_I.as_dict(), "source": f"learned {self.config.learner}",
                 "twolink_version": __version__, META_KEY: info}
         return Policy(kind, agents, meta)
+
+    def _read(self) -> list:
+        """What the policy reads: theta_bar with an average, else theta (views)."""
+        return self.theta_bar if self.theta_bar is not None else [a.theta for a in self.agents]
 
     def evaluate(self, x0: Optional[np.ndarray] = None) -> Evaluation:
         return evaluate(self.policy(), self.plant, x0, steps=self.steps_done,
@@ -499,10 +528,20 @@ class Learner:
                 if q.shape != a.theta.shape:
                     raise ValueError(f"agent {a.name}: Q of shape {q.shape}, expected "
                                      f"{a.theta.shape}")
+                q = np.array(q, dtype=float)
+                if self.kept is not None:
+                    rows = np.array(state["patched"][a.name]["rows"], dtype=np.int64)
+                    if rows.size and (rows.min() < 0 or rows.max() >= len(q)):
+                        raise ValueError("malformed learning checkpoint (patched rows)")
+                    q[rows] = _unpack(state["patched"][a.name]["values"], (len(rows), q.shape[1]))
+                    kept = np.array(state["kept"][a.name], dtype=np.int64)
+                    if kept.shape != (len(q),) or kept.min() < 0 or kept.max() >= q.shape[1]:
+                        raise ValueError("malformed learning checkpoint (kept actions)")
+                    self.kept[k] = kept
                 if self.theta_bar is None:
-                    a.theta = np.array(q, dtype=float)
+                    a.theta = q
                 else:
-                    self.theta_bar[k] = np.array(q, dtype=float)
+                    self.theta_bar[k] = q
                     a.theta = _unpack(state["theta"][a.name], a.theta.shape)
             self.rng.bit_generator.state = state["rng"]
             self.x = np.array(state["x"], dtype=float).reshape(config.arms, 4)

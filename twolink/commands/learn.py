@@ -24,6 +24,7 @@ _DEFAULTS = LearnConfig()
 #: given Q. LearnConfig keeps 0 and 1, so that older checkpoints resume as they ran.
 AVERAGE = 200_000.0
 INIT_SCALE = 0.5
+HYSTERESIS = 0.0
 
 
 def _count(text: str) -> int:
@@ -77,6 +78,10 @@ def add_parser(sub):
                    help="with --init, start from LAMBDA times its Q, in (0, 1]: the same "
                         "greedy policy, values nearer the optimistic 0 of a cold start "
                         f"(default {INIT_SCALE:g}; 1: the given Q as it is)")
+    p.add_argument("--hysteresis", type=float, default=HYSTERESIS, metavar="M",
+                   help="keep each bin's greedy action until another beats it by more than M "
+                        "in the read theta (near-ties stop flipping the policy); 0: plain "
+                        f"argmax (default {HYSTERESIS:g})")
     p.add_argument("--seed", default="0", metavar="S", help="seed of every random draw (default 0)")
     p.add_argument("--alpha", type=float, default=_DEFAULTS.alpha,
                    help=f"learning rate per unit of membership weight, in (0, 1] (default "
@@ -128,7 +133,8 @@ def _config(args) -> LearnConfig:
         alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
         epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
         episode=_count(args.episode), eval_every=_count(args.eval_every),
-        average=args.average, init_scale=scale if args.init else 1.0).check()
+        average=args.average, init_scale=scale if args.init else 1.0,
+        hysteresis=args.hysteresis).check()
 
 
 def run(args) -> int:
