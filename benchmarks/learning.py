@@ -53,6 +53,13 @@ RUNS = {
     "decentralized discrete (4) from (11) x 0.5, averaged":
         ("decentralized", "discrete", "decentralized", {"average": 200_000.0,
                                                         "init_scale": 0.5}),
+    # ... and the policy's greedy actions kept until beaten by 0.1 (dev seed 98)
+    "decentralized discrete (4) cold, averaged, hysteresis 0.1":
+        ("decentralized", "discrete", None, {"average": 200_000.0, "hysteresis": 0.1}),
+    "decentralized discrete (4) from (11) x 0.5, averaged, hysteresis 0.1":
+        ("decentralized", "discrete", "decentralized", {"average": 200_000.0,
+                                                        "init_scale": 0.5,
+                                                        "hysteresis": 0.1}),
     "decentralized discrete (4) from (11), averaged":
         ("decentralized", "discrete", "decentralized", {"average": 200_000.0}),
     "decentralized discrete (4) from (11) x 0.5":
