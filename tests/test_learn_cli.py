@@ -23,6 +23,7 @@ def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys
     assert [e["steps"] for e in out["curve"]] == [0, 16, 32]
     assert out["config"]["seed"] == 3 and out["config"]["learner"] == "decentralized"
     assert out["config"]["average"] == 200_000.0 and out["config"]["init_scale"] == 1.0
+    assert out["config"]["hysteresis"] == 0.1
     assert 0 <= out["final"]["successes"] <= out["final"]["n"] == 65
     assert out["model_based"]["policy"] == "decentralized"
     policy = load_policy(str(tmp_path / "run.npz"))
@@ -37,10 +38,11 @@ def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys
 def test_warm_start_begins_at_half_the_given_q_unless_told(tmp_path, capsys):
     init = load_policy("decentralized")
     for extra, scale in (([], 0.5), (["--init-scale", "1", "--force"], 1.0)):
-        assert _learn(tmp_path, "--init", "decentralized", "--average", "0", "--steps", "8",
+        assert _learn(tmp_path, "--init", "decentralized", "--average", "0", "--hysteresis",
+                      "0", "--steps", "8",
                       "--eval-every", "8", "--json", *extra) == 0
         assert json.loads(capsys.readouterr().out)["config"]["init_scale"] == scale
-    q = load_policy(str(tmp_path / "run.npz")).agents[0].q     # average 0: theta itself
+    q = load_policy(str(tmp_path / "run.npz")).agents[0].q     # theta itself
     assert 0 < np.abs(q - init.agents[0].q).max() < 5
 
 
@@ -68,6 +70,7 @@ def test_resume_continues_to_the_new_total(tmp_path, capsys):
     (["--init-scale", "0.5"], "--init-scale applies to a warm start (--init) only"),
     (["--init", "decentralized", "--init-scale", "0"], "warm-start scale must be a number in (0, 1]"),
     (["--average", "-5"], "theta average (control steps) must be a number"),
+    (["--hysteresis", "nan"], "hysteresis margin must be a number in [0, 100]"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):
     assert _learn(tmp_path, *args) == 2

@@ -20,11 +20,12 @@ from twolink.policy import Policy, load_policy
 
 _DEFAULTS = LearnConfig()
 #: What the command uses unless told otherwise (issue 12, measured in the README): the
-#: policy reads theta averaged over 200 k control steps; a warm start begins at half the
-#: given Q. LearnConfig keeps 0 and 1, so that older checkpoints resume as they ran.
+#: policy reads theta averaged over 200 k control steps, each bin's greedy action kept
+#: until beaten by 0.1; a warm start begins at half the given Q. LearnConfig keeps 0, 0
+#: and 1, so that older checkpoints resume as they ran.
 AVERAGE = 200_000.0
 INIT_SCALE = 0.5
-HYSTERESIS = 0.0
+HYSTERESIS = 0.1
 
 
 def _count(text: str) -> int:
