@@ -27,7 +27,10 @@ def learning_curves(panels: dict, path: os.PathLike, *, baselines: dict | None =
     """
     if not panels or not any(panels.values()):
         raise ValueError("nothing to plot")
-    fig, axes = plt.subplots(1, len(panels), figsize=(6.0 * len(panels), 4.2),
+    rows = max(len(c) for c in panels.values()) + len(baselines or {}) + 1
+    below = rows > 8                   # many curves: the legend goes under the axes
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.0 * len(panels),
+                                                      4.2 + (0.17 * rows if below else 0)),
                              squeeze=False, sharey=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (panel, curves) in zip(axes[0], panels.items()):
@@ -55,7 +58,11 @@ def learning_curves(panels: dict, path: os.PathLike, *, baselines: dict | None =
         ax.set_xlabel("MuJoCo control steps (all arms)")
         ax.set_ylim(-3, 103)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+        if below:
+            ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1,
+                      frameon=False)
+        else:
+            ax.legend(fontsize=7, loc="best")
     axes[0, 0].set_ylabel("evaluation-set success [%] (95 % Wilson band)")
     if title:
         fig.suptitle(title)
