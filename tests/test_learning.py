@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twolink.learning import (LEARNERS, MAX_ARMS, LearnConfig, Learner, make_agents,
+from twolink.learning import (LEARNERS, MAX_ARMS, MAX_EVALUATIONS, Evaluation, LearnConfig,
+                              Learner, make_agents,
                               stays_above, steps_to_reach, update_theta)
 from twolink.plants import ModelPlant
 from twolink.policy import Policy, load_policy
@@ -155,7 +156,7 @@ def test_warm_start_copies_theta_and_refuses_other_tasks_and_grids():
     ({"epsilon": -0.1}, "epsilon must be"),
     ({"learner": "joint"}, "unknown learner 'joint'"),
     ({"update": "sarsa"}, "unknown update 'sarsa'"),
-    ({"steps": 10**6, "eval_every": 10}, "more than 1000 evaluations"),
+    ({"steps": 10**6, "eval_every": 10}, "more than 200 evaluations"),
 ])
 def test_bad_settings_are_refused(change, message):
     with pytest.raises(ValueError, match=message):
@@ -311,6 +312,23 @@ def test_init_scale_keeps_the_greedy_policy_and_shrinks_the_values():
     for bad, message in [({"init_scale": 0.0}, "warm-start scale must be"),
                          ({"init_scale": 1.5}, "warm-start scale must be"),
                          ({"average": -1.0}, r"theta average \(control steps\) must be"),
-                         ({"hysteresis": -0.1}, "hysteresis margin must be")]:
+                         ({"hysteresis": -0.1}, "hysteresis margin must be"),
+                         ({"learner": "centralized", "average": 10.0},
+                          "not available to the centralized learner")]:
         with pytest.raises(ValueError, match=message):
             _short(**bad).check()
+
+
+def test_the_largest_checkpoint_fits_a_policy_file(tmp_path):
+    """MAX_ARMS arms, theta and its average, kept actions, MAX_EVALUATIONS evaluations:
+    the checkpoint is written and read back (a policy header holds at most 1 MiB)."""
+    cfg = LearnConfig(learner="decentralized", steps=MAX_ARMS * 2, arms=MAX_ARMS, seed=1,
+                      update="discrete", average=1e5, hysteresis=0.1)
+    with ModelPlant("full") as plant, Learner(cfg, plant=plant) as learner:
+        learner.step()
+        learner.curve = [Evaluation(10**8, 65, 65, 12.345678901234567, -21.123456789012345,
+                                    123456.78901234567)] * MAX_EVALUATIONS
+        learner.policy(resume=True).save(tmp_path / "big.npz")
+        back = Learner.resume(Policy.load(tmp_path / "big.npz"), plant=plant)
+        assert np.array_equal(back.x, learner.x) and len(back.curve) == MAX_EVALUATIONS
+        assert all(np.array_equal(a.theta, b.theta) for a, b in zip(back.agents, learner.agents))

@@ -91,12 +91,14 @@ LEARNERS = ("centralized", "decentralized", "independent")
 UPDATES = ("fuzzy", "discrete", "rule", "fql")
 #: Updates that act as policy (14): every active bin its own action.
 _FUZZY_ACTING = ("fuzzy", "rule", "fql")
-#: Most arms a run may drive (the checkpoint stores every arm's state in its header).
-MAX_ARMS = 4096
+#: Most arms a run may drive (the checkpoint stores every arm's state in its header, which
+#: a policy file caps at 1 MiB: 4096 arms did not fit; 1024 do, with theta, its average,
+#: the kept actions and the longest curve; tested).
+MAX_ARMS = 1024
 #: Most control steps (summed over arms) a run may take: some hours on one core.
 MAX_STEPS = 10**8
 #: Most evaluations a run may hold (each is a 65-state rollout on MuJoCo).
-MAX_EVALUATIONS = 1000
+MAX_EVALUATIONS = 200
 #: Key of the learning provenance in a policy's ``meta``.
 META_KEY = "learning"
 
@@ -145,6 +147,10 @@ class LearnConfig:
         _real(self.epsilon_final, "final epsilon", 0.0, 1.0)
         _real(self.gamma, "gamma", 0.0, 1.0, open_high=True)
         _real(self.average, "theta average (control steps)", 0.0, float(MAX_STEPS))
+        if self.average and self.learner == "centralized":
+            raise ValueError("a theta average is not available to the centralized learner: "
+                             "its checkpoint would carry a second 63 504-entry theta, more "
+                             "than a policy file's header holds")
         _real(self.init_scale, "warm-start scale", 0.0, 1.0, open_low=True)
         _real(self.hysteresis, "hysteresis margin", 0.0, 100.0)
         return self
@@ -460,7 +466,7 @@ class Learner:
                 "curve": [e.as_dict() for e in self.curve]}
         if resume:
             info["resume"] = {"rng": self.rng.bit_generator.state,
-                              "x": self.x.tolist(), "clock": self.clock.tolist()}
+                              "x": _pack(self.x), "clock": self.clock.tolist()}
             if self.theta_bar is not None:       # the policy holds theta_bar; theta here
                 info["resume"]["theta"] = {a.name: _pack(a.theta) for a in self.agents}
             if self.kept is not None:            # the read rows before the kept actions
@@ -547,7 +553,8 @@ class Learner:
                     self.theta_bar[k] = q
                     a.theta = _unpack(state["theta"][a.name], a.theta.shape)
             self.rng.bit_generator.state = state["rng"]
-            self.x = np.array(state["x"], dtype=float).reshape(config.arms, 4)
+            self.x = (_unpack(state["x"], (config.arms, 4)) if isinstance(state["x"], str)
+                      else np.array(state["x"], dtype=float).reshape(config.arms, 4))
             self.clock = np.array(state["clock"], dtype=np.int64).reshape(config.arms)
             self.iteration = int(info["iterations"])
             self.learn_seconds = float(info["learn_seconds"])

@@ -70,11 +70,12 @@ def add_parser(sub):
                         "epsilon-greedy per bin; fql: per-bin actions, error against "
                         "sum mu theta[m, a_m] (Jouffe/Glorennec); discrete: plain Q-learning "
                         f"(4) (default {_DEFAULTS.update})")
-    p.add_argument("--average", type=float, default=AVERAGE, metavar="STEPS",
+    p.add_argument("--average", type=float, default=None, metavar="STEPS",
                    help="the saved and evaluated policy reads an exponential average of theta "
                         "over about STEPS control steps (iterate averaging against the noise "
                         "of a constant alpha; learning itself unchanged); 0: theta itself "
-                        f"(default {AVERAGE:g})")
+                        f"(default {AVERAGE:g}; 0 for the centralized learner, whose "
+                        f"checkpoint cannot hold a second theta)")
     p.add_argument("--init-scale", type=float, default=None, metavar="LAMBDA",
                    help="with --init, start from LAMBDA times its Q, in (0, 1]: the same "
                         "greedy policy, values nearer the optimistic 0 of a cold start "
@@ -134,7 +135,8 @@ def _config(args) -> LearnConfig:
         alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
         epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
         episode=_count(args.episode), eval_every=_count(args.eval_every),
-        average=args.average, init_scale=scale if args.init else 1.0,
+        average=(0.0 if learner == "centralized" else AVERAGE) if args.average is None
+        else args.average, init_scale=scale if args.init else 1.0,
         hysteresis=args.hysteresis).check()
 
 
