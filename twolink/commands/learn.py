@@ -168,7 +168,9 @@ def run(args) -> int:
         raise
     c = learner.config
     label = c.learner + (f" from {learner.init_label}" if learner.init_label else "") + \
-        f" ({c.update})"
+        (f" x {c.init_scale:g}" if learner.init_label and c.init_scale != 1 else "") + \
+        f" ({c.update}" + (f", theta averaged over {c.average:g} steps" if c.average else "") + \
+        (f", hysteresis {c.hysteresis:g}" if c.hysteresis else "") + ")"
     learning_curves({f"{c.learner}, {c.arms} arms, seed {c.seed}": {label: curve}}, plot,
                     baselines={f"{kind} (11)": baseline.rate})
     final = curve[-1]
