@@ -83,8 +83,8 @@ def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 5) -
     """Control steps per CPU second of raw batched stepping (random torques), of the
     decentralized learner (default update) and of the same learner with its policy's
     theta averaged and its greedy actions kept (``average`` 200 k, ``hysteresis`` 0.1:
-    issue 12's fix, what ``twolink learn`` does by default), on the same arms, alternating ``repeats``
-    times. CPU time of this process (one MuJoCo thread), so that other work on a shared
+    issue 12's fix, what ``twolink learn`` does by default), on the same arms,
+    alternating ``repeats`` times. CPU time of this process (one MuJoCo thread), so that other work on a shared
     machine does not enter the ratio."""
     rng = np.random.default_rng(seed)
     raw, learn, averaged = [], [], []
@@ -185,7 +185,8 @@ def report(data: dict) -> str:
         lines.append(f"throughput ({t['arms']} arms): raw {t['raw_steps_per_s']:.0f} steps/s, "
                      f"learning {t['learn_steps_per_s']:.0f} steps/s (per CPU second, medians "
                      f"of {len(t['raw_all'])}), ratio {t['ratio']:.2f}" +
-                     (f"; averaged theta, kept actions {t['averaged_steps_per_s']:.0f} steps/s, ratio "
+                     (f"; averaged theta, kept actions {t['averaged_steps_per_s']:.0f} "
+                      f"steps/s, ratio "
                       f"{t['averaged_ratio']:.2f}" if "averaged_ratio" in t else ""))
     return "\n".join(lines)
 

@@ -68,7 +68,8 @@ def test_resume_continues_to_the_new_total(tmp_path, capsys):
     (["--independent", "--init", "decentralized"], "agent agent1 reads a grid over"),
     (["--init", "nosuch"], "unknown policy 'nosuch'"),
     (["--init-scale", "0.5"], "--init-scale applies to a warm start (--init) only"),
-    (["--init", "decentralized", "--init-scale", "0"], "warm-start scale must be a number in (0, 1]"),
+    (["--init", "decentralized", "--init-scale", "0"],
+     "warm-start scale must be a number in (0, 1]"),
     (["--average", "-5"], "theta average (control steps) must be a number"),
     (["--hysteresis", "nan"], "hysteresis margin must be a number in [0, 100]"),
 ])
