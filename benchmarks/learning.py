@@ -84,8 +84,8 @@ def throughput(arms: int, iterations: int, *, seed: int = 0, repeats: int = 5) -
     decentralized learner (default update) and of the same learner with its policy's
     theta averaged and its greedy actions kept (``average`` 200 k, ``hysteresis`` 0.1:
     issue 12's fix, what ``twolink learn`` does by default), on the same arms,
-    alternating ``repeats`` times. CPU time of this process (one MuJoCo thread), so that other work on a shared
-    machine does not enter the ratio."""
+    alternating ``repeats`` times. CPU time of this process (one MuJoCo thread), so that
+    other work on a shared machine does not enter the ratio."""
     rng = np.random.default_rng(seed)
     raw, learn, averaged = [], [], []
     config = LearnConfig(learner="decentralized", steps=arms * iterations * (repeats + 1),
