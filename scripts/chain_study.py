@@ -22,7 +22,7 @@ import numpy as np
 from twolink import chain_agents
 from twolink.formatting import format_rate
 from twolink.metrics import random_poses, settle_time, success
-from twolink.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS, chain
+from twolink.parameters import CHAIN_HORIZON, HORIZON, LINK_RULES, MAX_LINKS, MIN_LINKS, chain
 from twolink.plants import make_plant
 from twolink.reward import in_goal_band
 from twolink.rollout import rollout
@@ -30,7 +30,7 @@ from twolink.rollout import rollout
 #: The development seeds this study may draw poses from.
 DEV_SEEDS = range(500, 600)
 #: The horizons measured: the paper's 5 s and the N >= 3 horizon 8 s.
-HORIZONS = (5.0, 8.0)
+HORIZONS = (HORIZON, CHAIN_HORIZON)
 
 
 def evaluate(policy, p, seeds, count: int) -> dict:

@@ -63,8 +63,8 @@ EXTRA_BINS = ("none", "own", "context", "both", "base", "neighbour")
 LOCKS = ("none", "middle", "near", "all")
 #: What the links beyond the context link do during an agent's transition.
 BEYOND = ("rest", "locked")
-#: The extra speed bins (deg/s), one on each side of zero.
-EXTRA_SPEED_DEG = 6.0
+#: The extra speed bins (deg/s), one on each side of zero (one source: twolink.fuzzy).
+EXTRA_SPEED_DEG = fuzzy.EXTRA_SPEED_DEG
 #: The most memory the agents' transitions may take (estimated before any work).
 MAX_BYTES = 2 * 2**30
 

@@ -14,6 +14,9 @@ import numpy as np
 #: Bin centres of the paper (SPEC.md), in degrees and degrees per second.
 ANGLE_BINS_DEG = (-180.0, -130.0, -80.0, -30.0, -15.0, -5.0, 0.0, 5.0, 15.0, 30.0, 80.0, 130.0)
 SPEED_BINS_DEG = (-360.0, -180.0, -30.0, 0.0, 30.0, 180.0, 360.0)
+#: The two extra speed bins (deg/s, at -+ this value) that N-link agents add to some speed
+#: axes (:mod:`twolink.chain_agents`; the paper's two-link agents do not use them).
+EXTRA_SPEED_DEG = 6.0
 
 
 @dataclasses.dataclass(frozen=True)

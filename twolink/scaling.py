@@ -38,8 +38,8 @@ from tqdm import tqdm
 
 from twolink.artifacts import provenance
 from twolink.metrics import random_poses, settle_time, success, wilson_interval
-from twolink.parameters import (HORIZON, LINK_RULES, MAX_LINKS, MIN_LINKS, TABLE_I, TS,
-                                as_chain, chain, check_links)
+from twolink.parameters import (CHAIN_HORIZON, HORIZON, LINK_RULES, MAX_LINKS, MIN_LINKS,
+                                TABLE_I, TS, as_chain, chain, check_links, horizon)
 from twolink.plants import make_plant
 from twolink.registry import SHIPPED
 from twolink.rollout import Trajectory, rollout
@@ -49,9 +49,8 @@ from twolink.rollout import Trajectory, rollout
 EVAL_SEED = 20061122
 #: The two schemes of the paper, in table order.
 SCHEMES = ("centralized", "decentralized")
-#: Horizon for N >= 3 links: the torque limits of the outer links (tapered: halved per
-#: link) make a half turn of the chain take longer than the paper's 5 s allow.
-LONG_HORIZON = 8.0
+#: Horizon for N >= 3 links (:data:`twolink.parameters.CHAIN_HORIZON`).
+LONG_HORIZON = CHAIN_HORIZON
 #: Random poses per arm by default (about +-5 points of 95 % interval at 95 % success).
 DEFAULT_POSES = 64
 #: Poses and the largest N of ``quick=True``.
@@ -73,11 +72,6 @@ STATUSES = ("run", "refused", "not run (quick)", "failed")
 
 _GIB = 2.0**30
 _MAX_SEED = 2**63 - MAX_LINKS
-
-
-def horizon(links: int) -> float:
-    """The evaluation horizon: the paper's 5 s for two links, :data:`LONG_HORIZON` beyond."""
-    return HORIZON if check_links(links) == 2 else LONG_HORIZON
 
 
 def horizons(links: int) -> tuple:

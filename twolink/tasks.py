@@ -19,8 +19,9 @@ import functools
 import numpy as np
 
 from twolink.challenges import Challenge, challenge as challenge_named
-from twolink.parameters import (HORIZON, LINK_RULES, PAPER_X0, TABLE_I, ArmParameters,
-                                ChainParameters, chain, check_links, state_names)
+from twolink.parameters import (CHAIN_HORIZON, HORIZON, LINK_RULES, PAPER_X0, TABLE_I,  # noqa: F401
+                                ArmParameters, ChainParameters, chain, check_links,
+                                horizon, state_names)
 from twolink.perturbations import perturbed, random_perturbation
 from twolink.plants import check_states
 from twolink.policy import check_links_match
@@ -28,14 +29,7 @@ from twolink.policy import check_links_match
 TASKS = ("centralized", "decentralized")
 #: Episode length (s) of arms of three links or more: their tapered outer motors (half
 #: the torque per link) need longer than the paper's 5 s to bring the chain to rest.
-CHAIN_HORIZON = 8.0
 INITIAL_STATES = ("paper", "random")
-
-
-def horizon(links: int = 2) -> float:
-    """Default episode length (s): :data:`twolink.parameters.HORIZON` (5 s, the paper's)
-    for two links, :data:`CHAIN_HORIZON` (8 s) for three links or more."""
-    return HORIZON if check_links(links) == 2 else CHAIN_HORIZON
 
 
 def observation_names(links: int = 2) -> dict:
