@@ -100,7 +100,7 @@ def test_two_link_options_are_refused_for_more_links(three_link, tmp_path, capsy
     assert "simplified model (11)" in line and "--links 3" in line
     line = _refused(capsys, tmp_path, "rollout", "--links", 3, "--policy", three_link,
                     "--challenge", "medium", "-o", tmp_path / "out" / "run")
-    assert "--challenge apply to the two-link arm only" in line
+    assert "--challenge applies to the two-link arm only" in line
     for extra in (["--model", "simplified"], ["--robust", "worst"], ["--sweeps", "serial"]):
         line = _refused(capsys, tmp_path, "synthesize", "decentralized", "--links", 3, *extra,
                         "-o", tmp_path / "out" / "p.npz")

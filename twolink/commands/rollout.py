@@ -95,8 +95,10 @@ def check_two_link_options(args, links: int) -> None:
                             ("--angle-noise", args.angle_noise),
                             ("--compensate", args.compensate)) if v]
     if given:
-        raise ValueError(f"{', '.join(given)} apply to the two-link arm only (the challenges "
-                         f"perturb Table I's parameters); drop them or --links {links}")
+        verb = "applies" if len(given) == 1 else "apply"
+        raise ValueError(f"{', '.join(given)} {verb} to the two-link arm only (challenges, "
+                         f"delays, noise and compensation are built on Table I); drop "
+                         f"{'it' if len(given) == 1 else 'them'} or use --links 2")
     plants = getattr(args, "plant", None)
     asked = plants if isinstance(plants, list) else [plants]
     bad = [p for p in asked if p in _TWO_LINK_PLANTS]
