@@ -6,34 +6,40 @@ one) and whose rewards are rho(c_m, u). The peers (QuantEcon's ``DiscreteDP`` an
 pymdptoolbox's ``ValueIteration``) are handed that identical MDP (the same sparse T,
 the same rewards), forced to do the same number of sweeps from V_0 = 0, and their
 values are checked against ours before any time is compared.
+
+"Ours" is the package's path as :func:`twolink.synthesis.synthesize` runs it: for the
+centralized problem the factored table (:mod:`twolink.fqi_factored`) on its default
+threads, measured beside one thread and the fixed-width layout (:mod:`twolink.fqi`); for
+the agents the fixed-width layout.
 """
 from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import time
 import warnings
 from unittest import mock
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 
-from benchmarks.common import (Row, available_ram_bytes, best_time, copy_bandwidth,
-                               interleaved_best, peak_bytes, total_ram_bytes)
+from benchmarks.common import (Row, available_ram_bytes, copy_bandwidth, interleaved_best,
+                               peak_bytes, total_ram_bytes)
 from twolink import synthesis as core
-from twolink._numba import cache_wanted
-from twolink.fqi import (TransitionTable, fuzzy_q_iteration, fuzzy_q_iteration_robust,
-                         robust_table, transition_matrix, transition_table)
-from twolink.integrate import sample_step_compiled
+from twolink.fqi import (fuzzy_q_iteration, fuzzy_q_iteration_robust, robust_table,
+                         transition_matrix, transition_table)
+from twolink.fqi_factored import (default_threads, factored_q_iteration,
+                                  factored_q_iteration_robust, factored_table)
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.policy import TIE_TOLERANCE, greedy_indices
-from twolink.reward import centralized_reward
 
 SECTION = "synthesis"
 SCALING = "scaling"
-#: Threads of the threaded sweeps measured beside the one-thread reference (fqi threads=).
-THREADS = max(1, min(2, os.cpu_count() or 1))
+#: Threads of the package's factored sweeps (its default), also given to the fixed layout's
+#: threaded sweeps (fqi threads=) beside their one-thread runs.
+THREADS = default_threads()
 
 
 # --------------------------------------------------------------------------- problems
@@ -119,142 +125,61 @@ def _no_op(*args, **kwargs):
     return None
 
 
-# --------------------------------------------------------------------------- sweep variants
-# Reorderings of the row sums that the package does not ship, measured beside its kernels
-# (twolink.fqi_kernel) to say what each buys: the same fused sweep (V = max_u Q,
-# Q' = rho + gamma T V, the change), only the row sum differs.
-_REASSOC = {"reassoc", "nsz", "contract"}
-_CACHE = cache_wanted(__file__)
-
-
-@numba.njit(nogil=True, cache=_CACHE, fastmath=_REASSOC)
-def _row_vectorised(index, weight, row, v):
-    """The row in any order: the compiler reassociates and vectorises it (with gathers)."""
-    s = 0.0
-    for k in range(index.shape[1]):
-        s += weight[row, k] * v[index[row, k]]
-    return s
-
-
-@numba.njit(nogil=True, cache=_CACHE)
-def _row_partial4(index, weight, row, v):
-    """Four independent accumulators (entries k mod 4), added pairwise at the end."""
-    s0 = s1 = s2 = s3 = 0.0
-    width = index.shape[1]
-    k = 0
-    while k + 3 < width:
-        s0 += weight[row, k] * v[index[row, k]]
-        s1 += weight[row, k + 1] * v[index[row, k + 1]]
-        s2 += weight[row, k + 2] * v[index[row, k + 2]]
-        s3 += weight[row, k + 3] * v[index[row, k + 3]]
-        k += 4
-    while k < width:
-        s0 += weight[row, k] * v[index[row, k]]
-        k += 1
-    return (s0 + s1) + (s2 + s3)
-
-
-@numba.njit(nogil=True, cache=_CACHE, fastmath=_REASSOC)
-def _row_stream(index, weight, row, v):
-    """Index and weight read, vectorised, without gathering V: the table's bytes alone
-    (a floor, not a sweep)."""
-    s = 0.0
-    for k in range(index.shape[1]):
-        s += weight[row, k] * index[row, k]
-    return s * 1e-300
-
-
-#: The variants by name, as :func:`_variant_sweeps` numbers them.
-VARIANTS = ("vectorised", "4 partial sums", "stream only")
-
-
-@numba.njit(nogil=True, cache=_CACHE)
-def _variant_sweeps(variant, index, weight, r, q, q_next, v, v_next, gamma, n):
-    """Exactly ``n`` synchronous sweeps with the row sum of ``VARIANTS[variant]`` (a branch
-    the compiler hoists out of the loops); Q_n ends in ``q_next`` when n is odd."""
-    n_rows = index.shape[0]
-    n_x = v.shape[0]
-    n_u = n_rows // n_x
-    change = 0.0
-    for _ in range(n):
-        change = 0.0
-        for m in range(n_x):
-            best = -np.inf
-            for j in range(n_u):
-                row = m * n_u + j
-                if variant == 0:
-                    s = _row_vectorised(index, weight, row, v)
-                elif variant == 1:
-                    s = _row_partial4(index, weight, row, v)
-                else:
-                    s = _row_stream(index, weight, row, v)
-                new = r[row] + gamma * s
-                d = abs(new - q[row])
-                if d > change:
-                    change = d
-                q_next[row] = new
-                if new > best:
-                    best = new
-            v_next[m] = best
-        q, q_next = q_next, q
-        v, v_next = v_next, v
-    return change
-
-
-def _variant_run(name: str, table: TransitionTable, rewards: np.ndarray, n: int):
-    """A callable running ``n`` sweeps of variant ``name`` from Q_0 = 0 on ``table``;
-    returns Q_n."""
-    variant = VARIANTS.index(name)
-    r = np.ascontiguousarray(rewards, dtype=float).reshape(-1)
-    n_x = rewards.shape[0]
-
-    def go():
-        q, q_next = np.zeros(r.size), np.empty(r.size)
-        v, v_next = np.zeros(n_x), np.empty(n_x)
-        _variant_sweeps(variant, table.index, table.weight, r, q, q_next, v, v_next, GAMMA, n)
-        return (q_next if n % 2 else q).reshape(rewards.shape)
-
-    return go
-
-
 # --------------------------------------------------------------------------- measurements
-def _synthesis(problem_fn):
-    """Build the problem and T (fixed-width table), then run Alg. 1 to convergence."""
+#: The problems as :func:`twolink.synthesis.synthesize` builds and solves them: the
+#: centralized one on compiled transitions (one theta1 slice, shifted) in the factored
+#: layout, the agents on numpy transitions in the fixed-width layout
+#: (:func:`bench_synthesize` checks the centralized layout against ``synthesize``'s).
+PACKAGE = {"centralized": (lambda: core.centralized_problem(compiled=True), "factored"),
+           "agent2": (BUILDERS["agent2"], "fixed"),
+           "agent1": (BUILDERS["agent1"], "fixed")}
+
+
+def _synthesis(problem_fn, layout: str = "fixed"):
+    """Build the problem and T in ``layout`` (fixed-width or factored, default threads),
+    then run Alg. 1 to convergence."""
     t0 = time.perf_counter()
     problem = problem_fn()
     t1 = time.perf_counter()
-    trans = transition_table(problem.grid, problem.next_points)
+    if layout == "factored":
+        trans = factored_table(problem.grid, problem.next_points)
+    else:
+        trans = transition_table(problem.grid, problem.next_points)
     t2 = time.perf_counter()
-    result = fuzzy_q_iteration(trans, problem.rewards)
+    solver = factored_q_iteration if layout == "factored" else fuzzy_q_iteration
+    result = solver(trans, problem.rewards)
     t3 = time.perf_counter()
     if not result.converged:
         raise RuntimeError(f"Q-iteration for {problem.name} did not converge")
     return problem, trans, result, (t1 - t0, t2 - t1, t3 - t2)
 
 
-def sweep_bytes(table: TransitionTable) -> int:
-    """Bytes a synchronous sweep must move at least: T's indices and weights, rho, Q read
-    (for the change), Q' written, V' written and V read once (its gathers hit cache)."""
+def sweep_bytes(table) -> int:
+    """Bytes a synchronous sweep must move at least: the table (a :class:`TransitionTable`'s
+    indices and weights, or a :class:`FactoredTable`'s four arrays), rho, Q read (for the
+    change), Q' written, V' written and V read once (its gathers hit cache)."""
     n_rows, n_x = table.shape
     return table.nbytes + 3 * 8 * n_rows + 2 * 8 * n_x
 
 
-def compiled_centralized(problem, p=TABLE_I):
-    """f(c_m, u) and rho of the centralized ``problem`` by the compiled RK4
-    (``integrate.sample_step_compiled``), on its grid and actions."""
-    nxt = sample_step_compiled("simplified", p, problem.grid.centers()[:, None, :],
-                               problem.actions[None])
-    return nxt, centralized_reward(nxt)
+def _forced(solver, table, rewards, n: int, **kwargs):
+    """A callable running exactly ``n`` sweeps of ``solver`` from Q_0 = 0."""
+    def go():
+        res = solver(table, rewards, delta=1e-300, min_iterations=n, max_iterations=n,
+                     **kwargs)
+        if res.iterations != n:
+            raise RuntimeError(f"forced {n} sweeps, did {res.iterations}")
+        return res
+    return go
 
 
-def _centralized_end_to_end(problem, p=TABLE_I, weights="float64", threads=1):
-    """Centralized synthesis with the compiled transitions, a table of ``weights`` and
-    sweeps on ``threads``: (seconds, result)."""
-    t0 = time.perf_counter()
-    nxt, rewards = compiled_centralized(problem, p)
-    table = transition_table(problem.grid, nxt, weights=weights)
-    result = fuzzy_q_iteration(table, rewards, threads=threads)
-    return time.perf_counter() - t0, result
+def _scipy_sweeps(trans: sp.csr_matrix, rewards: np.ndarray, n: int) -> np.ndarray:
+    """Q_n of ``n`` synchronous sweeps from Q_0 = 0 by scipy's CSR product: the reference."""
+    r = rewards.reshape(-1)
+    q = np.zeros(rewards.shape)
+    for _ in range(n):
+        q = (r + GAMMA * (trans @ q.max(axis=1))).reshape(rewards.shape)
+    return q
 
 
 def _agreement(ours_q: np.ndarray, v: np.ndarray, greedy: np.ndarray) -> tuple[float, float]:
@@ -270,83 +195,93 @@ def _agreement(ours_q: np.ndarray, v: np.ndarray, greedy: np.ndarray) -> tuple[f
 
 def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
                   full_setup: bool = False) -> tuple[list[Row], dict]:
-    """Rows for one of the paper's problems: our split timings, memory, the peers' ratios."""
+    """Rows for one of the paper's problems: the package's split timings and memory, then
+    equal-work sweeps of every layout and the peers, interleaved, with their ratios,
+    bytes and agreement."""
     rows: list[Row] = []
-    build = BUILDERS[name]
-    times = [_synthesis(build) for _ in range(max(1, repeats))]
+    build, layout = PACKAGE[name]
+    factored = layout == "factored"
+    times = [_synthesis(build, layout) for _ in range(max(1, repeats))]
     problem, table, result, _ = times[-1]
+    fixed = transition_table(problem.grid, problem.next_points) if factored else table
     trans = transition_matrix(problem.grid, problem.next_points)     # the peers' T
     t_model, t_matrix, t_sweeps = (min(t[3][i] for t in times) for i in range(3))
     n = result.iterations
+    rewards = problem.rewards
     sec = f"{SECTION}: {name}"
+    where = (f"factored table, {THREADS} threads (synthesize's path)" if factored
+             else "fixed-width table, 1 thread (synthesize's path)")
     rows += [
         Row(sec, "Q-table size", result.q.size, "values",
             f"{problem.grid.size} bins x {len(problem.actions)} actions"),
         Row(sec, "transition matrix nnz", trans.nnz, "entries",
-            f"fixed width {table.index.shape[1]}: {table.nbytes / 2**20:.1f} MiB"),
+            f"fixed width {fixed.index.shape[1]}: {fixed.nbytes / 2**20:.2f} MiB"
+            + (f"; factored: {table.nbytes / 2**20:.2f} MiB" if factored else "")),
         Row(sec, "model transitions f(c_m,u)", t_model, "s",
-            "RK4 on model (11), all pairs, as the package builds the problem"),
+            "compiled RK4 over one theta1 slice, shifted; rewards" if factored
+            else "RK4 on model (11), numpy, all pairs; rewards"),
         Row(sec, "transition matrix T", t_matrix, "s",
-            "memberships -> fixed-width table (compiled)"),
+            "memberships -> factored table (theta1's two per block)" if factored
+            else "memberships -> fixed-width table (compiled)"),
         Row(sec, "sweeps to convergence", n, "sweeps", f"delta = {DELTA}"),
-        Row(sec, "sweeps (to convergence)", t_sweeps, "s"),
+        Row(sec, "sweeps (to convergence)", t_sweeps, "s", where),
         Row(sec, "total synthesis", t_model + t_matrix + t_sweeps, "s",
-            f"best of {len(times)}"),
+            f"best of {len(times)} (each part's best)"),
     ]
-    mem, _ = peak_bytes(lambda: _synthesis(build))
+    mem, _ = peak_bytes(lambda: _synthesis(build, layout))
     rows.append(Row(sec, "peak memory (synthesis)", mem / 2**20, "MiB", "tracemalloc"))
 
     # Equal work: every solver does exactly n sweeps from zero on the same (T, rho).
-    def ours():
-        res = fuzzy_q_iteration(table, problem.rewards, delta=1e-300, min_iterations=n,
-                                max_iterations=n)
-        if res.iterations != n:
-            raise RuntimeError(f"forced {n} sweeps, did {res.iterations}")
-        return res
-
-    # The opt-in float32 weights, and the row-sum variants the package does not ship.
     table32 = transition_table(problem.grid, problem.next_points, weights="float32")
-
-    def ours32():
-        return fuzzy_q_iteration(table32, problem.rewards, delta=1e-300, min_iterations=n,
-                                 max_iterations=n)
-
-    def ours_threads():
-        return fuzzy_q_iteration(table, problem.rewards, delta=1e-300, min_iterations=n,
-                                 max_iterations=n, threads=THREADS)
-
-    variants = {f"{vname}, {tb.weights}": _variant_run(vname, tb, problem.rewards, n)
-                for vname in VARIANTS for tb in (table, table32)
-                if (vname, tb.weights) != ("4 partial sums", "float32")}
-    for fn in variants.values():
-        fn()                                                # compile outside the timings
+    solver = factored_q_iteration if factored else fuzzy_q_iteration
+    ours = {"ours": _forced(solver, table, rewards, n)}
+    if factored:
+        ours |= {"factored, 1 thread": _forced(factored_q_iteration, table, rewards, n,
+                                               threads=1),
+                 "fixed layout": _forced(fuzzy_q_iteration, fixed, rewards, n)}
+    ours |= {f"fixed layout, {THREADS} threads": _forced(fuzzy_q_iteration, fixed, rewards,
+                                                         n, threads=THREADS),
+             "fixed layout, float32 weights": _forced(fuzzy_q_iteration, table32, rewards, n)}
+    notes = {
+        "ours": where,
+        "factored, 1 thread": "factored_q_iteration threads=1",
+        "fixed layout": "transition_table + fuzzy_q_iteration (1 thread)",
+        f"fixed layout, {THREADS} threads": f"fuzzy_q_iteration threads={THREADS} "
+                                            f"(bins split; same Q bit for bit)",
+        "fixed layout, float32 weights": "transition_table weights='float32' (opt-in)"}
+    for fn in ours.values():
+        fn()                                               # compile/load outside the timings
 
     t0 = time.perf_counter()
-    qe_solve, qe_sweeps = quantecon_solver(trans, problem.rewards, n)
+    qe_solve, qe_sweeps = quantecon_solver(trans, rewards, n)
     v_qe, sigma_qe = qe_solve()                            # first call compiles (numba)
     t_qe_first = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mdp_solve = mdptoolbox_solver(trans, problem.rewards, n, full_setup=full_setup)
+    mdp_solve = mdptoolbox_solver(trans, rewards, n, full_setup=full_setup)
     t_mdp_setup = time.perf_counter() - t0
 
     # Interleaved repeats: on a shared machine every solver sees the same background load.
+    # Each copy moves the bytes of one sweep of its layout, n / 4 times.
     moved = sweep_bytes(table)
-    copy = copy_bandwidth(moved // 2)          # a copy moving the bytes of one sweep
-    copies = max(1, n // 4)
+    moved_fixed = sweep_bytes(fixed)
+    copies = {"copy": copy_bandwidth(moved // 2)}
+    if factored:
+        copies["copy, fixed layout's bytes"] = copy_bandwidth(moved_fixed // 2)
 
-    def copy_n():
-        return sum(copy() for _ in range(copies))
+    def copy_n(copy):
+        return lambda: sum(copy() for _ in range(max(1, n // 4)))
 
-    best, out = interleaved_best({"ours": ours, "ours_float32": ours32,
-                                  "ours_threads": ours_threads, "quantecon": qe_sweeps,
-                                  "quantecon_solve": qe_solve, "mdptoolbox": mdp_solve,
-                                  "copy": copy_n,
-                                  **{f"variant: {k}": fn for k, fn in variants.items()}},
+    best, out = interleaved_best({**ours, "quantecon": qe_sweeps, "quantecon_solve": qe_solve,
+                                  "mdptoolbox": mdp_solve,
+                                  **{k: copy_n(c) for k, c in copies.items()}},
                                  sweep_repeats or repeats)
     res_n = out["ours"]
+    for key in ours:
+        if key.startswith("factored") and not np.array_equal(out[key].q, res_n.q):
+            raise RuntimeError(f"{key} differs from the package's sweeps bit for bit")
     # QuantEcon's policy is greedy in one more sweep, Q_{n+1} = rho + gamma T V_n.
     v_n = res_n.q.max(axis=1)
-    q_next = (problem.rewards.reshape(-1) + GAMMA * (trans @ v_n)).reshape(res_n.q.shape)
+    q_next = (rewards.reshape(-1) + GAMMA * (trans @ v_n)).reshape(res_n.q.shape)
     checks = {"quantecon": (_agreement(res_n.q, out["quantecon_solve"][0],
                                        out["quantecon_solve"][1])[0],
                             _agreement(q_next, q_next.max(axis=1),
@@ -354,24 +289,15 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
               "mdptoolbox": _agreement(res_n.q, *out["mdptoolbox"])}
     sweeps_only = _agreement(res_n.q, out["quantecon"], sigma_qe)[0]
     checks["quantecon"] = (max(checks["quantecon"][0], sweeps_only), checks["quantecon"][1])
-    per_sweep = {k: best[k] / n for k in ("ours", "quantecon", "mdptoolbox")}
-    t_qe_solve = best["quantecon_solve"]
-    rows.append(Row(sec, "ours: time per sweep", per_sweep["ours"] * 1e3, "ms",
-                    f"{n} forced sweeps, best of {sweep_repeats or repeats} interleaved"))
-    sweep_gbs = moved / per_sweep["ours"] / 1e9
-    copy_gbs = out["copy"] / best["copy"] / 1e9
-    rows += [
-        Row(sec, "ours: bytes per sweep", moved / 2**20, "MiB",
-            "T (int32 index + float64 weight) + rho + Q + Q' + V + V'"),
-        Row(sec, "ours: sweep bandwidth", sweep_gbs, "GB/s", "bytes per sweep / time per sweep"),
-        Row(sec, "copy bandwidth (same bytes)", copy_gbs, "GB/s",
-            f"numpy copyto of {moved / 2 / 2**20:.1f} MiB (read + write), same run"),
-        Row(sec, "sweep / copy bandwidth", sweep_gbs / copy_gbs, "share"),
-    ]
+    per_sweep = {k: best[k] / n for k in (*ours, "quantecon", "mdptoolbox")}
+    reps = sweep_repeats or repeats
+    for key in ours:
+        rows.append(Row(sec, f"{key}: time per sweep", per_sweep[key] * 1e3, "ms",
+                        f"{notes[key]}; {n} forced sweeps, best of {reps} interleaved"))
     rows += [
         Row(sec, "quantecon: time per sweep", per_sweep["quantecon"] * 1e3, "ms",
-            "DiscreteDP bellman_operator, sparse s-a pairs"),
-        Row(sec, "quantecon: solve()", t_qe_solve, "s",
+            "DiscreteDP bellman_operator, sparse s-a pairs, one thread"),
+        Row(sec, "quantecon: solve()", best["quantecon_solve"], "s",
             f"{n} sweeps + greedy policy; first call {t_qe_first:.2f} s (setup + numba JIT)"),
         Row(sec, "mdptoolbox: time per sweep", per_sweep["mdptoolbox"] * 1e3, "ms",
             "ValueIteration.run, per-action sparse P"),
@@ -384,93 +310,142 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         rel, same = checks[peer]
         rows += [
             Row(sec, f"{peer} / ours per sweep", per_sweep[peer] / per_sweep["ours"], "x",
-                ">1: ours faster"),
+                ">1: ours faster" + (f" (ours on {THREADS} threads; the peer on one)"
+                                     if factored and THREADS > 1 else "")),
             Row(sec, f"{peer} agreement max|dV|/max|V|", rel, "rel", "same MDP, same sweeps"),
             Row(sec, f"{peer} greedy action greedy in ours", same, "share",
                 "ties count as agreement" + ("; its policy is greedy in Q_{n+1}"
                                              if peer == "quantecon" else "")),
         ]
-    # float32 weights and the variants, from the same interleaved run
-    per_sweep["float32"] = best["ours_float32"] / n
-    moved32 = sweep_bytes(table32)
-    gbs32 = moved32 / per_sweep["float32"] / 1e9
-    dq32 = float(np.max(np.abs(out["ours_float32"].q - res_n.q)))
+    for key in ours:
+        if key != "ours":
+            rows.append(Row(sec, f"quantecon / {key} per sweep",
+                            per_sweep["quantecon"] / per_sweep[key], "x", ">1: ours faster"))
+
+    # Bytes moved and bandwidth, against a numpy copy of the same bytes in the same run.
+    copy_gbs = {k: out[k] / best[k] / 1e9 for k in copies}
+    sweep_gbs = moved / per_sweep["ours"] / 1e9
     rows += [
-        Row(sec, "float32 weights: time per sweep", per_sweep["float32"] * 1e3, "ms",
-            f"fqi weights='float32' (opt-in); float64 / float32 = "
-            f"{per_sweep['ours'] / per_sweep['float32']:.2f}x"),
-        Row(sec, "float32 weights: bytes per sweep", moved32 / 2**20, "MiB",
-            "T (int32 index + float32 weight) + rho + Q + Q' + V + V'"),
-        Row(sec, "float32 weights: sweep bandwidth", gbs32, "GB/s"),
-        Row(sec, "float32 weights: sweep / copy bandwidth", gbs32 / copy_gbs, "share"),
-        Row(sec, "quantecon / ours float32 per sweep", per_sweep["quantecon"]
-            / per_sweep["float32"], "x", ">1: ours faster"),
-        Row(sec, "float32 agreement max|dQ|", dq32, "abs",
-            f"after the same {n} sweeps; target < delta/100 = {DELTA / 100:g}"),
+        Row(sec, "ours: bytes per sweep", moved / 2**20, "MiB",
+            ("factored table (index, weight, index1, weight1)" if factored
+             else "T (int32 index + float64 weight)") + " + rho + Q + Q' + V + V'"),
+        Row(sec, "ours: sweep bandwidth", sweep_gbs, "GB/s",
+            "bytes per sweep / time per sweep (bytes actually moved)"),
+        Row(sec, "copy bandwidth (same bytes)", copy_gbs["copy"], "GB/s",
+            f"numpy copyto of {moved / 2 / 2**20:.2f} MiB (read + write), one thread, same run"),
+        Row(sec, "sweep / copy bandwidth", sweep_gbs / copy_gbs["copy"], "share",
+            "target >= 0.7 (issue 13)"),
     ]
-    per_sweep["threads"] = best["ours_threads"] / n
-    if not np.array_equal(out["ours_threads"].q, res_n.q):
-        raise RuntimeError("threaded sweeps differ from one thread")
-    rows += [
-        Row(sec, f"{THREADS} threads: time per sweep", per_sweep["threads"] * 1e3, "ms",
-            f"fqi threads={THREADS} (opt-in; bins split, same Q bit for bit); one / "
-            f"{THREADS} threads = {per_sweep['ours'] / per_sweep['threads']:.2f}x"),
-        Row(sec, f"quantecon / ours {THREADS} threads per sweep", per_sweep["quantecon"]
-            / per_sweep["threads"], "x", ">1: ours faster (QuantEcon runs one thread)"),
-        Row(sec, f"{THREADS} threads: sweep bandwidth", moved / per_sweep["threads"] / 1e9,
-            "GB/s", f"share of the copy: {moved / per_sweep['threads'] / 1e9 / copy_gbs:.2f}"),
-    ]
-    summary_variants = {}
-    for key in variants:
-        t = best[f"variant: {key}"] / n
-        dq = float(np.max(np.abs(out[f"variant: {key}"] - res_n.q)))
-        summary_variants[key] = {"per_sweep": t, "max_dq": dq}
-        what = ("not a sweep: T's bytes without the V gathers" if key.startswith("stream")
-                else f"max|dQ| {dq:.2g}")
-        rows.append(Row(sec, f"variant {key}: time per sweep", t * 1e3, "ms",
-                        f"ours / variant = {per_sweep['ours'] / t:.2f}x; {what}"))
-    summary = {"q_size": int(result.q.size), "iterations": n,
-               "total": t_model + t_matrix + t_sweeps, "per_sweep": per_sweep,
-               "agreement": checks, "peak_bytes": mem, "sweep_bytes": moved,
-               "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs,
-               "float32": {"sweep_bytes": moved32, "sweep_gbs": gbs32, "max_dq": dq32},
-               "variants": summary_variants}
-    if name == "centralized":
-        nxt, rewards = compiled_centralized(problem)
-        if not (np.array_equal(nxt, problem.next_points)
-                and np.array_equal(rewards, problem.rewards)):
-            raise RuntimeError("compiled transitions differ from the package's")
-        ends, ends32, ends_threads = [], [], []
-        for _ in range(max(1, repeats)):                   # interleaved
-            ends.append(_centralized_end_to_end(problem))
-            ends32.append(_centralized_end_to_end(problem, weights="float32"))
-            ends_threads.append(_centralized_end_to_end(problem, threads=THREADS))
-        t_rk4, _ = best_time(lambda: compiled_centralized(problem), max(1, repeats))
-        end, res_end = min(ends, key=lambda e: e[0])
-        end32, res32 = min(ends32, key=lambda e: e[0])
-        end_threads, res_threads = min(ends_threads, key=lambda e: e[0])
-        if not np.array_equal(res_threads.q, result.q):
-            raise RuntimeError("end-to-end synthesis with threads differs")
-        if not np.array_equal(res_end.q, result.q):
-            raise RuntimeError("end-to-end synthesis with compiled transitions differs")
-        moved_bins = int(np.sum(greedy_indices(res32.q) != greedy_indices(result.q)))
+    summary = {"q_size": int(result.q.size), "iterations": n, "layout": layout,
+               "total": t_model + t_matrix + t_sweeps,
+               "split": {"model": t_model, "table": t_matrix, "sweeps": t_sweeps},
+               "per_sweep": per_sweep, "agreement": checks, "peak_bytes": mem,
+               "sweep_bytes": moved, "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs["copy"]}
+    if factored:
+        one = per_sweep["factored, 1 thread"]
+        gbs_fixed = moved_fixed / per_sweep["fixed layout"] / 1e9
+        copy_fixed = copy_gbs["copy, fixed layout's bytes"]
+        equiv = moved_fixed / per_sweep["ours"] / 1e9
         rows += [
-            Row(sec, "model transitions, compiled RK4", t_rk4, "s",
-                "integrate.sample_step_compiled + rewards; bit-equal to the numpy path"),
-            Row(sec, "total synthesis, compiled transitions", end, "s",
-                f"compiled RK4 + table + sweeps, best of {len(ends)}; same Q bit for bit"),
-            Row(sec, "total synthesis, compiled transitions, float32", end32, "s",
-                f"compiled RK4 + float32 table + sweeps, best of {len(ends32)}; "
-                f"{res32.iterations} sweeps, max|dQ| {np.max(np.abs(res32.q - result.q)):.2g}, "
-                f"{moved_bins} greedy bins moved (tie tolerance {TIE_TOLERANCE:g}); "
-                f"target 0.05 s"),
-            Row(sec, f"total synthesis, compiled transitions, {THREADS} threads", end_threads,
-                "s", f"compiled RK4 + table + sweeps on {THREADS} threads, best of "
-                f"{len(ends_threads)}; same Q bit for bit; target 0.05 s"),
+            Row(sec, "factored, 1 thread: sweep bandwidth", moved / one / 1e9, "GB/s",
+                f"share of the copy: {moved / one / 1e9 / copy_gbs['copy']:.2f}"),
+            Row(sec, "fixed layout: bytes per sweep", moved_fixed / 2**20, "MiB",
+                f"T (int32 index + float64 weight) + rho + Q + Q' + V + V'; "
+                f"{moved_fixed / moved:.1f}x the factored sweep's"),
+            Row(sec, "fixed layout: sweep bandwidth", gbs_fixed, "GB/s", "1 thread"),
+            Row(sec, "copy bandwidth (fixed layout's bytes)", copy_fixed, "GB/s",
+                f"numpy copyto of {moved_fixed / 2 / 2**20:.2f} MiB, same run"),
+            Row(sec, "fixed layout: sweep / copy bandwidth", gbs_fixed / copy_fixed, "share"),
+            Row(sec, "equivalent bandwidth: fixed layout's bytes / ours time per sweep",
+                equiv, "GB/s", f"not bytes moved; share of the fixed-bytes copy: "
+                f"{equiv / copy_fixed:.2f}"),
+            Row(sec, "equivalent bandwidth / copy bandwidth (fixed layout's bytes)",
+                equiv / copy_fixed, "share", "the fixed layout's bytes at ours' speed"),
         ]
-        summary["total_compiled_threads"] = end_threads
-        summary["total_compiled"] = end
-        summary["total_compiled_float32"] = end32
+        # Agreement with the fixed layout and the scipy reference, same n sweeps.
+        q_ref = _scipy_sweeps(trans, rewards, n)
+        q_fixed = out["fixed layout"].q
+        dq_ref = float(np.max(np.abs(res_n.q - q_ref)))
+        dq_fixed = float(np.max(np.abs(res_n.q - q_fixed)))
+        moved_ref = int(np.sum(greedy_indices(res_n.q) != greedy_indices(q_ref)))
+        moved_fix = int(np.sum(greedy_indices(res_n.q) != greedy_indices(q_fixed)))
+        rows += [
+            Row(sec, "scipy reference agreement max|dQ|", dq_ref, "abs",
+                f"after the same {n} sweeps; target <= 1e-12; {moved_ref} greedy bins differ "
+                f"(tie tolerance {TIE_TOLERANCE:g})"),
+            Row(sec, "fixed layout agreement max|dQ|", dq_fixed, "abs",
+                f"after the same {n} sweeps; {moved_fix} greedy bins differ"),
+        ]
+        summary |= {"fixed_sweep_bytes": moved_fixed, "fixed_sweep_gbs": gbs_fixed,
+                    "fixed_copy_gbs": copy_fixed, "equivalent_gbs": equiv,
+                    "one_thread_gbs": moved / one / 1e9,
+                    "max_dq": {"scipy": dq_ref, "fixed": dq_fixed},
+                    "greedy_bins_differ": {"scipy": moved_ref, "fixed": moved_fix}}
+    return rows, summary
+
+
+@contextlib.contextmanager
+def busy_process():
+    """A second Python process spinning on one core while the block runs (a shared
+    machine's other job), ended when the block exits."""
+    hog = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.2)                                    # let it start spinning
+        yield hog
+    finally:
+        hog.kill()
+        hog.wait()
+
+
+def bench_synthesize(*, repeats: int = 5, models=("simplified", "full"),
+                     contended: bool = True) -> tuple[list[Row], dict]:
+    """``synthesize("centralized", model=...)`` end to end as the command runs it, best of
+    ``repeats`` after one warm-up call per model (numba's cache loaded), interleaved over
+    the models; the split from the policy's ``info`` (transitions = model + table). With
+    ``contended``, also model (11) with :func:`busy_process` spinning beside it."""
+    for m in models:
+        info = core.synthesize("centralized", model=m).agents[0].info
+        if info["layout"] != PACKAGE["centralized"][1]:
+            raise RuntimeError(f"synthesize() now uses the {info['layout']} layout: "
+                               f"update benchmarks.synthesis.PACKAGE")
+
+    def timed(m):
+        t0 = time.perf_counter()
+        pol = core.synthesize("centralized", model=m)
+        return time.perf_counter() - t0, pol.agents[0].info
+
+    runs = {m: [] for m in models}
+    for _ in range(max(1, repeats)):
+        for m in models:
+            runs[m].append(timed(m))
+    rows, summary = [], {}
+    sec = f"{SECTION}: synthesize('centralized') end to end"
+    for m in models:
+        total, info = min(runs[m], key=lambda r: r[0])
+        rows += [
+            Row(sec, f"model={m}: total", total, "s",
+                f"best of {len(runs[m])}, warm numba cache; target <= 0.05 s (issue 13)"),
+            Row(sec, f"model={m}: transitions (model + table)", info["transition_seconds"],
+                "s", "of the best run: compiled RK4 over one theta1 slice + factored table"),
+            Row(sec, f"model={m}: sweeps", info["sweep_seconds"], "s",
+                f"of the best run: {info['iterations']} sweeps, {info['layout']} layout, "
+                f"{THREADS} threads"),
+        ]
+        summary[m] = {"total": total, "transition_seconds": info["transition_seconds"],
+                      "sweep_seconds": info["sweep_seconds"], "iterations": info["iterations"],
+                      "median_total": float(np.median([r[0] for r in runs[m]]))}
+    if contended:
+        m = models[0]
+        with busy_process():
+            busy = [timed(m) for _ in range(max(1, repeats))]
+        total, info = min(busy, key=lambda r: r[0])
+        rows.append(Row(sec, f"model={m}, one busy process beside it: total", total, "s",
+                        f"best of {len(busy)}: transitions {info['transition_seconds']:.3f} s, "
+                        f"sweeps {info['sweep_seconds']:.3f} s on {THREADS} threads; "
+                        f"{total / summary[m]['total']:.1f}x the idle machine's"))
+        summary[m]["contended"] = {"total": total,
+                                   "transition_seconds": info["transition_seconds"],
+                                   "sweep_seconds": info["sweep_seconds"]}
     return rows, summary
 
 
@@ -483,6 +458,8 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
                              full_setup=full_setup)
         rows += r
         summaries[name] = s
+    r, summaries["synthesize"] = bench_synthesize(repeats=repeats)
+    rows += r
     c, a1, a2 = summaries["centralized"], summaries["agent1"], summaries["agent2"]
     sec = f"{SECTION}: centralized vs decentralized"
     fastest = min(("quantecon", "mdptoolbox"), key=lambda k: c["per_sweep"][k])
@@ -495,15 +472,16 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
         Row(sec, "paper / ours centralized time", 18300.0 / c["total"], "x",
             "paper: ~18300 s CPU, Matlab 7.1, Centrino Duo 1.83 GHz"),
         Row(sec, f"fastest peer ({fastest}) / ours per sweep, centralized",
-            c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x", ">= 1.5 is the target"),
-        Row(sec, f"fastest peer ({fastest}) / ours float32 per sweep, centralized",
-            c["per_sweep"][fastest] / c["per_sweep"]["float32"], "x",
-            ">= 1.5 is the target (issue 13)"),
-        Row(sec, "float32 sweep / copy bandwidth, centralized",
-            c["float32"]["sweep_gbs"] / c["copy_gbs"], "share", ">= 0.7 is the target"),
-        Row(sec, f"fastest peer ({fastest}) / ours {THREADS} threads per sweep, centralized",
-            c["per_sweep"][fastest] / c["per_sweep"]["threads"], "x",
-            ">= 1.5 is the target (the peer runs one thread)"),
+            c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x",
+            f">= 1.5 is the target; ours on {THREADS} threads, the peer on one"),
+        Row(sec, f"fastest peer ({fastest}) / ours 1 thread per sweep, centralized",
+            c["per_sweep"][fastest] / c["per_sweep"]["factored, 1 thread"], "x",
+            ">= 1.5 is the target; per core"),
+        Row(sec, "sweep / copy bandwidth, centralized", c["sweep_gbs"] / c["copy_gbs"], "share",
+            ">= 0.7 is the target (bytes actually moved)"),
+        Row(sec, "equivalent / copy bandwidth, centralized",
+            c["equivalent_gbs"] / c["fixed_copy_gbs"], "share",
+            "the fixed layout's bytes over ours' time; not bytes moved"),
     ]
     r, summaries["worst_case"] = bench_worst_case(8, repeats=repeats)
     rows += r
@@ -532,63 +510,107 @@ def worst_case_models(k: int = 8, spread: float = 0.2) -> list:
     return out
 
 
+def _robust_run(models, model: str, layout: str, mode: str = "worst"):
+    """Robust centralized synthesis over ``models`` through the public pieces, the tables
+    in ``layout``: (model seconds, table seconds, sweep seconds), result, tables. Factored:
+    :func:`factored_table` per model + :func:`factored_q_iteration_robust` (default
+    threads), as ``synthesize`` runs it; fixed: :func:`robust_table` +
+    :func:`fuzzy_q_iteration_robust` (1 thread), the layout it ran before."""
+    t0 = time.perf_counter()
+    problems = [core.centralized_problem(p, model=model, compiled=True) for p in models]
+    t1 = time.perf_counter()
+    if layout == "factored":
+        tables = [factored_table(problems[0].grid, pr.next_points) for pr in problems]
+    else:
+        tables = robust_table(problems[0].grid, [pr.next_points for pr in problems])
+    t2 = time.perf_counter()
+    solver = factored_q_iteration_robust if layout == "factored" else fuzzy_q_iteration_robust
+    res = solver(tables, [pr.rewards for pr in problems], mode=mode)
+    t3 = time.perf_counter()
+    if not res.converged:
+        raise RuntimeError(f"robust Q-iteration ({mode}, {layout}) did not converge")
+    return (t1 - t0, t2 - t1, t3 - t2), res, tables
+
+
+def _robust_bytes(tables) -> int:
+    """Bytes a robust sweep moves: the K tables (a list of :class:`FactoredTable` or one
+    :class:`RobustTable`), K rho, Q, Q', V, V'."""
+    if isinstance(tables, list):
+        k, body = len(tables), sum(t.nbytes for t in tables)
+        n_rows, n_x = tables[0].shape
+    else:
+        k, body = tables.models, tables.nbytes
+        n_rows, n_x = tables.index.shape[0], tables.n_states
+    return body + 8 * k * n_rows + 2 * 8 * n_rows + 2 * 8 * n_x
+
+
 def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
-    """Robust centralized synthesis over K models: min (and mean) over k of
-    rho_k + gamma T_k V in one compiled sweep; transitions by the compiled RK4."""
-    problem = BUILDERS["centralized"]()
+    """Robust centralized synthesis over K corner models (:func:`worst_case_models`, model
+    (11)): min over k of rho_k + gamma T_k V in one compiled sweep, the factored layout (the
+    package's) interleaved with the fixed-width one, best of ``repeats``; the mean over k
+    once, factored."""
     models = worst_case_models(k)
-
-    def synthesize(mode="worst"):
-        t0 = time.perf_counter()
-        tables, rewards = [], []
-        for p in models:
-            nxt, r = compiled_centralized(problem, p)
-            tables.append(transition_table(problem.grid, nxt))
-            rewards.append(r)
-        t1 = time.perf_counter()
-        res = fuzzy_q_iteration_robust(tables, rewards, mode=mode)
-        t2 = time.perf_counter()
-        if not res.converged:
-            raise RuntimeError(f"robust Q-iteration ({mode}) did not converge")
-        return (t1 - t0, t2 - t1), res, tables
-
-    runs = [synthesize() for _ in range(max(1, repeats))]
-    t_build = min(r[0][0] for r in runs)
-    t_sweeps = min(r[0][1] for r in runs)
-    total = min(sum(r[0]) for r in runs)
-    _, res, tables = runs[-1]
-    mean_runs = [synthesize("mean") for _ in range(max(1, repeats))]
-    moved = sum(t.nbytes for t in tables) + 8 * k * tables[0].shape[0] \
-        + sweep_bytes(tables[0]) - tables[0].nbytes
-    per_sweep = t_sweeps / res.iterations
+    runs = {"factored": [], "fixed": []}
+    for _ in range(max(1, repeats)):                        # interleaved
+        for layout in runs:
+            runs[layout].append(_robust_run(models, "simplified", layout))
+    mean_runs = [_robust_run(models, "simplified", "factored", "mean")]
     sec = f"{SECTION}: worst case over K = {k} models, centralized"
-    rows = [
-        Row(sec, "transitions + tables (K models)", t_build, "s",
-            "compiled RK4 + rewards + fixed-width tables, m1, m2, b1 scaled by 0.8/1.2"),
-        Row(sec, "sweeps to convergence (worst)", res.iterations, "sweeps", f"delta = {DELTA}"),
-        Row(sec, "sweeps (worst)", t_sweeps, "s", "min over k of rho_k + gamma T_k V"),
-        Row(sec, "total robust synthesis (worst)", total, "s", f"best of {len(runs)}"),
-        Row(sec, "time per sweep (worst)", per_sweep * 1e3, "ms"),
-        Row(sec, "bytes per sweep", moved / 2**20, "MiB", "K tables + K rho + Q + Q' + V + V'"),
-        Row(sec, "sweep bandwidth", moved / per_sweep / 1e9, "GB/s"),
+    rows, summary = [], {"k": k}
+    q = {layout: r[-1][1].q for layout, r in runs.items()}
+    for layout, rr in runs.items():
+        parts = [min(r[0][i] for r in rr) for i in range(3)]
+        total = min(sum(r[0]) for r in rr)
+        res, tables = rr[-1][1], rr[-1][2]
+        moved = _robust_bytes(tables)
+        per_sweep = parts[2] / res.iterations
+        pre = "" if layout == "factored" else "fixed layout: "
+        how = (f"factored tables, {THREADS} threads (synthesize's layout)" if layout == "factored"
+               else "robust_table side by side, 1 thread (the layout before)")
+        rows += [
+            Row(sec, f"{pre}transitions + tables (K models)", parts[0] + parts[1], "s",
+                f"compiled RK4 {parts[0]:.3f} s + tables {parts[1]:.3f} s; m1, m2, b1 "
+                f"scaled by 0.8/1.2"),
+            Row(sec, f"{pre}sweeps to convergence (worst)", res.iterations, "sweeps",
+                f"delta = {DELTA}"),
+            Row(sec, f"{pre}sweeps (worst)", parts[2], "s",
+                f"min over k of rho_k + gamma T_k V; {how}"),
+            Row(sec, f"{pre}total robust synthesis (worst)", total, "s",
+                f"best of {len(rr)}, interleaved; target 0.5 s (issue 13)"),
+            Row(sec, f"{pre}time per sweep (worst)", per_sweep * 1e3, "ms"),
+            Row(sec, f"{pre}bytes per sweep", moved / 2**20, "MiB",
+                "K tables + K rho + Q + Q' + V + V'"),
+            Row(sec, f"{pre}sweep bandwidth", moved / per_sweep / 1e9, "GB/s"),
+        ]
+        summary[layout] = {"total": total, "model_seconds": parts[0],
+                           "table_seconds": parts[1], "sweeps_seconds": parts[2],
+                           "iterations": res.iterations, "per_sweep": per_sweep,
+                           "sweep_bytes": moved, "sweep_gbs": moved / per_sweep / 1e9}
+    dq = float(np.max(np.abs(q["factored"] - q["fixed"])))
+    bins = int(np.sum(greedy_indices(q["factored"]) != greedy_indices(q["fixed"])))
+    rows += [
+        Row(sec, "fixed / factored total", summary["fixed"]["total"]
+            / summary["factored"]["total"], "x", ">1: the package's layout faster"),
+        Row(sec, "fixed layout agreement max|dQ|", dq, "abs",
+            f"converged Q; {bins} greedy bins differ (tie tolerance {TIE_TOLERANCE:g})"),
         Row(sec, "sweeps to convergence (mean)", mean_runs[-1][1].iterations, "sweeps"),
-        Row(sec, "total robust synthesis (mean)", min(sum(r[0]) for r in mean_runs), "s",
-            f"best of {len(mean_runs)}"),
+        Row(sec, "total robust synthesis (mean)", sum(mean_runs[0][0]), "s", "one run"),
     ]
-    return rows, {"k": k, "total": total, "sweeps_seconds": t_sweeps,
-                  "iterations": res.iterations, "per_sweep": per_sweep,
-                  "sweep_gbs": moved / per_sweep / 1e9}
+    f = summary["factored"]
+    summary |= {"total": f["total"], "sweeps_seconds": f["sweeps_seconds"],
+                "iterations": f["iterations"], "per_sweep": f["per_sweep"],
+                "sweep_gbs": f["sweep_gbs"], "max_dq": dq, "greedy_bins_differ": bins}
+    return rows, summary
 
 
 def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row], dict]:
     """The package's robust synthesis (``synthesize(..., robust="worst")``, as
     ``twolink synthesize centralized --model full --robust worst`` runs it) for K in
-    ``draws``, spread 0.2, the shipped seed: model transitions (compiled RK4 over one theta1
-    slice, rewards), fixed-width tables, sweeps, and the whole call, best of ``repeats``
-    after one warm-up call (JIT compile times are their own rows). For K > 1 also its steps
-    through the public pieces with float32 tables, and with float64 sweeps on
-    :data:`THREADS` threads (checked equal to ``synthesize()`` bit for bit), best of
-    ``repeats - 1``, interleaved."""
+    ``draws``, spread 0.2, the shipped seed: model transitions, factored tables, sweeps and
+    the whole call, best of ``repeats`` after one warm-up call (JIT compile times are their
+    own rows). For K > 1 also the same models through the fixed-width layout the package
+    used before (:func:`robust_table` + :func:`fuzzy_q_iteration_robust`, 1 thread),
+    interleaved, its Q held against ``synthesize()``'s."""
     from twolink.registry import ROBUST_SEED
 
     def once(k):
@@ -598,32 +620,15 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         return (time.perf_counter() - t0, pol.agents[0].info, time.process_time() - c0,
                 pol.agents[0].q)
 
-    def mirror(k, weights, threads=1):
-        """``solve_robust``'s steps through the public pieces, the tables in ``weights``,
-        the sweeps on ``threads``: (seconds, Q, sweeps, (model, table, sweep seconds))."""
-        t0 = time.perf_counter()
-        problems = [core.centralized_problem(m, model="full", compiled=True)
-                    for m in core.parameter_draws(TABLE_I, k, 0.2, ROBUST_SEED)]
-        t1 = time.perf_counter()
-        table = robust_table(problems[0].grid, [pr.next_points for pr in problems],
-                             weights=weights)
-        t2 = time.perf_counter()
-        res = fuzzy_q_iteration_robust(table, [pr.rewards for pr in problems], mode="worst",
-                                       threads=threads)
-        t3 = time.perf_counter()
-        return t3 - t0, res.q, res.iterations, (t1 - t0, t2 - t1, t3 - t2)
-
     once(2)                                   # loads the compiled kernels
-    mirror(2, "float32", THREADS)
-    threaded = f"float64, {THREADS} threads"
     rows, summary = [], {}
     for k in draws:
-        runs, fast = [], ({"float32": [], threaded: []} if k > 1 else {})
-        for i in range(max(1, repeats)):                   # interleaved
+        models = core.parameter_draws(TABLE_I, k, 0.2, ROBUST_SEED)
+        runs, fixed = [], []
+        for _ in range(max(1, repeats)):                   # interleaved
             runs.append(once(k))
-            for w in fast if i < max(1, repeats - 1) else ():
-                fast[w].append(mirror(k, "float64", THREADS) if w == threaded
-                               else mirror(k, w))
+            if k > 1:
+                fixed.append(_robust_run(models, "full", "fixed"))
         best = min(r[0] for r in runs)
         part = {name: min(r[1][name] for r in runs)
                 for name in ("model_seconds", "table_seconds", "sweep_seconds")}
@@ -632,36 +637,31 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         rows += [
             Row(sec, "model transitions (K models)", part["model_seconds"], "s",
                 "compiled RK4 over one theta1 slice, shifted; rewards"),
-            Row(sec, "fixed-width tables (K models)", part["table_seconds"], "s",
-                "memberships written straight into the layout"),
+            Row(sec, "factored tables (K models)", part["table_seconds"], "s",
+                "theta1 factored out (synthesize's layout)"),
             Row(sec, "sweeps", part["sweep_seconds"], "s",
-                f"{sweeps} sweeps of min_k rho_k + gamma T_k V (tables side by side)"),
+                f"{sweeps} sweeps of min_k rho_k + gamma T_k V, {THREADS} threads"),
             Row(sec, "total synthesize()", best, "s",
                 f"best of {len(runs)}; targets: <= 1.5 s (issue 9), 0.5 s (issue 13)"),
             Row(sec, "total synthesize(), CPU time", min(r[2] for r in runs), "s",
-                "process time: close to the wall time of an otherwise idle machine"),
+                "process time (both threads' CPU counted)"),
         ]
         summary[k] = {"total": best, "cpu": min(r[2] for r in runs), "iterations": sweeps,
                       **part}
-        q64 = runs[-1][3]
-        if fast and not np.array_equal(fast[threaded][-1][1], q64):
-            raise RuntimeError("the mirrored robust synthesis (float64, threads) differs "
-                               "from synthesize()")
-        for w, wruns in fast.items():
-            w_best = min(r[0] for r in wruns)
-            split = [min(r[3][i] for r in wruns) for i in range(3)]
-            dq = float(np.max(np.abs(wruns[-1][1] - q64)))
-            bins = int(np.sum(greedy_indices(wruns[-1][1]) != greedy_indices(q64)))
-            rows.append(Row(sec, f"robust_table, {w}: total (problems + table + sweeps)",
-                            w_best, "s",
-                            f"best of {len(wruns)}, interleaved with synthesize(); models "
-                            f"{split[0]:.3f} s, table {split[1]:.3f} s, {wruns[-1][2]} sweeps "
-                            f"{split[2]:.3f} s; max|dQ| vs synthesize() {dq:.2g}, {bins} "
-                            f"greedy bins moved; target 0.5 s"))
-            summary[k][w] = {"total": w_best, "model_seconds": split[0],
-                             "table_seconds": split[1], "sweep_seconds": split[2],
-                             "iterations": wruns[-1][2], "max_dq": dq,
-                             "greedy_bins_moved": bins}
+        if fixed:
+            split = [min(r[0][i] for r in fixed) for i in range(3)]
+            res = fixed[-1][1]
+            dq = float(np.max(np.abs(res.q - runs[-1][3])))
+            bins = int(np.sum(greedy_indices(res.q) != greedy_indices(runs[-1][3])))
+            rows.append(Row(sec, "fixed layout: total (problems + table + sweeps)", sum(split),
+                            "s", f"robust_table + fuzzy_q_iteration_robust, 1 thread, best of "
+                            f"{len(fixed)} interleaved; models {split[0]:.3f} s, table "
+                            f"{split[1]:.3f} s, {res.iterations} sweeps {split[2]:.3f} s; "
+                            f"max|dQ| vs synthesize() {dq:.2g}, {bins} greedy bins differ"))
+            summary[k]["fixed"] = {"total": sum(split), "model_seconds": split[0],
+                                   "table_seconds": split[1], "sweep_seconds": split[2],
+                                   "iterations": res.iterations, "max_dq": dq,
+                                   "greedy_bins_differ": bins}
     return rows, summary
 
 
@@ -669,14 +669,11 @@ def jit_compile_seconds() -> dict:
     """Seconds the first call of each compiled kernel takes in a fresh process with an
     empty numba cache (compile time; the cached load is a few milliseconds)."""
     import json
-    import os
-    import subprocess
-    import sys
     import tempfile
 
     code = (
         "import json, time, numpy as np\n"
-        "from twolink import fqi, integrate\n"
+        "from twolink import fqi, fqi_factored, integrate\n"
         "from twolink.fuzzy import Grid, angle_axis, speed_axis\n"
         "from twolink.parameters import TABLE_I\n"
         "g = Grid((angle_axis('a'), speed_axis('s')))\n"
@@ -694,6 +691,11 @@ def jit_compile_seconds() -> dict:
         "out['robust'] = time.perf_counter() - t0\n"
         "t0 = time.perf_counter(); rt = fqi.robust_table(g, [nxt[..., [1, 3]]] * 2); "
         "out['robust_table'] = time.perf_counter() - t0\n"
+        "ft = fqi_factored.factored_table(g, nxt[..., [1, 3]])\n"
+        "t0 = time.perf_counter(); fqi_factored.factored_q_iteration(ft, r); "
+        "out['factored'] = time.perf_counter() - t0\n"
+        "t0 = time.perf_counter(); fqi_factored.factored_q_iteration_robust([ft, ft], [r, r]); "
+        "out['factored_robust'] = time.perf_counter() - t0\n"
         "print(json.dumps(out))\n")
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)

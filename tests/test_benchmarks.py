@@ -41,6 +41,30 @@ def test_peers_solve_the_same_mdp_and_agree(name):
                 "ours: time per sweep", "peak memory (synthesis)", "total synthesis"):
         assert (sec, key) in by
     assert by[(sec, "Q-table size")].value == {"centralized": 63504, "agent1": 9072}[name]
+    assert summary["layout"] == {"centralized": "factored", "agent1": "fixed"}[name]
+    if name == "centralized":        # the package's factored sweeps against the references
+        assert summary["max_dq"]["scipy"] <= 1e-12 and summary["max_dq"]["fixed"] <= 1e-12
+        assert summary["greedy_bins_differ"] == {"scipy": 0, "fixed": 0}
+        for key in ("factored, 1 thread: time per sweep", "fixed layout: time per sweep",
+                    "quantecon / factored, 1 thread per sweep",
+                    "quantecon / fixed layout per sweep", "fixed layout: bytes per sweep",
+                    "equivalent bandwidth: fixed layout's bytes / ours time per sweep"):
+            assert (sec, key) in by
+        assert summary["sweep_bytes"] < summary["fixed_sweep_bytes"]
+        assert summary["equivalent_gbs"] == pytest.approx(
+            summary["fixed_sweep_bytes"] / summary["per_sweep"]["ours"] / 1e9)
+    _positive_finite(rows)
+
+
+def test_synthesize_end_to_end_rows_split_the_total():
+    rows, summary = synthesis.bench_synthesize(repeats=1, models=("simplified",),
+                                               contended=False)
+    by = _by_name(rows)
+    sec = "synthesis: synthesize('centralized') end to end"
+    s = summary["simplified"]
+    assert by[(sec, "model=simplified: total")].value == s["total"]
+    assert s["iterations"] == 80
+    assert s["transition_seconds"] + s["sweep_seconds"] <= s["total"]
     _positive_finite(rows)
 
 
@@ -71,6 +95,9 @@ def test_worst_case_rows_and_models():
     assert {"total robust synthesis (worst)", "sweeps to convergence (worst)",
             "sweep bandwidth", "total robust synthesis (mean)"} <= names
     assert summary["k"] == 2 and summary["iterations"] > 0
+    assert {"fixed layout: total robust synthesis (worst)", "fixed layout agreement max|dQ|",
+            "fixed / factored total"} <= names
+    assert summary["max_dq"] <= 1e-12 and summary["greedy_bins_differ"] == 0
     _positive_finite(rows)
 
 
