@@ -221,9 +221,10 @@ def test_robust_memory_is_estimated_before_any_work():
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert 0.8 * robust_bytes("centralized", 1, 3) < peak <= robust_bytes("centralized", 1, 3)
+    assert 0.9 * robust_bytes("centralized", 1, 3) < peak <= robust_bytes("centralized", 1, 3)
     assert robust_bytes("centralized", 1, 8) < MAX_ROBUST_BYTES
-    assert robust_bytes("centralized", 1, 16) == 2 * robust_bytes("centralized", 1, 8)
+    per_model = robust_bytes("centralized", 1, 2) - robust_bytes("centralized", 1, 1)
+    assert robust_bytes("centralized", 1, 16) - robust_bytes("centralized", 1, 8) == 8 * per_model
     assert robust_bytes("centralized", 1, 1000) > MAX_ROBUST_BYTES
     with pytest.raises(ValueError, match="spread must lie in"):
         synthesize("centralized", robust="worst", draws=2, spread=0.9)

@@ -336,7 +336,7 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
     with _pool(threads) as pool:
         run = _threaded(rows, pool, n_x, threads, delta, min_iterations) if threads > 1 \
             else kernel
-        return _iterate(run, (n_x, n_u), in_place=sweeps == "serial", delta=delta,
+        return iterate(run, (n_x, n_u), in_place=sweeps == "serial", delta=delta,
                         max_iterations=max_iterations, min_iterations=min_iterations,
                         callback=callback)
 
@@ -356,7 +356,7 @@ def _pool(threads: int):
 
 
 def _threaded(rows, pool, n_x: int, threads: int, delta: float, min_iterations: int):
-    """A sweep kernel for :func:`_iterate` that runs ``rows(q, q_next, v, v_next, lo, hi)``
+    """A sweep kernel for :func:`iterate` that runs ``rows(q, q_next, v, v_next, lo, hi)``
     (a compiled one-sweep kernel over the bins [lo, hi), releasing the GIL) on ``threads``
     disjoint ranges of bins at once, the change the largest of theirs."""
     cuts = np.linspace(0, n_x, threads + 1).astype(int)
@@ -376,7 +376,7 @@ def _threaded(rows, pool, n_x: int, threads: int, delta: float, min_iterations: 
     return kernel
 
 
-def _iterate(kernel, shape, *, in_place: bool, delta: float, max_iterations: int,
+def iterate(kernel, shape, *, in_place: bool, delta: float, max_iterations: int,
              min_iterations: int, callback) -> QIterationResult:
     """Run a compiled sweep ``kernel`` from Q_0 = 0 until the change is <= ``delta``: all
     sweeps in one call, or one per call when there is a ``callback(l, change)``. A kernel
@@ -465,7 +465,7 @@ def fuzzy_q_iteration_robust(transitions: Union[RobustTable,
     with _pool(threads) as pool:
         run = _threaded(rows, pool, n_x, threads, delta, min_iterations) if threads > 1 \
             else kernel
-        return _iterate(run, (n_x, n_u), in_place=False, delta=delta,
+        return iterate(run, (n_x, n_u), in_place=False, delta=delta,
                         max_iterations=max_iterations, min_iterations=min_iterations,
                         callback=callback)
 

@@ -14,15 +14,13 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import time
-from concurrent.futures import ThreadPoolExecutor
-from typing import Callable, Optional
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 import scipy.sparse as sp
 
 from twolink import fqi_factored_kernel
-from twolink.fqi import QIterationResult
+from twolink.fqi import ROBUST_MODES, QIterationResult, iterate
 from twolink.fuzzy import Grid
 from twolink.parameters import DELTA, GAMMA
 
@@ -163,19 +161,46 @@ class FactoredBuilder:
                              self.n_actions)
 
 
+def factored_table(grid: Grid, next_points: np.ndarray) -> FactoredTable:
+    """The :class:`FactoredTable` of the points reached from every (bin centre, action)
+    pair, ``next_points`` (N_X, N_U, d) on ``grid``, whose first axis must be circular and
+    ignored by the dynamics: the B first-axis blocks of points must agree on every other
+    axis bit for bit (as the horizontal arm's (6) and (11) give them), else a ValueError.
+    The memberships are those of :func:`twolink.fqi.transition_table`; only their sums
+    in a sweep are ordered differently (G per block, then the first axis)."""
+    next_points = np.asarray(next_points, dtype=float)
+    if next_points.ndim != 3 or next_points.shape[0] != grid.size \
+            or next_points.shape[2] != len(grid.axes):
+        raise ValueError(f"next_points of shape {next_points.shape} do not match a grid of "
+                         f"{grid.size} bins over {len(grid.axes)} dimensions")
+    first = grid.axes[0]
+    if not first.circular:
+        raise ValueError(f"a factored table needs a circular first axis, not {first.name}")
+    n_x, n_u, d = next_points.shape
+    blocks = next_points.reshape(first.size, n_x // first.size, n_u, d)
+    rest = blocks[0, ..., 1:]
+    if not np.array_equal(blocks[..., 1:], np.broadcast_to(rest, blocks[..., 1:].shape)):
+        raise ValueError(f"the reached points of the {first.name} blocks differ on other axes: "
+                         f"the dynamics depend on {first.name}, so T does not factor "
+                         f"(use twolink.fqi.transition_table)")
+    builder = FactoredBuilder(grid, n_u)
+    builder.add(0, rest, np.moveaxis(blocks[..., 0], 0, -1))
+    return builder.table()
+
+
 def default_threads() -> int:
     """Threads the sweeps use: two, or one on a one-core machine."""
     return max(1, min(2, os.cpu_count() or 1))
 
 
-def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: float = GAMMA,
-                         delta: float = DELTA, max_iterations: int = 10000,
-                         callback: Optional[Callable[[int, float], None]] = None,
-                         threads: Optional[int] = None) -> QIterationResult:
-    """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max |Q_l - Q_{l-1}| <= delta, over
-    a :class:`FactoredTable`; ``rewards`` (N_X, N_U) rho(c_m, u_j). ``threads`` share each
-    sweep's slice rows (default :func:`default_threads`); ``callback(l, change)`` after
-    each sweep."""
+def _check_threads(threads) -> int:
+    threads = default_threads() if threads is None else threads
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
+    return int(threads)
+
+
+def _check_rewards(table: FactoredTable, rewards, gamma: float, delta: float) -> np.ndarray:
     rewards = np.ascontiguousarray(rewards, dtype=float)
     if rewards.shape != (table.n_states, table.n_actions):
         raise ValueError(f"rewards of shape {rewards.shape} do not match a table of "
@@ -184,30 +209,97 @@ def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: fl
         raise ValueError(f"gamma must lie in (0, 1), got {gamma}")
     if not delta > 0.0:
         raise ValueError(f"delta must be positive, got {delta}")
-    threads = default_threads() if threads is None else threads
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
-    start = time.perf_counter()
-    n_x, n_u = rewards.shape
-    q, q_next = np.zeros(n_x * n_u), np.empty(n_x * n_u)
-    v, v_next = np.zeros(n_x), np.empty(n_x)
+    return rewards
+
+
+def _one_thread(sweep, q, q_next, v, v_next, history, done, step, delta, min_iterations):
+    """Up to ``step`` sweeps on this thread, each one compiled call ``sweep(q, q_next, v,
+    v_next)`` returning its change (no thread pool: a sweep costs a few microseconds of
+    Python more), with the stopping rule and array swaps of the compiled drivers."""
+    n = 0
+    while n < step:
+        change = sweep(q, q_next, v, v_next)
+        q, q_next, v, v_next = q_next, q, v_next, v
+        history[done + n] = change
+        n += 1
+        if change <= delta and done + n >= min_iterations:
+            break
+    return n
+
+
+def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: float = GAMMA,
+                         delta: float = DELTA, max_iterations: int = 10000,
+                         min_iterations: int = 0,
+                         callback: Optional[Callable[[int, float], None]] = None,
+                         threads: Optional[int] = None) -> QIterationResult:
+    """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max |Q_l - Q_{l-1}| <= delta, over
+    a :class:`FactoredTable`; ``rewards`` (N_X, N_U) rho(c_m, u_j). ``threads`` share each
+    sweep's slice rows (default :func:`default_threads`; the same Q bit for bit whatever
+    their number); ``min_iterations`` forces at least that many sweeps (benchmarks);
+    ``callback(l, change)`` after each sweep."""
+    rewards = _check_rewards(table, rewards, gamma, delta)
+    threads = min(_check_threads(threads), table.n_slice)
     r = rewards.reshape(-1)
-    cuts = np.linspace(0, table.n_slice, min(threads, table.n_slice) + 1).astype(int)
-    history = []
-    converged = False
-    with ThreadPoolExecutor(max_workers=len(cuts) - 1) as pool:
-        while len(history) < max_iterations:
-            def part(k, q=q, q_next=q_next, v=v, v_next=v_next):
-                return fqi_factored_kernel.factored_sweep(
-                    table.index, table.weight, table.index1, table.weight1, r, q, q_next,
-                    v, v_next, gamma, cuts[k], cuts[k + 1])
-            change = max(pool.map(part, range(len(cuts) - 1)))
-            q, q_next, v, v_next = q_next, q, v_next, v
-            history.append(change)
-            if callback is not None:
-                callback(len(history), change)
-            if change <= delta:
-                converged = True
-                break
-    return QIterationResult(q.reshape(n_x, n_u), len(history), np.array(history), converged,
-                            time.perf_counter() - start)
+
+    def kernel(q, q_next, v, v_next, history, done, step):
+        if threads > 1:
+            return fqi_factored_kernel.factored_sweeps(
+                table.index, table.weight, table.index1, table.weight1, r, q, q_next, v,
+                v_next, gamma, delta, history, done, step, min_iterations, threads)
+        sweep = fqi_factored_kernel.factored_sweep8 if table.index.shape[1] == 8 \
+            else fqi_factored_kernel.factored_sweep
+        return _one_thread(lambda *a: sweep(table.index, table.weight, table.index1,
+                                            table.weight1, r, *a, gamma, 0, table.n_slice),
+                           q, q_next, v, v_next, history, done, step, delta, min_iterations)
+    return iterate(kernel, rewards.shape, in_place=False, delta=delta,
+                   max_iterations=max_iterations, min_iterations=min_iterations,
+                   callback=callback)
+
+
+def factored_q_iteration_robust(tables: Sequence[FactoredTable], rewards: Sequence[np.ndarray],
+                                *, mode: str = "worst", gamma: float = GAMMA,
+                                delta: float = DELTA, max_iterations: int = 10000,
+                                min_iterations: int = 0,
+                                callback: Optional[Callable[[int, float], None]] = None,
+                                threads: Optional[int] = None) -> QIterationResult:
+    """Synchronous sweeps of Alg. 1 over K models at once, as
+    :func:`twolink.fqi.fuzzy_q_iteration_robust` (Q(m, u) = min_k or mean_k of
+    rho_k + gamma T_k V), over K :class:`FactoredTable` of one grid and action set."""
+    if mode not in ROBUST_MODES:
+        raise ValueError(f"unknown robust mode {mode!r}; choose one of {', '.join(ROBUST_MODES)}")
+    if len(tables) == 0 or len(tables) != len(rewards):
+        raise ValueError(f"need one reward table per transition table, got {len(tables)} "
+                         f"tables and {len(rewards)} reward tables")
+    first = tables[0]
+    for t in tables[1:]:
+        if (t.n_first, t.n_slice, t.n_actions) != (first.n_first, first.n_slice,
+                                                   first.n_actions):
+            raise ValueError("the models' factored tables differ in shape")
+    checked = [_check_rewards(first, rr, gamma, delta) for rr in rewards]
+    width = max(t.index.shape[1] for t in tables)
+    n_pairs = first.index.shape[0]
+    index = np.empty((n_pairs, len(tables), width), dtype=np.int32)
+    weight = np.zeros((n_pairs, len(tables), width))
+    for k, t in enumerate(tables):
+        w = t.index.shape[1]
+        index[:, k, :w], weight[:, k, :w] = t.index, t.weight
+        index[:, k, w:] = t.index[:, :1]
+    index1 = np.ascontiguousarray(np.stack([t.index1 for t in tables], axis=1))
+    weight1 = np.ascontiguousarray(np.stack([t.weight1 for t in tables], axis=1))
+    r = np.ascontiguousarray(np.stack([rr.reshape(-1) for rr in checked], axis=1))
+    threads = min(_check_threads(threads), first.n_slice)
+    worst = mode == "worst"
+
+    def kernel(q, q_next, v, v_next, history, done, step):
+        if threads > 1:
+            return fqi_factored_kernel.factored_robust_sweeps(
+                index, weight, index1, weight1, r, q, q_next, v, v_next, gamma, delta,
+                history, done, step, min_iterations, worst, threads)
+        sweep = fqi_factored_kernel.factored_robust_sweep8 if width == 8 \
+            else fqi_factored_kernel.factored_robust_sweep
+        return _one_thread(lambda *a: sweep(index, weight, index1, weight1, r, *a, gamma,
+                                            worst, 0, first.n_slice),
+                           q, q_next, v, v_next, history, done, step, delta, min_iterations)
+    return iterate(kernel, checked[0].shape, in_place=False, delta=delta,
+                   max_iterations=max_iterations, min_iterations=min_iterations,
+                   callback=callback)
