@@ -450,8 +450,11 @@ def bench_synthesize(*, repeats: int = 5, models=("simplified", "full"),
 
 
 def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
-                    full_setup: bool = False) -> tuple[list[Row], dict]:
-    """The centralized problem and both decentralized agents, with the peers."""
+                    full_setup: bool = False, jit: bool | None = None
+                    ) -> tuple[list[Row], dict]:
+    """The centralized problem and both decentralized agents, with the peers;
+    ``synthesize()`` end to end; the robust syntheses. ``jit`` (default ``full_setup``,
+    that is full mode) adds the kernels' compile times in a fresh process (some 15 s)."""
     rows, summaries = [], {}
     for name in ("centralized", "agent2", "agent1"):
         r, s = bench_problem(name, repeats=repeats, sweep_repeats=sweep_repeats,
@@ -487,11 +490,13 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
     rows += r
     r, summaries["robust"] = bench_robust_synthesis((1, 8), repeats=repeats)
     rows += r
-    jit = jit_compile_seconds()
-    summaries["jit_seconds"] = jit
-    sec = f"{SECTION}: compiled kernels"
-    rows += [Row(sec, f"JIT compile: {name}", secs, "s",
-                 "first call, fresh process, empty numba cache") for name, secs in jit.items()]
+    if full_setup if jit is None else jit:
+        compile_seconds = jit_compile_seconds()
+        summaries["jit_seconds"] = compile_seconds
+        sec = f"{SECTION}: compiled kernels"
+        rows += [Row(sec, f"JIT compile: {name}", secs, "s",
+                     "first call, fresh process, empty numba cache")
+                 for name, secs in compile_seconds.items()]
     return rows, summaries
 
 
