@@ -20,7 +20,14 @@ K, and K = 1 is the ordinary synthesis, bit for bit); draws 1..K-1 change every 
 (:func:`parameter_draws`). The K models' transitions use the compiled RK4
 (:func:`twolink.integrate.sample_step_compiled`) over one theta1 slice of the grid, shifted
 to the others (the horizontal arm's dynamics do not depend on theta1): equal to the numpy
-path, which the non-robust synthesis keeps, up to round-off (tests hold it to 1e-12).
+path, which the agents' non-robust synthesis keeps, up to round-off (tests hold it to 1e-12).
+
+The centralized problem, robust or not, takes its transitions from that compiled slice and
+stores T factored along theta1 (``layout="factored"``, :mod:`twolink.fqi_factored`): the
+memberships on the other three axes once per slice bin and action, shared by the twelve
+theta1 blocks, swept on two threads. Its sums run in another order than the fixed table's,
+so Q moves by ~1e-14 (the shipped centralized policies were re-synthesised this way: the
+same sweeps and greedy actions). Serial sweeps and the agents read the fixed-width table.
 """
 from __future__ import annotations
 
