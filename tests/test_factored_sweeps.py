@@ -10,8 +10,8 @@ import pytest
 from reference_fqi import fuzzy_q_iteration_robust_reference, fuzzy_q_iteration_scipy
 from twolink import fqi_factored_kernel, fuzzy
 from twolink.fqi import transition_matrix
-from twolink.fqi_factored import (factored_q_iteration, factored_q_iteration_robust,
-                                  factored_table)
+from twolink.fqi_factored import (PARALLEL_MIN_WORK, default_threads, factored_q_iteration,
+                                  factored_q_iteration_robust, factored_table, sweep_work)
 from twolink.parameters import GAMMA, TABLE_I
 from twolink.policy import greedy_indices
 from twolink.synthesis import (LAYOUTS, agent2_problem, centralized_problem, solve,
@@ -139,3 +139,17 @@ def test_synthesis_records_its_layout():
     assert serial.agents[0].info["layout"] == "fixed"
     pair = synthesize("decentralized", model="full")
     assert [a.info["layout"] for a in pair.agents] == ["fixed", "fixed"]
+
+
+def test_small_sweeps_stay_on_one_thread(central, monkeypatch):
+    """The paper's table (0.64 M gathered values per sweep) sweeps on one thread by
+    default; K = 8 of them or a refined grid on two (one on a one-core machine)."""
+    _, table, _ = central
+    assert sweep_work(table) == 588 * 9 * 12 * (8 + 2) < PARALLEL_MIN_WORK
+    assert default_threads(sweep_work(table)) == 1
+    monkeypatch.setattr("os.cpu_count", lambda: 8)
+    assert default_threads(8 * sweep_work(table)) == default_threads() == 2
+    monkeypatch.setattr("os.cpu_count", lambda: 1)
+    assert default_threads(8 * sweep_work(table)) == 1
+    with pytest.raises(ValueError, match="threads must be a positive whole number"):
+        factored_q_iteration(table, central[0].rewards, threads=0)

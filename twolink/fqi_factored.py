@@ -188,13 +188,31 @@ def factored_table(grid: Grid, next_points: np.ndarray) -> FactoredTable:
     return builder.table()
 
 
-def default_threads() -> int:
-    """Threads the sweeps use: two, or one on a one-core machine."""
+#: Gathered values per sweep (slice rows x blocks x (memberships + 2)) below which the
+#: sweeps run on one thread unless ``threads=`` says otherwise. Such a sweep takes well
+#: under a millisecond (the paper's centralized problem: 0.64 M, 0.3 ms), so waking a
+#: second thread every sweep costs a good share of it: measured on this 2-core VM, two
+#: threads were 1.2-1.5x faster when the other core was idle and 1.5-3x slower when another
+#: process kept it busy. Larger sweeps (K models, refined grids, three links) take two.
+PARALLEL_MIN_WORK = 2_000_000
+
+
+def default_threads(work: Optional[int] = None) -> int:
+    """Threads the sweeps use: two (one on a one-core machine), or one for sweeps of
+    fewer than :data:`PARALLEL_MIN_WORK` gathered values (``work``, when given)."""
+    if work is not None and work < PARALLEL_MIN_WORK:
+        return 1
     return max(1, min(2, os.cpu_count() or 1))
 
 
-def _check_threads(threads) -> int:
-    threads = default_threads() if threads is None else threads
+def sweep_work(table: FactoredTable) -> int:
+    """Gathered values one sweep of ``table`` reads: per slice row and block, its
+    memberships on the other axes and the first axis's two."""
+    return table.index.shape[0] * table.n_first * (table.index.shape[1] + 2)
+
+
+def _check_threads(threads, work: int) -> int:
+    threads = default_threads(work) if threads is None else threads
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
         raise ValueError(f"threads must be a positive whole number, got {threads!r}")
     return int(threads)
@@ -234,11 +252,11 @@ def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: fl
                          threads: Optional[int] = None) -> QIterationResult:
     """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max |Q_l - Q_{l-1}| <= delta, over
     a :class:`FactoredTable`; ``rewards`` (N_X, N_U) rho(c_m, u_j). ``threads`` share each
-    sweep's slice rows (default :func:`default_threads`; the same Q bit for bit whatever
-    their number); ``min_iterations`` forces at least that many sweeps (benchmarks);
+    sweep's slice rows (default :func:`default_threads` of the sweep's :func:`sweep_work`;
+    the same Q bit for bit whatever their number); ``min_iterations`` forces at least that many sweeps (benchmarks);
     ``callback(l, change)`` after each sweep."""
     rewards = _check_rewards(table, rewards, gamma, delta)
-    threads = min(_check_threads(threads), table.n_slice)
+    threads = min(_check_threads(threads, sweep_work(table)), table.n_slice)
     r = rewards.reshape(-1)
 
     def kernel(q, q_next, v, v_next, history, done, step):
@@ -287,7 +305,8 @@ def factored_q_iteration_robust(tables: Sequence[FactoredTable], rewards: Sequen
     index1 = np.ascontiguousarray(np.stack([t.index1 for t in tables], axis=1))
     weight1 = np.ascontiguousarray(np.stack([t.weight1 for t in tables], axis=1))
     r = np.ascontiguousarray(np.stack([rr.reshape(-1) for rr in checked], axis=1))
-    threads = min(_check_threads(threads), first.n_slice)
+    threads = min(_check_threads(threads, sum(sweep_work(t) for t in tables)),
+                  first.n_slice)
     worst = mode == "worst"
 
     def kernel(q, q_next, v, v_next, history, done, step):

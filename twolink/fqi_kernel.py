@@ -12,14 +12,17 @@ from the reference by the weights' round-off only.
 Why the sums stay in index order: on the paper's centralized problem (T in the L3
 cache) a sweep is bound by the instructions per entry (three loads: index, weight,
 gathered V; a multiply, an add), not by the dependent additions nor by the bytes.
-Measured on a 2-core AMD EPYC (Zen 4): a compiler-vectorised row (gathers) is 0.76x as
-fast, four partial sums 0.42x, float32 weights 0.91x (one conversion more per entry);
-reading T alone, without the gathers, already takes 46 % of a sweep.
-``benchmarks/synthesis.py`` measures those variants beside these kernels (``VARIANTS``).
+Measured on a 2-core AMD EPYC (Zen 4) with the first release's kernels: a
+compiler-vectorised row (gathers) was 0.76x as fast, four partial sums 0.42x, float32
+weights 0.91x (one conversion more per entry); reading T alone, without the gathers, took
+46 % of a sweep. Fewer entries per Q-value are what pays: the centralized synthesis reads
+T factored along theta1 (:mod:`twolink.fqi_factored_kernel`, 0.64 M gathered values per
+sweep instead of 1.0 M).
 
 The gathered V is subscripted with unsigned integers, so numba emits no negative-index
 wrap-around test per entry (the table's indices are checked to lie in [0, N_X) before
-any sweep): the same sums, bit for bit, in fewer instructions.
+any sweep): the same sums, bit for bit, in fewer instructions (QuantEcon / this sweep
+went from 1.00x to 1.09x on the centralized problem, benchmarks/synthesis.py).
 
 The ``*_sweeps`` kernels run ``sweeps`` sweeps (or stop at max |change| <= delta once
 ``min_done`` sweeps are done) and write each sweep's change into ``history``; they return
