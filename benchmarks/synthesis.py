@@ -8,9 +8,10 @@ the same rewards), forced to do the same number of sweeps from V_0 = 0, and thei
 values are checked against ours before any time is compared.
 
 "Ours" is the package's path as :func:`twolink.synthesis.synthesize` runs it: for the
-centralized problem the factored table (:mod:`twolink.fqi_factored`) on its default
-threads, measured beside one thread and the fixed-width layout (:mod:`twolink.fqi`); for
-the agents the fixed-width layout.
+centralized problem the factored table (:mod:`twolink.fqi_factored`) on the threads the
+package picks for it (:func:`package_threads`: one for the paper's grid, two for K models),
+measured beside explicit one- and two-thread runs and the fixed-width layout
+(:mod:`twolink.fqi`); for the agents the fixed-width layout on one thread.
 """
 from __future__ import annotations
 
@@ -31,15 +32,27 @@ from twolink import synthesis as core
 from twolink.fqi import (fuzzy_q_iteration, fuzzy_q_iteration_robust, robust_table,
                          transition_matrix, transition_table)
 from twolink.fqi_factored import (default_threads, factored_q_iteration,
-                                  factored_q_iteration_robust, factored_table)
+                                  factored_q_iteration_robust, factored_table, sweep_work)
 from twolink.parameters import DELTA, GAMMA, TABLE_I
 from twolink.policy import TIE_TOLERANCE, greedy_indices
 
 SECTION = "synthesis"
 SCALING = "scaling"
-#: Threads of the package's factored sweeps (its default), also given to the fixed layout's
-#: threaded sweeps (fqi threads=) beside their one-thread runs.
-THREADS = default_threads()
+#: The most threads the package's sweeps take (:func:`default_threads` without a work
+#: figure: two on this 2-core machine): the explicit multi-thread rows beside one thread.
+MAX_THREADS = default_threads()
+
+
+def package_threads(tables) -> int:
+    """Threads the package's factored sweeps take over ``tables`` (one
+    :class:`FactoredTable`, or the K of a robust sweep): :func:`default_threads` of their
+    summed :func:`sweep_work`, as :func:`factored_q_iteration` (``_robust``) choose them."""
+    tables = tables if isinstance(tables, (list, tuple)) else [tables]
+    return default_threads(sum(sweep_work(t) for t in tables))
+
+
+def _threads(n: int) -> str:
+    return f"{n} thread" + ("s" if n > 1 else "")
 
 
 # --------------------------------------------------------------------------- problems
@@ -209,7 +222,9 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     n = result.iterations
     rewards = problem.rewards
     sec = f"{SECTION}: {name}"
-    where = (f"factored table, {THREADS} threads (synthesize's path)" if factored
+    threads = package_threads(table) if factored else 1
+    where = (f"factored table, {_threads(threads)} (synthesize's path: default_threads of "
+             f"{sweep_work(table):,} gathered values per sweep)" if factored
              else "fixed-width table, 1 thread (synthesize's path)")
     rows += [
         Row(sec, "Q-table size", result.q.size, "values",
@@ -234,20 +249,22 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
     # Equal work: every solver does exactly n sweeps from zero on the same (T, rho).
     table32 = transition_table(problem.grid, problem.next_points, weights="float32")
     solver = factored_q_iteration if factored else fuzzy_q_iteration
-    ours = {"ours": _forced(solver, table, rewards, n)}
+    ours = {"ours": _forced(solver, table, rewards, n)}       # the package's threads
+    explicit = {f"factored, {_threads(t)}": t for t in sorted({1, MAX_THREADS})} \
+        if factored else {}
+    ours |= {key: _forced(factored_q_iteration, table, rewards, n, threads=t)
+             for key, t in explicit.items()}
     if factored:
-        ours |= {"factored, 1 thread": _forced(factored_q_iteration, table, rewards, n,
-                                               threads=1),
-                 "fixed layout": _forced(fuzzy_q_iteration, fixed, rewards, n)}
-    ours |= {f"fixed layout, {THREADS} threads": _forced(fuzzy_q_iteration, fixed, rewards,
-                                                         n, threads=THREADS),
-             "fixed layout, float32 weights": _forced(fuzzy_q_iteration, table32, rewards, n)}
+        ours |= {"fixed layout": _forced(fuzzy_q_iteration, fixed, rewards, n)}
+    multi = f"fixed layout, {_threads(MAX_THREADS)}"
+    if MAX_THREADS > 1:
+        ours |= {multi: _forced(fuzzy_q_iteration, fixed, rewards, n, threads=MAX_THREADS)}
+    ours |= {"fixed layout, float32 weights": _forced(fuzzy_q_iteration, table32, rewards, n)}
     notes = {
         "ours": where,
-        "factored, 1 thread": "factored_q_iteration threads=1",
+        **{key: f"factored_q_iteration threads={t} (explicit)" for key, t in explicit.items()},
         "fixed layout": "transition_table + fuzzy_q_iteration (1 thread)",
-        f"fixed layout, {THREADS} threads": f"fuzzy_q_iteration threads={THREADS} "
-                                            f"(bins split; same Q bit for bit)",
+        multi: f"fuzzy_q_iteration threads={MAX_THREADS} (bins split; same Q bit for bit)",
         "fixed layout, float32 weights": "transition_table weights='float32' (opt-in)"}
     for fn in ours.values():
         fn()                                               # compile/load outside the timings
@@ -310,8 +327,7 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         rel, same = checks[peer]
         rows += [
             Row(sec, f"{peer} / ours per sweep", per_sweep[peer] / per_sweep["ours"], "x",
-                ">1: ours faster" + (f" (ours on {THREADS} threads; the peer on one)"
-                                     if factored and THREADS > 1 else "")),
+                f">1: ours faster (ours on {_threads(threads)}; the peer on one)"),
             Row(sec, f"{peer} agreement max|dV|/max|V|", rel, "rel", "same MDP, same sweeps"),
             Row(sec, f"{peer} greedy action greedy in ours", same, "share",
                 "ties count as agreement" + ("; its policy is greedy in Q_{n+1}"
@@ -337,18 +353,23 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
             "target >= 0.7 (issue 13)"),
     ]
     summary = {"q_size": int(result.q.size), "iterations": n, "layout": layout,
+               "threads": threads,
                "total": t_model + t_matrix + t_sweeps,
                "split": {"model": t_model, "table": t_matrix, "sweeps": t_sweeps},
                "per_sweep": per_sweep, "agreement": checks, "peak_bytes": mem,
                "sweep_bytes": moved, "sweep_gbs": sweep_gbs, "copy_gbs": copy_gbs["copy"]}
     if factored:
-        one = per_sweep["factored, 1 thread"]
+        explicit_gbs = {key: moved / per_sweep[key] / 1e9 for key in explicit}
         gbs_fixed = moved_fixed / per_sweep["fixed layout"] / 1e9
         copy_fixed = copy_gbs["copy, fixed layout's bytes"]
         equiv = moved_fixed / per_sweep["ours"] / 1e9
+        rows += [Row(sec, f"{key}: sweep bandwidth", gbs, "GB/s",
+                     f"share of the copy: {gbs / copy_gbs['copy']:.2f}; equivalent "
+                     f"{moved_fixed / per_sweep[key] / 1e9:.1f} GB/s, "
+                     f"{moved_fixed / per_sweep[key] / 1e9 / copy_fixed:.2f} of the "
+                     f"fixed-bytes copy")
+                 for key, gbs in explicit_gbs.items()]
         rows += [
-            Row(sec, "factored, 1 thread: sweep bandwidth", moved / one / 1e9, "GB/s",
-                f"share of the copy: {moved / one / 1e9 / copy_gbs['copy']:.2f}"),
             Row(sec, "fixed layout: bytes per sweep", moved_fixed / 2**20, "MiB",
                 f"T (int32 index + float64 weight) + rho + Q + Q' + V + V'; "
                 f"{moved_fixed / moved:.1f}x the factored sweep's"),
@@ -357,11 +378,21 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
                 f"numpy copyto of {moved_fixed / 2 / 2**20:.2f} MiB, same run"),
             Row(sec, "fixed layout: sweep / copy bandwidth", gbs_fixed / copy_fixed, "share"),
             Row(sec, "equivalent bandwidth: fixed layout's bytes / ours time per sweep",
-                equiv, "GB/s", f"not bytes moved; share of the fixed-bytes copy: "
-                f"{equiv / copy_fixed:.2f}"),
+                equiv, "GB/s", f"not bytes moved; ours on {_threads(threads)}; share of "
+                f"the fixed-bytes copy: {equiv / copy_fixed:.2f}"),
             Row(sec, "equivalent bandwidth / copy bandwidth (fixed layout's bytes)",
                 equiv / copy_fixed, "share", "the fixed layout's bytes at ours' speed"),
         ]
+        if MAX_THREADS > 1:
+            # Why the package takes one thread here: the explicit runs again, a process
+            # spinning beside them (a shared machine's other job).
+            with busy_process():
+                busy, _ = interleaved_best({key: ours[key] for key in explicit}, reps)
+            rows += [Row(sec, f"{key}, one busy process beside it: time per sweep",
+                         busy[key] / n * 1e3, "ms", f"{n} forced sweeps, best of {reps} "
+                         f"interleaved; {busy[key] / best[key]:.1f}x its idle time")
+                     for key in explicit]
+            summary["busy_per_sweep"] = {key: busy[key] / n for key in explicit}
         # Agreement with the fixed layout and the scipy reference, same n sweeps.
         q_ref = _scipy_sweeps(trans, rewards, n)
         q_fixed = out["fixed layout"].q
@@ -378,7 +409,7 @@ def bench_problem(name: str, *, repeats: int, sweep_repeats: int | None = None,
         ]
         summary |= {"fixed_sweep_bytes": moved_fixed, "fixed_sweep_gbs": gbs_fixed,
                     "fixed_copy_gbs": copy_fixed, "equivalent_gbs": equiv,
-                    "one_thread_gbs": moved / one / 1e9,
+                    "explicit_gbs": explicit_gbs,
                     "max_dq": {"scipy": dq_ref, "fixed": dq_fixed},
                     "greedy_bins_differ": {"scipy": moved_ref, "fixed": moved_fix}}
     return rows, summary
@@ -403,11 +434,14 @@ def bench_synthesize(*, repeats: int = 5, models=("simplified", "full"),
     ``repeats`` after one warm-up call per model (numba's cache loaded), interleaved over
     the models; the split from the policy's ``info`` (transitions = model + table). With
     ``contended``, also model (11) with :func:`busy_process` spinning beside it."""
+    threads = {}
     for m in models:
         info = core.synthesize("centralized", model=m).agents[0].info
         if info["layout"] != PACKAGE["centralized"][1]:
             raise RuntimeError(f"synthesize() now uses the {info['layout']} layout: "
                                f"update benchmarks.synthesis.PACKAGE")
+        problem = core.centralized_problem(model=m, compiled=True)
+        threads[m] = package_threads(factored_table(problem.grid, problem.next_points))
 
     def timed(m):
         t0 = time.perf_counter()
@@ -429,9 +463,10 @@ def bench_synthesize(*, repeats: int = 5, models=("simplified", "full"),
                 "s", "of the best run: compiled RK4 over one theta1 slice + factored table"),
             Row(sec, f"model={m}: sweeps", info["sweep_seconds"], "s",
                 f"of the best run: {info['iterations']} sweeps, {info['layout']} layout, "
-                f"{THREADS} threads"),
+                f"{_threads(threads[m])} (the package's choice)"),
         ]
-        summary[m] = {"total": total, "transition_seconds": info["transition_seconds"],
+        summary[m] = {"total": total, "threads": threads[m],
+                      "transition_seconds": info["transition_seconds"],
                       "sweep_seconds": info["sweep_seconds"], "iterations": info["iterations"],
                       "median_total": float(np.median([r[0] for r in runs[m]]))}
     if contended:
@@ -441,7 +476,7 @@ def bench_synthesize(*, repeats: int = 5, models=("simplified", "full"),
         total, info = min(busy, key=lambda r: r[0])
         rows.append(Row(sec, f"model={m}, one busy process beside it: total", total, "s",
                         f"best of {len(busy)}: transitions {info['transition_seconds']:.3f} s, "
-                        f"sweeps {info['sweep_seconds']:.3f} s on {THREADS} threads; "
+                        f"sweeps {info['sweep_seconds']:.3f} s on {_threads(threads[m])}; "
                         f"{total / summary[m]['total']:.1f}x the idle machine's"))
         summary[m]["contended"] = {"total": total,
                                    "transition_seconds": info["transition_seconds"],
@@ -476,10 +511,13 @@ def bench_synthesis(*, repeats: int = 3, sweep_repeats: int | None = None,
             "paper: ~18300 s CPU, Matlab 7.1, Centrino Duo 1.83 GHz"),
         Row(sec, f"fastest peer ({fastest}) / ours per sweep, centralized",
             c["per_sweep"][fastest] / c["per_sweep"]["ours"], "x",
-            f">= 1.5 is the target; ours on {THREADS} threads, the peer on one"),
-        Row(sec, f"fastest peer ({fastest}) / ours 1 thread per sweep, centralized",
-            c["per_sweep"][fastest] / c["per_sweep"]["factored, 1 thread"], "x",
-            ">= 1.5 is the target; per core"),
+            f">= 1.5 is the target; ours on {_threads(c['threads'])} (the package's "
+            f"choice), the peer on one"),
+        *[Row(sec, f"fastest peer ({fastest}) / ours {_threads(t)} per sweep, centralized",
+              c["per_sweep"][fastest] / c["per_sweep"][f"factored, {_threads(t)}"], "x",
+              ">= 1.5 is the target; explicit threads=" + str(t)
+              + ("; per core" if t == 1 else ""))
+          for t in sorted({1, MAX_THREADS})],
         Row(sec, "sweep / copy bandwidth, centralized", c["sweep_gbs"] / c["copy_gbs"], "share",
             ">= 0.7 is the target (bytes actually moved)"),
         Row(sec, "equivalent / copy bandwidth, centralized",
@@ -517,9 +555,9 @@ def worst_case_models(k: int = 8, spread: float = 0.2) -> list:
 
 def _robust_run(models, model: str, layout: str, mode: str = "worst"):
     """Robust centralized synthesis over ``models`` through the public pieces, the tables
-    in ``layout``: (model seconds, table seconds, sweep seconds), result, tables. Factored:
-    :func:`factored_table` per model + :func:`factored_q_iteration_robust` (default
-    threads), as ``synthesize`` runs it; fixed: :func:`robust_table` +
+    in ``layout``: (model seconds, table seconds, sweep seconds), result, tables, rewards.
+    Factored: :func:`factored_table` per model + :func:`factored_q_iteration_robust` (the
+    package's threads), as ``synthesize`` runs it; fixed: :func:`robust_table` +
     :func:`fuzzy_q_iteration_robust` (1 thread), the layout it ran before."""
     t0 = time.perf_counter()
     problems = [core.centralized_problem(p, model=model, compiled=True) for p in models]
@@ -530,11 +568,12 @@ def _robust_run(models, model: str, layout: str, mode: str = "worst"):
         tables = robust_table(problems[0].grid, [pr.next_points for pr in problems])
     t2 = time.perf_counter()
     solver = factored_q_iteration_robust if layout == "factored" else fuzzy_q_iteration_robust
-    res = solver(tables, [pr.rewards for pr in problems], mode=mode)
+    rewards = [pr.rewards for pr in problems]
+    res = solver(tables, rewards, mode=mode)
     t3 = time.perf_counter()
     if not res.converged:
         raise RuntimeError(f"robust Q-iteration ({mode}, {layout}) did not converge")
-    return (t1 - t0, t2 - t1, t3 - t2), res, tables
+    return (t1 - t0, t2 - t1, t3 - t2), res, tables, rewards
 
 
 def _robust_bytes(tables) -> int:
@@ -552,8 +591,9 @@ def _robust_bytes(tables) -> int:
 def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
     """Robust centralized synthesis over K corner models (:func:`worst_case_models`, model
     (11)): min over k of rho_k + gamma T_k V in one compiled sweep, the factored layout (the
-    package's) interleaved with the fixed-width one, best of ``repeats``; the mean over k
-    once, factored."""
+    package's, on the threads it picks for K tables) interleaved with the fixed-width one,
+    best of ``repeats``; then the factored sweeps alone on explicit one and two threads,
+    interleaved; the mean over k once, factored."""
     models = worst_case_models(k)
     runs = {"factored": [], "fixed": []}
     for _ in range(max(1, repeats)):                        # interleaved
@@ -561,7 +601,8 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
             runs[layout].append(_robust_run(models, "simplified", layout))
     mean_runs = [_robust_run(models, "simplified", "factored", "mean")]
     sec = f"{SECTION}: worst case over K = {k} models, centralized"
-    rows, summary = [], {"k": k}
+    threads = package_threads(runs["factored"][-1][2])
+    rows, summary = [], {"k": k, "threads": threads}
     q = {layout: r[-1][1].q for layout, r in runs.items()}
     for layout, rr in runs.items():
         parts = [min(r[0][i] for r in rr) for i in range(3)]
@@ -570,7 +611,8 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
         moved = _robust_bytes(tables)
         per_sweep = parts[2] / res.iterations
         pre = "" if layout == "factored" else "fixed layout: "
-        how = (f"factored tables, {THREADS} threads (synthesize's layout)" if layout == "factored"
+        how = (f"factored tables, {_threads(threads)} (synthesize's layout and threads)"
+               if layout == "factored"
                else "robust_table side by side, 1 thread (the layout before)")
         rows += [
             Row(sec, f"{pre}transitions + tables (K models)", parts[0] + parts[1], "s",
@@ -591,6 +633,16 @@ def bench_worst_case(k: int = 8, *, repeats: int = 3) -> tuple[list[Row], dict]:
                            "table_seconds": parts[1], "sweeps_seconds": parts[2],
                            "iterations": res.iterations, "per_sweep": per_sweep,
                            "sweep_bytes": moved, "sweep_gbs": moved / per_sweep / 1e9}
+    # The same factored sweeps on explicit thread counts (the tables and rewards reused).
+    tables, rewards = runs["factored"][-1][2], runs["factored"][-1][3]
+    explicit = {t: lambda t=t: factored_q_iteration_robust(tables, rewards, threads=t)
+                for t in sorted({1, MAX_THREADS})}
+    best, out = interleaved_best(explicit, repeats)
+    for t, secs in best.items():
+        rows.append(Row(sec, f"factored, {_threads(t)}: sweeps (worst)", secs, "s",
+                        f"explicit threads={t}; {out[t].iterations} sweeps, best of "
+                        f"{max(1, repeats)} interleaved"))
+    summary["explicit_sweeps_seconds"] = best
     dq = float(np.max(np.abs(q["factored"] - q["fixed"])))
     bins = int(np.sum(greedy_indices(q["factored"]) != greedy_indices(q["fixed"])))
     rows += [
@@ -612,8 +664,8 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
     """The package's robust synthesis (``synthesize(..., robust="worst")``, as
     ``twolink synthesize centralized --model full --robust worst`` runs it) for K in
     ``draws``, spread 0.2, the shipped seed: model transitions, factored tables, sweeps and
-    the whole call, best of ``repeats`` after one warm-up call (JIT compile times are their
-    own rows). For K > 1 also the same models through the fixed-width layout the package
+    the whole call, best of ``repeats`` after one warm-up call per K (JIT compile times are
+    their own rows), with the threads the package picks for K tables. For K > 1 also the same models through the fixed-width layout the package
     used before (:func:`robust_table` + :func:`fuzzy_q_iteration_robust`, 1 thread),
     interleaved, its Q held against ``synthesize()``'s."""
     from twolink.registry import ROBUST_SEED
@@ -625,10 +677,15 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
         return (time.perf_counter() - t0, pol.agents[0].info, time.process_time() - c0,
                 pol.agents[0].q)
 
-    once(2)                                   # loads the compiled kernels
+    for k in draws:
+        once(k)                               # loads the compiled kernels K's threads take
     rows, summary = [], {}
     for k in draws:
         models = core.parameter_draws(TABLE_I, k, 0.2, ROBUST_SEED)
+        problems = [core.centralized_problem(p, model="full", compiled=True) for p in models]
+        threads = package_threads([factored_table(pr.grid, pr.next_points)
+                                   for pr in problems])
+        del problems
         runs, fixed = [], []
         for _ in range(max(1, repeats)):                   # interleaved
             runs.append(once(k))
@@ -645,14 +702,15 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
             Row(sec, "factored tables (K models)", part["table_seconds"], "s",
                 "theta1 factored out (synthesize's layout)"),
             Row(sec, "sweeps", part["sweep_seconds"], "s",
-                f"{sweeps} sweeps of min_k rho_k + gamma T_k V, {THREADS} threads"),
+                f"{sweeps} sweeps of min_k rho_k + gamma T_k V, {_threads(threads)} "
+                f"(the package's choice for K tables)"),
             Row(sec, "total synthesize()", best, "s",
                 f"best of {len(runs)}; targets: <= 1.5 s (issue 9), 0.5 s (issue 13)"),
             Row(sec, "total synthesize(), CPU time", min(r[2] for r in runs), "s",
-                "process time (both threads' CPU counted)"),
+                f"process time (every thread's CPU counted; sweeps on {_threads(threads)})"),
         ]
         summary[k] = {"total": best, "cpu": min(r[2] for r in runs), "iterations": sweeps,
-                      **part}
+                      "threads": threads, **part}
         if fixed:
             split = [min(r[0][i] for r in fixed) for i in range(3)]
             res = fixed[-1][1]
@@ -697,10 +755,11 @@ def jit_compile_seconds() -> dict:
         "t0 = time.perf_counter(); rt = fqi.robust_table(g, [nxt[..., [1, 3]]] * 2); "
         "out['robust_table'] = time.perf_counter() - t0\n"
         "ft = fqi_factored.factored_table(g, nxt[..., [1, 3]])\n"
-        "t0 = time.perf_counter(); fqi_factored.factored_q_iteration(ft, r); "
-        "out['factored'] = time.perf_counter() - t0\n"
-        "t0 = time.perf_counter(); fqi_factored.factored_q_iteration_robust([ft, ft], [r, r]); "
-        "out['factored_robust'] = time.perf_counter() - t0\n"
+        "for n in (1, 2):\n"
+        "    t0 = time.perf_counter(); fqi_factored.factored_q_iteration(ft, r, threads=n); "
+        "out[f'factored, threads={n}'] = time.perf_counter() - t0\n"
+        "    t0 = time.perf_counter(); fqi_factored.factored_q_iteration_robust([ft, ft], "
+        "[r, r], threads=n); out[f'factored robust, threads={n}'] = time.perf_counter() - t0\n"
         "print(json.dumps(out))\n")
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)

@@ -50,6 +50,12 @@ def test_peers_solve_the_same_mdp_and_agree(name):
                     "quantecon / fixed layout per sweep", "fixed layout: bytes per sweep",
                     "equivalent bandwidth: fixed layout's bytes / ours time per sweep"):
             assert (sec, key) in by
+        # "ours" runs on the package's threads (one below PARALLEL_MIN_WORK); explicit
+        # one- and two-thread rows stay beside it.
+        assert summary["threads"] == 1
+        assert "1 thread" in by[(sec, "ours: time per sweep")].note
+        if synthesis.MAX_THREADS > 1:
+            assert (sec, f"factored, {synthesis.MAX_THREADS} threads: time per sweep") in by
         assert summary["sweep_bytes"] < summary["fixed_sweep_bytes"]
         assert summary["equivalent_gbs"] == pytest.approx(
             summary["fixed_sweep_bytes"] / summary["per_sweep"]["ours"] / 1e9)
@@ -63,7 +69,7 @@ def test_synthesize_end_to_end_rows_split_the_total():
     sec = "synthesis: synthesize('centralized') end to end"
     s = summary["simplified"]
     assert by[(sec, "model=simplified: total")].value == s["total"]
-    assert s["iterations"] == 80
+    assert s["iterations"] == 80 and s["threads"] == 1
     assert s["transition_seconds"] + s["sweep_seconds"] <= s["total"]
     _positive_finite(rows)
 
@@ -87,6 +93,15 @@ def test_sweep_bytes_count_the_table_and_the_vectors():
     assert synthesis.sweep_bytes(t) == rows * t.index.shape[1] * (4 + 8) + 24 * rows + 16 * n_x
 
 
+def test_package_threads_follow_the_summed_sweep_work():
+    from twolink.fqi_factored import PARALLEL_MIN_WORK, factored_table, sweep_work
+    p = synthesis.PACKAGE["centralized"][0]()
+    t = factored_table(p.grid, p.next_points)
+    assert sweep_work(t) < PARALLEL_MIN_WORK
+    assert synthesis.package_threads(t) == synthesis.package_threads([t]) == 1
+    assert synthesis.package_threads([t] * 8) == synthesis.MAX_THREADS
+
+
 def test_worst_case_rows_and_models():
     models = synthesis.worst_case_models(8)
     assert len({(m.m1, m.m2, m.b1) for m in models}) == 8
@@ -95,6 +110,9 @@ def test_worst_case_rows_and_models():
     assert {"total robust synthesis (worst)", "sweeps to convergence (worst)",
             "sweep bandwidth", "total robust synthesis (mean)"} <= names
     assert summary["k"] == 2 and summary["iterations"] > 0
+    assert summary["threads"] == 1                       # 2 x 0.64 M gathered values
+    assert {f"factored, {n}: sweeps (worst)" for n in ("1 thread", "2 threads")
+            if n == "1 thread" or synthesis.MAX_THREADS > 1} <= names
     assert {"fixed layout: total robust synthesis (worst)", "fixed layout agreement max|dQ|",
             "fixed / factored total"} <= names
     assert summary["max_dq"] <= 1e-12 and summary["greedy_bins_differ"] == 0
