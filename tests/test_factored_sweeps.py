@@ -134,11 +134,16 @@ def test_synthesis_records_its_layout():
     assert LAYOUTS == ("fixed", "factored")
     central = synthesize("centralized", model="full")
     assert central.agents[0].info["layout"] == "factored"
+    assert central.agents[0].info["threads"] == 1          # 0.64 M gathered values a sweep
     assert central.agents[0].info["iterations"] == 78
     serial = synthesize("centralized", model="full", sweeps="serial")
     assert serial.agents[0].info["layout"] == "fixed"
     pair = synthesize("decentralized", model="full")
     assert [a.info["layout"] for a in pair.agents] == ["fixed", "fixed"]
+    assert [a.info["threads"] for a in pair.agents] == [1, 1]
+    robust = synthesize("centralized", model="full", robust="worst", draws=4, spread=0.1)
+    assert robust.agents[0].info["layout"] == "factored"
+    assert robust.agents[0].info["threads"] == default_threads(4 * 635_040)
 
 
 def test_small_sweeps_stay_on_one_thread(central, monkeypatch):

@@ -42,8 +42,8 @@ from tqdm import tqdm
 from twolink import __version__, dynamics, fuzzy
 from twolink.fqi import (ROBUST_MODES, fuzzy_q_iteration, fuzzy_q_iteration_robust,
                          robust_table, transition_table)
-from twolink.fqi_factored import (factored_q_iteration, factored_q_iteration_robust,
-                                  factored_table)
+from twolink.fqi_factored import (default_threads, factored_q_iteration,
+                                  factored_q_iteration_robust, factored_table, sweep_work)
 from twolink.integrate import SUBSTEPS, sample_step, sample_step_compiled, wrap_angle
 from twolink.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters, chain, check_links
 from twolink.perturbations import PHYSICAL, random_perturbation
@@ -333,8 +333,10 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
     t0 = time.perf_counter()
     if layout == "factored":
         trans = factored_table(problem.grid, problem.next_points)
+        threads = default_threads(sweep_work(trans))
     else:
         trans = transition_table(problem.grid, problem.next_points)
+        threads = 1
     build = problem.seconds + time.perf_counter() - t0
     with tqdm(desc=f"Q-iteration {problem.name}", unit=" sweeps", disable=None if progress else True,
               leave=False, mininterval=0.25) as bar:
@@ -343,7 +345,8 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
             bar.set_postfix(change=f"{change:.3g}")
         if layout == "factored":
             result = factored_q_iteration(trans, problem.rewards, gamma=gamma, delta=delta,
-                                          callback=tick if progress else None)
+                                          callback=tick if progress else None,
+                                          threads=threads)
         else:
             result = fuzzy_q_iteration(trans, problem.rewards, gamma=gamma, delta=delta,
                                        sweeps=sweeps, state_shape=problem.grid.shape,
@@ -352,7 +355,7 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
         raise RuntimeError(f"Q-iteration for {problem.name} did not converge")
     info = {"iterations": result.iterations, "sweeps": sweeps, "converged": result.converged,
             "final_change": float(result.history[-1]), "layout": layout,
-            "transition_seconds": build, "sweep_seconds": result.seconds,
+            "threads": threads, "transition_seconds": build, "sweep_seconds": result.seconds,
             "seconds": build + result.seconds,
             "cpu_seconds": time.process_time() - cpu0 + problem.seconds,
             "q_size": int(result.q.size), "transition_nnz": int(trans.nnz)}
@@ -385,9 +388,11 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
     if layout == "factored":
         table = [factored_table(first.grid, pr.next_points) for pr in problems]
         nnz = sum(t.nnz for t in table)
+        threads = default_threads(sum(sweep_work(t) for t in table))
     else:
         table = robust_table(first.grid, [pr.next_points for pr in problems])
         nnz = table.nnz
+        threads = 1
     table_seconds = time.perf_counter() - t0
     model_seconds = sum(pr.seconds for pr in problems)
     with tqdm(desc=f"robust Q-iteration {first.name}", unit=" sweeps",
@@ -398,13 +403,13 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
         solver = factored_q_iteration_robust if layout == "factored" \
             else fuzzy_q_iteration_robust
         result = solver(table, [pr.rewards for pr in problems], mode=mode, gamma=gamma,
-                        delta=delta, callback=tick if progress else None)
+                        delta=delta, callback=tick if progress else None, threads=threads)
     if not result.converged:
         raise RuntimeError(f"robust Q-iteration for {first.name} did not converge")
     build = model_seconds + table_seconds
     info = {"iterations": result.iterations, "sweeps": "synchronous",
             "converged": result.converged, "final_change": float(result.history[-1]),
-            "robust": mode, "draws": len(problems), "layout": layout,
+            "robust": mode, "draws": len(problems), "layout": layout, "threads": threads,
             "model_seconds": model_seconds, "table_seconds": table_seconds,
             "transition_seconds": build, "sweep_seconds": result.seconds,
             "seconds": build + result.seconds,
