@@ -25,7 +25,7 @@ MODES = {
               "batch": 64, "frames": 10, "render_repeats": 1,
               "vector_samples": 20},
     "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
-             "central": (1, 2, 3), "decentral": (1, 2, 3, 6),
+             "central": (1, 2, 3, 4), "decentral": (1, 2, 3, 6),
              "batch": 256, "frames": 40, "render_repeats": 3,
              "vector_samples": 100},
 }

@@ -776,37 +776,51 @@ def _pairs(name: str, k: int) -> tuple[int, int, int]:
             "agent1": (ang * spd * ang * 3, 3, 4)}[name]
 
 
+def _package_builder(part: str, k: int):
+    """(problem builder, layout) of ``part`` on the grid refined ``k`` times, as
+    :data:`PACKAGE` builds the paper's grid."""
+    if part == "centralized":
+        return (lambda: core.centralized_problem(refine=k, compiled=True)), "factored"
+    return (lambda: BUILDERS[part](k)), "fixed"
+
+
 def bench_scaling(central=(1, 2), decentral=(1, 2), *, budget_fraction: float = 0.5,
                   estimate_to: int = 8) -> tuple[list[Row], list[dict]]:
-    """Both schemes on grids refined k times: Q size, nnz, time, peak memory.
+    """Both schemes on grids refined k times, each built as :func:`core.synthesize` builds
+    it (:data:`PACKAGE`: the centralized problem from the compiled RK4 over one theta1 slice
+    and T factored along theta1; the agents' numpy RK4 and fixed-width tables): Q size,
+    nnz, time, peak memory.
 
     The centralized problem runs for k in ``central``, the decentralized pair for k in
     ``decentral``, each only when its predicted peak memory fits ``budget_fraction`` of
-    the memory available now. The prediction is peak bytes per (state-action pair x 2**d)
-    measured on the largest centralized run made; up to ``estimate_to`` the rows give each
-    scheme's predicted need against the machine's RAM.
+    the memory available now. The prediction is each scheme's peak bytes per unit of its
+    work measured on its largest run made (centralized: per state-action pair, as the
+    factored table grows with the pairs; decentralized: per state-action pair x 2**d
+    memberships); up to ``estimate_to`` the rows give each scheme's predicted need against
+    the machine's RAM.
     """
     rows, records = [], []
     avail = available_ram_bytes() or total_ram_bytes() or 0
     ram = total_ram_bytes() or avail
     budget = budget_fraction * avail
-    coeff = None          # peak bytes per (pair * 2**d), measured
+    coeff = {}            # per scheme: peak bytes per unit of work, measured
     asked = {"centralized": set(central), "decentralized": set(decentral)}
     for k in range(1, max(max(central), max(decentral), estimate_to) + 1):
         for scheme, parts in (("centralized", ("centralized",)),
                               ("decentralized", ("agent2", "agent1"))):
             dims = [_pairs(p, k) for p in parts]
             q_size = sum(n * u for n, u, _ in dims)
-            work = sum(n * u * 2 ** d for n, u, d in dims)
-            need = coeff * work if coeff else None
+            work = sum(n * u * (1 if scheme == "centralized" else 2 ** d) for n, u, d in dims)
+            need = coeff[scheme] * work if scheme in coeff else None
             rec = {"k": k, "scheme": scheme, "q_size": q_size,
                    "bins": [n for n, _, _ in dims], "predicted_bytes": need}
             run = k in asked[scheme] and (need is None or need <= budget)
             if run:
                 total, peak, nnz, sweeps = 0.0, 0, 0, 0
                 for part in parts:
+                    build, layout = _package_builder(part, k)
                     mem, (problem, trans, result, t) = peak_bytes(
-                        lambda part=part: _synthesis(lambda: BUILDERS[part](k)))
+                        lambda build=build, layout=layout: _synthesis(build, layout))
                     total += sum(t)
                     peak = max(peak, mem)
                     nnz += trans.nnz
@@ -814,8 +828,7 @@ def bench_scaling(central=(1, 2), decentral=(1, 2), *, budget_fraction: float = 
                     rec[f"{part}_seconds"] = t
                     rec[f"{part}_sweeps"] = result.iterations
                     del problem, trans, result
-                if scheme == "centralized":
-                    coeff = peak / work
+                coeff[scheme] = peak / work
                 rec.update(seconds=total, peak_bytes=peak, nnz=nnz)
                 note = f"{nnz:,} nnz, {sweeps} sweeps, peak {peak / 2**20:,.0f} MiB"
                 rows.append(Row(SCALING, f"{scheme} {k}x bins: time", total, "s", note))
