@@ -41,44 +41,10 @@ _jit_parallel = njit_parallel(__file__)
 
 
 @numba.njit(inline="always")
-def _blocks(v, index, weight, row, n_slice, g):
-    """G[t] = sum_k w[k] V(t S + idx[k]) over row ``row`` of ``index``/``weight`` for every
-    first-axis block t, each summed from 0.0 in k order."""
-    for t in range(g.shape[0]):
-        b = _u(t * n_slice)
-        s = 0.0
-        for k in range(index.shape[1]):
-            s += weight[row, k] * v[b + _u(index[row, k])]
-        g[t] = s
-
-
-@numba.njit(inline="always")
-def _blocks8(v, index, weight, row, n_slice, g):
-    """:func:`_blocks` written out for width 8 (the paper's four-dimensional grids): the
-    row's indices and weights stay in registers across the blocks; the same sums."""
-    i0, i1, i2, i3 = _u(index[row, 0]), _u(index[row, 1]), _u(index[row, 2]), \
-        _u(index[row, 3])
-    i4, i5, i6, i7 = _u(index[row, 4]), _u(index[row, 5]), _u(index[row, 6]), \
-        _u(index[row, 7])
-    w0, w1, w2, w3 = weight[row, 0], weight[row, 1], weight[row, 2], weight[row, 3]
-    w4, w5, w6, w7 = weight[row, 4], weight[row, 5], weight[row, 6], weight[row, 7]
-    for t in range(g.shape[0]):
-        b = _u(t * n_slice)
-        s = 0.0
-        s += w0 * v[b + i0]
-        s += w1 * v[b + i1]
-        s += w2 * v[b + i2]
-        s += w3 * v[b + i3]
-        s += w4 * v[b + i4]
-        s += w5 * v[b + i5]
-        s += w6 * v[b + i6]
-        s += w7 * v[b + i7]
-        g[t] = s
-
-
-@numba.njit(inline="always")
-def _blocks_of(v, index, weight, row, c, n_slice, g):
-    """:func:`_blocks` for model c of a robust table (rows, K, W)."""
+def _blocks(v, index, weight, row, c, n_slice, g):
+    """G[t] = sum_k w[k] V(t S + idx[k]) over row ``row`` of model ``c`` of
+    ``index``/``weight`` (rows, K, W) for every first-axis block t, each summed from 0.0 in
+    k order."""
     for t in range(g.shape[0]):
         b = _u(t * n_slice)
         s = 0.0
@@ -88,8 +54,9 @@ def _blocks_of(v, index, weight, row, c, n_slice, g):
 
 
 @numba.njit(inline="always")
-def _blocks8_of(v, index, weight, row, c, n_slice, g):
-    """:func:`_blocks8` for model c of a robust table (rows, K, 8)."""
+def _blocks8(v, index, weight, row, c, n_slice, g):
+    """:func:`_blocks` written out for width 8 (the paper's four-dimensional grids): the
+    row's indices and weights stay in registers across the blocks; the same sums."""
     i0, i1, i2, i3 = _u(index[row, c, 0]), _u(index[row, c, 1]), _u(index[row, c, 2]), \
         _u(index[row, c, 3])
     i4, i5, i6, i7 = _u(index[row, c, 4]), _u(index[row, c, 5]), _u(index[row, c, 6]), \
@@ -115,7 +82,9 @@ def _sweep(blocks, index, weight, index1, weight1, rewards, q, q_next, v, v_next
            r_start, r_stop):
     """One synchronous sweep of the slice rows [r_start, r_stop) with G from ``blocks``
     (:func:`_blocks` or :func:`_blocks8`, compiled into the caller)."""
-    n_pairs = index.shape[0]
+    n_pairs, width = index.shape
+    one_index = index.reshape((n_pairs, 1, width))      # one model: the robust tables' shape
+    one_weight = weight.reshape((n_pairs, 1, width))
     n_first = index1.shape[1]
     n_slice = v.shape[0] // n_first
     n_u = n_pairs // n_slice
@@ -127,7 +96,7 @@ def _sweep(blocks, index, weight, index1, weight1, rewards, q, q_next, v, v_next
             best[i] = -np.inf
         for a in range(n_u):
             row = r * n_u + a
-            blocks(v, index, weight, row, n_slice, g)
+            blocks(v, one_index, one_weight, row, 0, n_slice, g)
             for i in range(n_first):
                 s = weight1[row, i, 0] * g[_u(index1[row, i, 0])] \
                     + weight1[row, i, 1] * g[_u(index1[row, i, 1])]
@@ -197,8 +166,8 @@ def factored_sweeps(index, weight, index1, weight1, rewards, q, q_next, v, v_nex
 @numba.njit(inline="always")
 def _robust_sweep(blocks, index, weight, index1, weight1, rewards, q, q_next, v, v_next,
                   gamma, worst, r_start, r_stop):
-    """:func:`factored_robust_sweep` with G from ``blocks`` (:func:`_blocks_of` or
-    :func:`_blocks8_of`, compiled into the caller)."""
+    """:func:`factored_robust_sweep` with G from ``blocks`` (:func:`_blocks` or
+    :func:`_blocks8`, compiled into the caller)."""
     n_pairs, n_models = index.shape[:2]
     n_first = index1.shape[2]
     n_slice = v.shape[0] // n_first
@@ -246,7 +215,7 @@ def factored_robust_sweep(index, weight, index1, weight1, rewards, q, q_next, v,
     ``index``/``weight`` (S * N_U, K, W), ``index1``/``weight1`` (S * N_U, K, B, 2),
     ``rewards`` (N_X * N_U, K); Q'(m, a) = min_k (``worst``) or mean_k of
     rho_k + gamma T_k V. Returns max |Q' - Q| over the rows swept."""
-    return _robust_sweep(_blocks_of, index, weight, index1, weight1, rewards, q, q_next, v,
+    return _robust_sweep(_blocks, index, weight, index1, weight1, rewards, q, q_next, v,
                          v_next, gamma, worst, r_start, r_stop)
 
 
@@ -254,7 +223,7 @@ def factored_robust_sweep(index, weight, index1, weight1, rewards, q, q_next, v,
 def factored_robust_sweep8(index, weight, index1, weight1, rewards, q, q_next, v, v_next,
                            gamma, worst, r_start, r_stop):
     """:func:`factored_robust_sweep` for tables of width 8 (the same sums, bit for bit)."""
-    return _robust_sweep(_blocks8_of, index, weight, index1, weight1, rewards, q, q_next, v,
+    return _robust_sweep(_blocks8, index, weight, index1, weight1, rewards, q, q_next, v,
                          v_next, gamma, worst, r_start, r_stop)
 
 
