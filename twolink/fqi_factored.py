@@ -6,9 +6,13 @@ m * N_U + j, memberships (12)-(13) of f(c_m, u_j)) then factors: the memberships
 other axis (2**(d-1) pairs) are stored once per slice bin and action, and only theta_1's two
 per block (:class:`FactoredTable`). The memberships T would hold are the same; a
 (slice bin, action) row stores 12 * 2**(d-1) + B * 24 bytes instead of B * 12 * 2**d.
-:func:`factored_q_iteration` sweeps it with the compiled kernel
-(:mod:`twolink.fqi_factored_kernel`); :meth:`FactoredTable.tocsr` gives the plain T that
-tests hold the sweeps against.
+:func:`factored_q_iteration` sweeps it with the compiled kernels
+(:mod:`twolink.fqi_factored_kernel`; :func:`factored_q_iteration_robust` over K models at
+once), on one thread or, for sweeps of :data:`PARALLEL_MIN_WORK` gathered values and more,
+two; :meth:`FactoredTable.tocsr` gives the plain T that tests hold the sweeps against.
+Both centralized syntheses use it: the paper's two-link problem
+(:func:`factored_table`, ``twolink.synthesis`` layout "factored") and the N-link one
+(:class:`FactoredBuilder`, block by block, ``twolink.chain_centralized``).
 """
 from __future__ import annotations
 
@@ -253,8 +257,8 @@ def factored_q_iteration(table: FactoredTable, rewards: np.ndarray, *, gamma: fl
     """Synchronous sweeps of Alg. 1 from Q_0 = 0 until max |Q_l - Q_{l-1}| <= delta, over
     a :class:`FactoredTable`; ``rewards`` (N_X, N_U) rho(c_m, u_j). ``threads`` share each
     sweep's slice rows (default :func:`default_threads` of the sweep's :func:`sweep_work`;
-    the same Q bit for bit whatever their number); ``min_iterations`` forces at least that many sweeps (benchmarks);
-    ``callback(l, change)`` after each sweep."""
+    the same Q bit for bit whatever their number); ``min_iterations`` forces at least that
+    many sweeps (benchmarks); ``callback(l, change)`` after each sweep."""
     rewards = _check_rewards(table, rewards, gamma, delta)
     threads = min(_check_threads(threads, sweep_work(table)), table.n_slice)
     r = rewards.reshape(-1)
