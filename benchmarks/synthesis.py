@@ -143,7 +143,8 @@ def _no_op(*args, **kwargs):
 #: centralized one on compiled transitions (one theta1 slice, shifted) in the factored
 #: layout, the agents on numpy transitions in the fixed-width layout
 #: (:func:`bench_synthesize` checks the centralized layout against ``synthesize``'s).
-PACKAGE = {"centralized": (lambda: core.centralized_problem(compiled=True), "factored"),
+PACKAGE = {"centralized": (lambda k=1: core.centralized_problem(refine=k, compiled=True),
+                           "factored"),
            "agent2": (BUILDERS["agent2"], "fixed"),
            "agent1": (BUILDERS["agent1"], "fixed")}
 
@@ -776,14 +777,6 @@ def _pairs(name: str, k: int) -> tuple[int, int, int]:
             "agent1": (ang * spd * ang * 3, 3, 4)}[name]
 
 
-def _package_builder(part: str, k: int):
-    """(problem builder, layout) of ``part`` on the grid refined ``k`` times, as
-    :data:`PACKAGE` builds the paper's grid."""
-    if part == "centralized":
-        return (lambda: core.centralized_problem(refine=k, compiled=True)), "factored"
-    return (lambda: BUILDERS[part](k)), "fixed"
-
-
 def bench_scaling(central=(1, 2), decentral=(1, 2), *, budget_fraction: float = 0.5,
                   estimate_to: int = 8) -> tuple[list[Row], list[dict]]:
     """Both schemes on grids refined k times, each built as :func:`core.synthesize` builds
@@ -818,9 +811,9 @@ def bench_scaling(central=(1, 2), decentral=(1, 2), *, budget_fraction: float = 
             if run:
                 total, peak, nnz, sweeps = 0.0, 0, 0, 0
                 for part in parts:
-                    build, layout = _package_builder(part, k)
+                    build, layout = PACKAGE[part]
                     mem, (problem, trans, result, t) = peak_bytes(
-                        lambda build=build, layout=layout: _synthesis(build, layout))
+                        lambda build=build, layout=layout: _synthesis(lambda: build(k), layout))
                     total += sum(t)
                     peak = max(peak, mem)
                     nnz += trans.nnz
