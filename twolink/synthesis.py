@@ -25,7 +25,8 @@ path, which the agents' non-robust synthesis keeps, up to round-off (tests hold 
 The centralized problem, robust or not, takes its transitions from that compiled slice and
 stores T factored along theta1 (``layout="factored"``, :mod:`twolink.fqi_factored`): the
 memberships on the other three axes once per slice bin and action, shared by the twelve
-theta1 blocks, swept on two threads. Its sums run in another order than the fixed table's,
+theta1 blocks, swept on one thread (two for K >= 4 models or refined grids:
+:func:`twolink.fqi_factored.default_threads`). Its sums run in another order than the fixed table's,
 so Q moves by ~1e-14 (the shipped centralized policies were re-synthesised this way: the
 same sweeps and greedy actions). Serial sweeps and the agents read the fixed-width table.
 """
@@ -68,7 +69,7 @@ KINDS = ("centralized", "decentralized")
 #: row's memberships; the agents and serial sweeps) or ``factored``
 #: (:func:`twolink.fqi_factored.factored_table`: the horizontal arm ignores theta1, so the
 #: memberships on the other axes are shared by the theta1 blocks; the centralized
-#: problem's synchronous sweeps, on two threads, about 2x QuantEcon's sweep: README,
+#: problem's synchronous sweeps, about 2x QuantEcon's sweep on one core: README,
 #: *Performance*). Both hold the same memberships; sums in another order move Q by ~1e-14.
 LAYOUTS = ("fixed", "factored")
 
