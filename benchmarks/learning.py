@@ -23,14 +23,19 @@ if __package__ in (None, ""):                       # `python benchmarks/learnin
 
 import numpy as np  # noqa: E402
 
+from twolink.arm.parameters import REWARD_OTHER  # noqa: E402
 from twolink.artifacts import provenance, write_json  # noqa: E402
-from twolink.formatting import format_rate  # noqa: E402
-from twolink.learning import (LearnConfig, Learner, evaluate, stays_above,  # noqa: E402
-                              steps_to_reach)
-from twolink.learning_curves import learning_curves  # noqa: E402
-from twolink.parameters import REWARD_OTHER  # noqa: E402
-from twolink.plants import MujocoPlant  # noqa: E402
-from twolink.policy import load_policy  # noqa: E402
+from twolink.control.learning import (  # noqa: E402
+    Learner,
+    evaluate,
+    stays_above,
+    steps_to_reach,
+)
+from twolink.control.learning_setup import LearnConfig  # noqa: E402
+from twolink.policy.fuzzy_policy import load_policy  # noqa: E402
+from twolink.sim.plants import MujocoPlant  # noqa: E402
+from twolink.viz.formatting import format_rate  # noqa: E402
+from twolink.viz.learning_curves import learning_curves  # noqa: E402
 
 #: name: (learner, update, --init policy or None[, other LearnConfig settings])
 RUNS = {

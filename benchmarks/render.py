@@ -9,9 +9,9 @@ import mujoco
 import numpy as np
 
 from benchmarks.common import Row, best_time
-from twolink import mjcf
-from twolink.render import CAMERA, Renderer, build_render_spec
-from twolink.video import read_video, write_video
+from twolink.arm import mjcf
+from twolink.viz.render import CAMERA, Renderer, build_render_spec
+from twolink.viz.video import read_video, write_video
 
 SECTION = "rendering"
 SIZES = ((320, 240), (640, 480))
@@ -48,7 +48,7 @@ def bare_fps(model: mujoco.MjModel, width: int, height: int, frames: int,
 
 def package_fps(width: int, height: int, frames: int, repeats: int, *,
                 ghost: bool = False, overlay: bool = False) -> tuple[float, list]:
-    """Frames per second of :class:`twolink.render.Renderer` (goal region drawn; the ghost
+    """Frames per second of :class:`twolink.viz.render.Renderer` (goal region drawn; the ghost
     arm and the text overlay optional), and the frames of the last run."""
     poses = _poses(frames)
     lines = ("t = 0.00 s", "tau = [+0.00, +0.00] Nm") if overlay else ()

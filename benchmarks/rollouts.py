@@ -1,6 +1,6 @@
 """Rollout benchmarks: closed-loop batched rollouts on MuJoCo against open-loop
 ``mujoco.rollout`` of the same model and the same physics steps (the engine's limit
-here), measured by :func:`twolink.throughput.measure` (as the mismatch report's
+here), measured by :func:`twolink.studies.throughput.measure` (as the mismatch report's
 throughput is); and the numpy plants.
 """
 from __future__ import annotations
@@ -10,12 +10,12 @@ import os
 import numpy as np
 
 from benchmarks.common import Row, best_time
-from twolink.parameters import TS
-from twolink.plants import MujocoPlant, make_plant
-from twolink.policy import Policy
-from twolink.registry import SHIPPED
-from twolink.rollout import steps_for
-from twolink.throughput import measure
+from twolink.arm.parameters import TS
+from twolink.policy.fuzzy_policy import Policy
+from twolink.policy.registry import SHIPPED
+from twolink.sim.plants import MujocoPlant, make_plant
+from twolink.sim.rollout import steps_for
+from twolink.studies.throughput import measure
 
 SECTION = "rollouts"
 
@@ -25,7 +25,7 @@ def _policy():
     path = SHIPPED["centralized"].file
     if path.is_file():
         return Policy.load(path)
-    from twolink.synthesis import synthesize
+    from twolink.control.synthesis import synthesize
 
     return synthesize("centralized")
 

@@ -15,7 +15,6 @@ from pathlib import Path
 if __package__ in (None, ""):                       # `python benchmarks/run.py`
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import twolink  # noqa: E402,F401  (defers the GL backend to the first renderer)
 from benchmarks.common import Row, available_ram_bytes, format_table, total_ram_bytes  # noqa: E402
 from twolink.artifacts import provenance, write_json  # noqa: E402
 
@@ -29,7 +28,7 @@ MODES = {
              "batch": 256, "frames": 40, "render_repeats": 3,
              "vector_samples": 100},
 }
-SECTIONS = ("synthesis", "scaling", "rollouts", "rendering", "vector_env")
+SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env")
 
 
 def machine() -> dict:
@@ -61,7 +60,10 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
     for section in sections:
         progress(f"[bench] {section} ...", file=sys.stderr)
         t0 = time.perf_counter()
-        if section == "synthesis":
+        if section == "startup":
+            from benchmarks import startup
+            r, summary[section] = startup.bench_startup(repeats=5)
+        elif section == "synthesis":
             r, summary[section] = synthesis.bench_synthesis(
                 repeats=cfg["repeats"], sweep_repeats=cfg["sweep_repeats"],
                 full_setup=cfg["full_setup"])

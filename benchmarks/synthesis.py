@@ -7,11 +7,11 @@ pymdptoolbox's ``ValueIteration``) are handed that identical MDP (the same spars
 the same rewards), forced to do the same number of sweeps from V_0 = 0, and their
 values are checked against ours before any time is compared.
 
-"Ours" is the package's path as :func:`twolink.synthesis.synthesize` runs it: for the
-centralized problem the factored table (:mod:`twolink.fqi_factored`) on the threads the
+"Ours" is the package's path as :func:`twolink.control.synthesis.synthesize` runs it: for the
+centralized problem the factored table (:mod:`twolink.fqi.factored`) on the threads the
 package picks for it (:func:`package_threads`: one for the paper's grid, two for K models),
 measured beside explicit one- and two-thread runs and the fixed-width layout
-(:mod:`twolink.fqi`); for the agents the fixed-width layout on one thread.
+(:mod:`twolink.fqi.iteration`); for the agents the fixed-width layout on one thread.
 """
 from __future__ import annotations
 
@@ -26,15 +26,26 @@ from unittest import mock
 import numpy as np
 import scipy.sparse as sp
 
-from benchmarks.common import (Row, available_ram_bytes, copy_bandwidth, interleaved_best,
-                               peak_bytes, total_ram_bytes)
-from twolink import synthesis as core
-from twolink.fqi import (fuzzy_q_iteration, fuzzy_q_iteration_robust, robust_table,
-                         transition_matrix, transition_table)
-from twolink.fqi_factored import (default_threads, factored_q_iteration,
-                                  factored_q_iteration_robust, factored_table, sweep_work)
-from twolink.parameters import DELTA, GAMMA, TABLE_I
-from twolink.policy import TIE_TOLERANCE, greedy_indices
+from benchmarks.common import (
+    Row,
+    available_ram_bytes,
+    copy_bandwidth,
+    interleaved_best,
+    peak_bytes,
+    total_ram_bytes,
+)
+from twolink.arm.parameters import DELTA, GAMMA, TABLE_I
+from twolink.control import synthesis as core
+from twolink.fqi.factored import (
+    default_threads,
+    factored_q_iteration,
+    factored_q_iteration_robust,
+    factored_table,
+    sweep_work,
+)
+from twolink.fqi.iteration import fuzzy_q_iteration, fuzzy_q_iteration_robust
+from twolink.fqi.tables import robust_table, transition_matrix, transition_table
+from twolink.policy.fuzzy_policy import TIE_TOLERANCE, greedy_indices
 
 SECTION = "synthesis"
 SCALING = "scaling"
@@ -139,7 +150,7 @@ def _no_op(*args, **kwargs):
 
 
 # --------------------------------------------------------------------------- measurements
-#: The problems as :func:`twolink.synthesis.synthesize` builds and solves them: the
+#: The problems as :func:`twolink.control.synthesis.synthesize` builds and solves them: the
 #: centralized one on compiled transitions (one theta1 slice, shifted) in the factored
 #: layout, the agents on numpy transitions in the fixed-width layout
 #: (:func:`bench_synthesize` checks the centralized layout against ``synthesize``'s).
@@ -669,7 +680,7 @@ def bench_robust_synthesis(draws=(1, 8), *, repeats: int = 3) -> tuple[list[Row]
     their own rows), with the threads the package picks for K tables. For K > 1 also the same models through the fixed-width layout the package
     used before (:func:`robust_table` + :func:`fuzzy_q_iteration_robust`, 1 thread),
     interleaved, its Q held against ``synthesize()``'s."""
-    from twolink.registry import ROBUST_SEED
+    from twolink.policy.registry import ROBUST_SEED
 
     def once(k):
         t0, c0 = time.perf_counter(), time.process_time()
@@ -738,8 +749,8 @@ def jit_compile_seconds() -> dict:
     code = (
         "import json, time, numpy as np\n"
         "from twolink import fqi, fqi_factored, integrate\n"
-        "from twolink.fuzzy import Grid, angle_axis, speed_axis\n"
-        "from twolink.parameters import TABLE_I\n"
+        "from twolink.fqi.fuzzy import Grid, angle_axis, speed_axis\n"
+        "from twolink.arm.parameters import TABLE_I\n"
         "g = Grid((angle_axis('a'), speed_axis('s')))\n"
         "x = np.zeros((g.size, 4)); tau = np.zeros((3, 2))\n"
         "out = {}\n"

@@ -19,9 +19,9 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from benchmarks.common import Row, interleaved_best
-from twolink.gym_env import TwoLinkEnv, TwoLinkVectorEnv
-from twolink.parameters import TABLE_I, TS
-from twolink.plants import physics_state
+from twolink.arm.parameters import TABLE_I, TS
+from twolink.envs.gym import TwoLinkEnv, TwoLinkVectorEnv
+from twolink.sim.plants import physics_state
 
 SECTION = "vector env"
 

@@ -1,6 +1,6 @@
 """Slow, obviously correct reference plants, for holding the fast ones against.
 
-Written independently of :mod:`twolink.plants`: one ``MjData`` per state, ``mj_step`` in
+Written independently of :mod:`twolink.sim.plants`: one ``MjData`` per state, ``mj_step`` in
 a plain loop, and its own wrap and saturation at the end of the sample period.
 """
 from __future__ import annotations
@@ -10,8 +10,8 @@ import math
 import mujoco
 import numpy as np
 
-from twolink import mjcf
-from twolink.parameters import TABLE_I, TS
+from twolink.arm import mjcf
+from twolink.arm.parameters import TABLE_I, TS
 
 
 class MujocoStepLoop:

@@ -1,6 +1,6 @@
 """The slow, obviously correct sweep: one rollout per (plant, state), ``mj_step`` loops.
 
-Written independently of :func:`twolink.sweeps.run_cells`: it steps one row at a time,
+Written independently of :func:`twolink.sim.cells.run_cells`: it steps one row at a time,
 builds row i's noise generator itself from the seed's i-th spawn key and draws that
 row's noise for the whole rollout before the next row starts (the batched path draws
 step by step across rows), and delays torques with its own queue.
@@ -10,12 +10,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from reference_plants import MujocoStepLoop
-from twolink.metrics import discounted_return, settle_time, success
-from twolink.policy import load_policy
-from twolink.rollout import rollout
-from twolink.sweeps import NOISE_STREAM, SPEED_PER_DEG, Cell, cell_record, policy_digest
+
+from twolink.policy.fuzzy_policy import load_policy
+from twolink.sim.cells import (
+    NOISE_STREAM,
+    SPEED_PER_DEG,
+    Cell,
+    cell_record,
+    policy_digest,
+)
+from twolink.sim.metrics import discounted_return, settle_time, success
+from twolink.sim.rollout import rollout
 
 
 class _Delayed:
@@ -42,7 +48,7 @@ def _noise(c: Cell, row: int):
 
 
 def reference_cell(c: Cell) -> dict:
-    """The record :func:`twolink.sweeps.run_cells` must give for ``c``, bit for bit."""
+    """The record :func:`twolink.sim.cells.run_cells` must give for ``c``, bit for bit."""
     policy = load_policy(c.policy)
     plist, x0 = c.rows()
     st, ok, ret = [], [], []

@@ -86,7 +86,7 @@ def test_sweep_bandwidth_rows_are_bytes_over_time():
 
 
 def test_sweep_bytes_count_the_table_and_the_vectors():
-    from twolink.fqi import transition_table
+    from twolink.fqi.tables import transition_table
     p = synthesis.BUILDERS["agent2"](1)
     t = transition_table(p.grid, p.next_points)
     rows, n_x = t.shape
@@ -94,7 +94,7 @@ def test_sweep_bytes_count_the_table_and_the_vectors():
 
 
 def test_package_threads_follow_the_summed_sweep_work():
-    from twolink.fqi_factored import PARALLEL_MIN_WORK, factored_table, sweep_work
+    from twolink.fqi.factored import PARALLEL_MIN_WORK, factored_table, sweep_work
     p = synthesis.PACKAGE["centralized"][0]()
     t = factored_table(p.grid, p.next_points)
     assert sweep_work(t) < PARALLEL_MIN_WORK
@@ -121,7 +121,7 @@ def test_worst_case_rows_and_models():
 
 def test_mdptoolbox_full_setup_gives_the_same_values():
     p = synthesis.BUILDERS["agent2"](1)
-    from twolink.fqi import transition_matrix
+    from twolink.fqi.tables import transition_matrix
     t = transition_matrix(p.grid, p.next_points)
     fast = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=False)()
     full = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=True)()
@@ -160,8 +160,8 @@ def test_open_loop_reference_does_the_closed_loop_physics():
     import mujoco
     from mujoco import rollout as mj_rollout
 
-    from twolink.plants import MujocoPlant
-    from twolink.rollout import rollout
+    from twolink.sim.plants import MujocoPlant
+    from twolink.sim.rollout import rollout
 
     x0 = rollouts.initial_states(8) * 0.2
     plant = MujocoPlant(nthread=1)
@@ -183,9 +183,8 @@ def run_policy():
 
 
 def test_render_rows():
-    from twolink.render import RenderError
-
     from benchmarks import render
+    from twolink.viz.render import RenderError
     try:
         rows, summary = render.bench_render(frames=2, repeats=1)
     except RenderError as exc:
@@ -198,7 +197,8 @@ def test_render_rows():
 
 
 def test_one_throughput_measurement_for_the_report_and_the_benchmarks(monkeypatch):
-    from twolink import mismatch, throughput
+    from twolink.studies import throughput
+    from twolink.studies.mismatch import measure as mismatch
 
     assert rollouts.measure is throughput.measure and mismatch.measure is throughput.measure
     calls = []
@@ -217,7 +217,7 @@ def test_one_throughput_measurement_for_the_report_and_the_benchmarks(monkeypatc
 
 
 def test_throughput_figures_are_the_steps_over_the_times():
-    from twolink.throughput import measure
+    from twolink.studies.throughput import measure
 
     x0 = rollouts.initial_states(6) * 0.3
     tp = measure(run_policy(), x0, samples=3, nthread=1, repeats=1)

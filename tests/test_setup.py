@@ -40,6 +40,7 @@ def test_ci_runs_the_readme_test_command():
 
 def test_every_cli_command_is_in_the_readme_and_help(capsys):
     import pytest
+
     from twolink.cli import COMMANDS, main
     readme = (ROOT / "README.md").read_text()
     with pytest.raises(SystemExit) as exc:

@@ -1,51 +1,53 @@
-"""twolink: a MuJoCo testbed for Busoniu, De Schutter & Babuska (ICARCV 2006)."""
-import os as _os
-import sys as _sys
+"""twolink: a MuJoCo testbed for Busoniu, De Schutter & Babuska (ICARCV 2006).
 
-__version__ = "0.1.0"
+The package is layered, lower never importing higher: :mod:`twolink.arm` (the arm and
+its models), :mod:`twolink.fqi` (fuzzy Q-iteration), :mod:`twolink.policy`,
+:mod:`twolink.sim` (plants, challenges, rollouts, evaluation), :mod:`twolink.control`
+(synthesis, N-link agents, online learning), :mod:`twolink.viz`, :mod:`twolink.envs`,
+:mod:`twolink.studies` and :mod:`twolink.commands`. The names below are the shallow
+public API; each loads its module on first use, so ``import twolink`` stays instant.
+Importing twolink registers the Gymnasium ids ``twolink/TwoLink-v0`` and
+``twolink/TwoLinkDiscrete-v0`` (:mod:`twolink.envs.registration`).
+"""
+from __future__ import annotations
 
+import importlib as _importlib
 
-def _import_without_gl() -> None:
-    """Import mujoco (and dm_control's renderer module, when installed) with no GL backend.
+from twolink import _imports, gl
+from twolink.artifacts import VERSION as __version__
+from twolink.envs import registration as _registration
 
-    Both pick their GL backend from ``MUJOCO_GL`` at import, and loading it (EGL) fails
-    where libEGL is missing, and any MUJOCO_GL value they don't know is an error: so
-    every command would fail, not only rendering. Importing them with
-    ``MUJOCO_GL=disable`` defers the choice to the first renderer
-    (:func:`twolink.render.use_gl_backend`); the user's MUJOCO_GL is kept for it.
-    """
-    fresh_mujoco = "mujoco" not in _sys.modules
-    fresh_dm_control = "dm_control._render" not in _sys.modules
-    saved = _os.environ.get("MUJOCO_GL")
-    _os.environ["MUJOCO_GL"] = "disable"
-    try:
-        import mujoco  # noqa: F401
-        try:
-            from dm_control import _render
-        except ImportError:  # dm_control is only needed by twolink.env
-            _render = None
-    finally:
-        if saved is None:
-            del _os.environ["MUJOCO_GL"]
-        else:
-            _os.environ["MUJOCO_GL"] = saved
-    if fresh_mujoco:  # mujoco.Renderer and mujoco.GLContext pick the backend when called
-        _sys.modules[mujoco.Renderer.__module__].gl_context.GLContext = _gl_context
-        mujoco.GLContext = _gl_context
-    if _render is not None and fresh_dm_control:
-        _render.Renderer = _dm_control_context
-
-
-def _gl_context(*args, **kwargs):
-    from twolink.render import use_gl_backend
-
-    return use_gl_backend()(*args, **kwargs)
+#: Public name -> the module defining it.
+_API = {
+    "TABLE_I": "twolink.arm.parameters",
+    "ArmParameters": "twolink.arm.parameters",
+    "load_policy": "twolink.policy.fuzzy_policy",
+    "Policy": "twolink.policy.fuzzy_policy",
+    "shipped_policies": "twolink.policy.fuzzy_policy",
+    "synthesize": "twolink.control.synthesis",
+    "make_plant": "twolink.sim.plants",
+    "rollout": "twolink.sim.rollout",
+    "Trajectory": "twolink.sim.rollout",
+    "Challenge": "twolink.sim.challenges",
+    "challenge": "twolink.sim.challenges",
+    "evaluate": "twolink.sim.evaluation",
+    "evaluation_set": "twolink.sim.metrics",
+}
+__all__ = ["__version__", *_API]
 
 
-def _dm_control_context(*args, **kwargs):
-    from twolink.render import dm_control_context
+def __getattr__(name: str):
+    if name in _API:
+        value = getattr(_importlib.import_module(_API[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'twolink' has no attribute {name!r}")
 
-    return dm_control_context(*args, **kwargs)
+
+def __dir__():
+    return sorted(set(globals()) | set(_API))
 
 
-_import_without_gl()
+_imports.install()
+gl.install()
+_registration.install()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 
-# numba's OpenMP thread pool (the ``prange`` sweeps of twolink.fqi_factored_kernel) spins
+# numba's OpenMP thread pool (the ``prange`` sweeps of twolink.fqi._factored_kernel) spins
 # while it waits by default: on a machine whose cores are busy with other work the
 # spinning threads steal the time the working one needs, and a 0.3 ms sweep took 7-16 ms
 # (measured with one other process running on this 2-core machine). Waiting passively

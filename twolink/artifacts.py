@@ -18,7 +18,8 @@ import threading
 from pathlib import Path
 from typing import Mapping
 
-from twolink import __version__
+#: The package version (pyproject.toml reads it from here).
+VERSION = "0.1.0"
 
 
 class Terminated(KeyboardInterrupt):
@@ -128,10 +129,11 @@ def write_json(path: os.PathLike, data) -> Path:
 
 def provenance() -> dict:
     """Package version and machine description stamped on reports."""
-    import mujoco
+    from importlib.metadata import version
+
     import numpy
 
-    return {"twolink_version": __version__, "mujoco_version": mujoco.__version__,
+    return {"twolink_version": VERSION, "mujoco_version": version("mujoco"),
             "numpy_version": numpy.__version__, "python": platform.python_version(),
             "machine": platform.machine(), "processor": platform.processor() or None,
             "cpu_count": os.cpu_count(), "system": platform.platform()}

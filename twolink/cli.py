@@ -1,4 +1,9 @@
-"""The ``twolink`` command line: one subcommand per module in ``twolink.commands``."""
+"""The ``twolink`` command line: one subcommand per module in ``twolink.commands``.
+
+Only the subcommand named on the command line is imported (with its numpy, mujoco or
+matplotlib); ``twolink --help`` lists the summaries of :data:`twolink.commands.SUMMARIES`
+without importing any of them.
+"""
 from __future__ import annotations
 
 import argparse
@@ -6,31 +11,44 @@ import importlib
 import sys
 import zipfile
 
-from twolink import __version__
+from twolink.artifacts import VERSION
+from twolink.commands import SUMMARIES
 
-#: Subcommand modules, in the order ``--help`` lists them. Each defines
-#: ``add_parser(subparsers)`` (returning its parser) and ``run(args) -> int``.
-COMMANDS = ("reproduce", "synthesize", "mjcf", "rollout", "render", "mismatch", "learn",
-            "identify", "scaling")
+#: Subcommand modules, in the order ``--help`` lists them.
+COMMANDS = tuple(SUMMARIES)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = "all") -> argparse.ArgumentParser:
+    """The parser with every subcommand's full parser (``only="all"``), or with the full
+    parser of ``only`` and one-line entries for the others (``only=None``: none)."""
     parser = argparse.ArgumentParser(
         prog="twolink",
         description="Centralized vs decentralized fuzzy Q-iteration control of a two-link "
                     "arm (Busoniu, De Schutter & Babuska, ICARCV 2006) on MuJoCo.")
-    parser.add_argument("--version", action="version", version=f"twolink {__version__}")
+    parser.add_argument("--version", action="version", version=f"twolink {VERSION}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
-        module = importlib.import_module(f"twolink.commands.{name}")
-        p = module.add_parser(sub)
-        p.set_defaults(_run=module.run)
+        if only in ("all", name):
+            module = importlib.import_module(f"twolink.commands.{name}")
+            p = module.add_parser(sub)
+            p.set_defaults(_run=module.run)
+        else:
+            sub.add_parser(name, help=SUMMARIES[name])
     return parser
 
 
+def _command(argv) -> str | None:
+    """The subcommand ``argv`` names: its first word that is not an option."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in SUMMARIES else None
+    return None
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
+        parser = build_parser(_command(argv))
     except ImportError as exc:   # a broken installation: one line, not a traceback
         print(f"twolink: error: cannot load the commands ({exc})", file=sys.stderr)
         return 2

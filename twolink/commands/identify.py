@@ -12,9 +12,11 @@ import argparse
 import json
 from pathlib import Path
 
-from twolink import identify, parameter_file
+from twolink.arm import parameter_file
+from twolink.arm.parameters import TS
 from twolink.artifacts import check_outputs, provenance
-from twolink.parameters import TS
+from twolink.commands import SUMMARIES
+from twolink.sim import excitation, identify
 
 DEFAULT_OUTPUT = "identified.json"
 
@@ -30,7 +32,7 @@ def _number(kind, what: str):
 
 def add_parser(sub):
     p = sub.add_parser(
-        "identify", help="identify P1, P2, P3, b1, b2 from a logged MuJoCo experiment",
+        "identify", help=SUMMARIES["identify"],
         description="Excite a MuJoCo arm whose parameters the command is not told (drawn "
                     "from --seed within --spread of Table I), log its angles with noise, "
                     "and fit the parameters the data determine (P1, P2, P3 of (10), b1, b2) "
@@ -43,16 +45,17 @@ def add_parser(sub):
     p.add_argument("--spread", type=_number(float, "must be a number"), default=0.2,
                    help="the hidden plant's physical parameters each change by a relative "
                         f"amount uniform in +-SPREAD (default 0.2; at most "
-                        f"{identify.MAX_SPREAD:g})")
+                        f"{excitation.MAX_SPREAD:g})")
     p.add_argument("--duration", type=_number(float, "must be a number of seconds"),
                    default=10.0, help=f"seconds of data (default 10; "
-                                      f"{identify.MIN_DURATION:g} to {identify.MAX_DURATION:g})")
+                                      f"{excitation.MIN_DURATION:g} to "
+                                      f"{excitation.MAX_DURATION:g})")
     p.add_argument("--angle-noise-deg", type=_number(float, "must be a number"), default=1.0,
                    help="standard deviation of the angle readings' noise in degrees "
-                        f"(default 1; at most {identify.MAX_NOISE_DEG:g})")
-    p.add_argument("--excitation", choices=list(identify.EXCITATIONS), default="bang-bang",
+                        f"(default 1; at most {excitation.MAX_NOISE_DEG:g})")
+    p.add_argument("--excitation", choices=list(excitation.EXCITATIONS), default="bang-bang",
                    help="torque signal: " + "; ".join(
-                       f"{k}: {v}" for k, v in identify.EXCITATIONS.items()).replace("%", "%%"))
+                       f"{k}: {v}" for k, v in excitation.EXCITATIONS.items()).replace("%", "%%"))
     p.add_argument("--bootstrap", type=_number(int, "must be a whole number"), default=20,
                    help="bootstrap replicates for the standard errors (default 20; 2 to "
                         f"{identify.MAX_BOOTSTRAP})")
@@ -86,11 +89,11 @@ def run(args) -> int:
     check_outputs({"-o": out})
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
-    identify.check_experiment(duration=args.duration, angle_noise_deg=args.angle_noise_deg,
-                              seed=args.seed, excitation=args.excitation, spread=args.spread)
+    excitation.check_experiment(duration=args.duration, angle_noise_deg=args.angle_noise_deg,
+                                seed=args.seed, excitation=args.excitation, spread=args.spread)
     identify.check_bootstrap(args.bootstrap)
-    log = identify.experiment(args.seed, spread=args.spread, duration=args.duration,
-                              angle_noise_deg=args.angle_noise_deg, excitation=args.excitation)
+    log = excitation.experiment(args.seed, spread=args.spread, duration=args.duration,
+                                angle_noise_deg=args.angle_noise_deg, excitation=args.excitation)
     fit = identify.fit(log, bootstrap=args.bootstrap)
     params = fit.params()
     record = fit.as_dict()
@@ -98,14 +101,14 @@ def run(args) -> int:
     record["experiment"] = {
         "seed": args.seed, "spread": args.spread, "duration_s": log.duration,
         "angle_noise_deg": args.angle_noise_deg, "excitation": args.excitation,
-        "excitation_description": identify.EXCITATIONS[args.excitation],
+        "excitation_description": excitation.EXCITATIONS[args.excitation],
         "reading_interval_s": log.dt, "control_period_s": TS, "readings": len(log.angles),
         "speeds_measured": False}
     parameter_file.save(out, params, provenance={"command": "twolink identify", **record,
                                                  "environment": provenance()})
     result = {"path": str(out), **record, "parameters": params.as_dict()}
     if args.reveal:
-        truth = identify.hidden_plant(args.seed, args.spread)
+        truth = excitation.hidden_plant(args.seed, args.spread)
         result["truth"] = {k: getattr(truth, k) for k in identify.IDENTIFIABLE}
         result["relative_error"] = fit.relative_errors(truth)
     if args.json:

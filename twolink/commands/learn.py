@@ -1,4 +1,4 @@
-"""``twolink learn``: online fuzzy Q-learning on the MuJoCo arm (:mod:`twolink.learning`).
+"""``twolink learn``: online fuzzy Q-learning on the MuJoCo arm (:mod:`twolink.control.learning`).
 
 Many arms learn one shared theta; every evaluation writes the current policy, with its
 provenance and everything needed to resume, atomically to the checkpoint (a policy file
@@ -12,20 +12,27 @@ import math
 from pathlib import Path
 
 from twolink.artifacts import check_outputs
-from twolink.formatting import format_rate
-from twolink.learning import (MAX_ARMS, MAX_STEPS, UPDATES, LearnConfig, Learner,
-                              evaluate, policy_kind, stays_above, steps_to_reach)
-from twolink.learning_curves import learning_curves
-from twolink.policy import Policy, load_policy
+from twolink.commands import SUMMARIES
+from twolink.control.learning import Learner, evaluate, stays_above, steps_to_reach
+from twolink.control.learning_setup import (
+    MAX_ARMS,
+    MAX_STEPS,
+    RECOMMENDED_AVERAGE,
+    UPDATES,
+    LearnConfig,
+    policy_kind,
+)
+from twolink.policy.fuzzy_policy import Policy, load_policy
+from twolink.viz.formatting import format_rate
+from twolink.viz.learning_curves import learning_curves
 
 _DEFAULTS = LearnConfig()
-#: What the command uses unless told otherwise (issue 12, measured in the README): the
-#: policy reads theta averaged over 200 k control steps, each bin's greedy action kept
-#: until beaten by 0.1; a warm start begins at half the given Q. LearnConfig keeps 0, 0
-#: and 1, so that older checkpoints resume as they ran.
-AVERAGE = 200_000.0
-INIT_SCALE = 0.5
-HYSTERESIS = 0.1
+#: The command's defaults are the API's (LearnConfig): theta averaged over 200 k control
+#: steps for the decentralized learners, each bin's greedy action kept until beaten by 0.1,
+#: a warm start at half the given Q.
+AVERAGE = RECOMMENDED_AVERAGE
+INIT_SCALE = _DEFAULTS.init_scale
+HYSTERESIS = _DEFAULTS.hysteresis
 
 
 def _count(text: str) -> int:
@@ -41,7 +48,7 @@ def _count(text: str) -> int:
 
 def add_parser(sub):
     p = sub.add_parser(
-        "learn", help="online fuzzy Q-learning on the MuJoCo arm (many arms, one theta)",
+        "learn", help=SUMMARIES["learn"],
         description="Learn a fuzzy Q-function online on the MuJoCo arm: --arms arms step "
                     "together and update one shared theta (Q(x,u) = sum_m mu_m(x) theta[m,u], "
                     "the approximator of fuzzy Q-iteration). Every evaluation (the 65-state "

@@ -16,22 +16,29 @@ import sys
 from pathlib import Path
 
 from twolink.artifacts import write_json, write_text
-from twolink.challenges import LEVELS, challenge
-from twolink.commands.rollout import (_label, add_arm_options, arm_of, check_policy_links,
-                                      default_policy, horizon)
-from twolink.mismatch import build
-from twolink.formatting import format_rate
-from twolink.mismatch_plan import CHAIN_SEED, PLANS, plan
-from twolink.mismatch_report import summary, write
-from twolink.policy import load_policy
-from twolink.registry import TWO_LINK
+from twolink.commands import SUMMARIES
+from twolink.commands._options import (
+    add_arm_options,
+    arm_of,
+    check_policy_links,
+    default_policy,
+    policy_label,
+)
+from twolink.envs.core import horizon
+from twolink.policy.fuzzy_policy import load_policy
+from twolink.policy.registry import TWO_LINK
 from twolink.resources import output_dir
-from twolink.sweep_store import SweepFile
-from twolink.sweeps import EXECUTORS
+from twolink.sim.cell_store import SweepFile
+from twolink.sim.cells import EXECUTORS
+from twolink.sim.challenges import LEVELS, challenge
+from twolink.studies.mismatch.measure import build
+from twolink.studies.mismatch.plan import CHAIN_SEED, PLANS, plan
+from twolink.studies.mismatch.report import summary, write
+from twolink.viz.formatting import format_rate
 
 
 def add_parser(sub):
-    p = sub.add_parser("mismatch", help="model mismatch, its closure and robustness sweeps",
+    p = sub.add_parser("mismatch", help=SUMMARIES["mismatch"],
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--plan", choices=list(PLANS), default="full",
                    help="what to measure: full (the committed report) or quick (5 initial "
@@ -82,8 +89,8 @@ def _robust_args(args) -> list:
 def _chain_section(args, links: int, params) -> int:
     """``twolink mismatch --links N`` (N >= 3): the N-link section, checked before any work
     or file."""
-    from twolink.chain_mismatch import measure
-    from twolink.mismatch_figures import chain_markdown
+    from twolink.studies.mismatch.figures import chain_markdown
+    from twolink.studies.mismatch.links import measure
 
     chosen = plan(args.plan)
     two_link = [o for o, given in (("--challenge", args.challenge is not None),
@@ -99,7 +106,7 @@ def _chain_section(args, links: int, params) -> int:
     if seed < 0:
         raise ValueError(f"--seed must be a non-negative whole number, got {seed}")
     names = list(dict.fromkeys(args.policies or [default_policy(links, args.rule)]))
-    labels = [_label(n) for n in names]
+    labels = [policy_label(n) for n in names]
     if len(set(labels)) < len(labels):
         raise ValueError("two --policies values share a label (a file's stem); rename one")
     policies = {label: load_policy(n) for label, n in zip(labels, names)}

@@ -3,13 +3,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twolink import mjcf
+from twolink.arm import mjcf
 from twolink.artifacts import check_outputs
+from twolink.commands import SUMMARIES
 from twolink.resources import MODEL_FILE, model_file, source_checkout
 
 
 def add_parser(sub):
-    p = sub.add_parser("mjcf", help="write the MJCF model generated from Table I",
+    p = sub.add_parser("mjcf", help=SUMMARIES["mjcf"],
                        description="Generate the MJCF model of the arm from Table I (MjSpec) "
                                    f"and write it (default: ./{MODEL_FILE}; --ship replaces "
                                    "the committed models/twolink.xml of a source checkout).")

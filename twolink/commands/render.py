@@ -19,24 +19,40 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from twolink.arm.parameters import HORIZON, TS
 from twolink.artifacts import check_outputs
-from twolink.challenges import challenge
-from twolink.commands.rollout import (_X0_HELP, _label, add_arm_options, add_challenge_options,
-                                      arm_of, challenge_of, check_policy_links,
-                                      check_two_link_options, default_policy, horizon,
-                                      parse_x0)
-from twolink.parameters import HORIZON, TS
-from twolink.plants import PLANTS
-from twolink.policy import load_policy, shipped_policies
+from twolink.commands import SUMMARIES
+from twolink.commands._options import (
+    X0_HELP,
+    add_arm_options,
+    add_challenge_options,
+    arm_of,
+    challenge_of,
+    check_policy_links,
+    check_two_link_options,
+    default_policy,
+    parse_x0,
+    policy_label,
+)
+from twolink.envs.core import horizon
+from twolink.policy.fuzzy_policy import load_policy, shipped_policies
 from twolink.resources import output_dir
-from twolink.robustness_study import challenged_rollouts
-from twolink.rollout import MAX_DURATION, rollout_grid, steps_for
-from twolink.video import (MAX_FRAMES, check_budget, check_fps, check_size, video_format,
-                           write_video)
+from twolink.sim.challenges import challenge
+from twolink.sim.evaluation import challenged_rollouts
+from twolink.sim.plants import PLANTS
+from twolink.sim.rollout import MAX_DURATION, rollout_grid, steps_for
+from twolink.viz.video import (
+    MAX_FRAMES,
+    check_budget,
+    check_fps,
+    check_size,
+    video_format,
+    write_video,
+)
 
 
 def add_parser(sub):
-    p = sub.add_parser("render", help="render videos of the arm offscreen (EGL), MP4 or GIF",
+    p = sub.add_parser("render", help=SUMMARIES["render"],
                        description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     p.add_argument("--policy", action="append", metavar="NAME|FILE",
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
@@ -44,7 +60,7 @@ def add_parser(sub):
                         f"--links N the shipped N-link policy)")
     p.add_argument("--plant", choices=PLANTS, default="mujoco",
                    help="plant whose rollout is shown (default mujoco)")
-    p.add_argument("--x0", nargs="+", metavar="X", help=_X0_HELP)
+    p.add_argument("--x0", nargs="+", metavar="X", help=X0_HELP)
     p.add_argument("--degrees", action="store_true",
                    help="read --x0 angles in degrees and speeds in deg/s")
     p.add_argument("--seed", type=int, default=0,
@@ -101,7 +117,7 @@ def run(args) -> int:
     check_fps(args.fps)
     if not np.isfinite(args.speed) or args.speed <= 0:
         raise ValueError(f"--speed must be a positive number, got {args.speed}")
-    labels = [_label(n) for n in names]
+    labels = [policy_label(n) for n in names]
     if len(set(labels)) < len(labels):
         raise ValueError(f"the two --policy values name the same policy {labels[0]!r}")
     default = output_dir(create=False)
@@ -130,7 +146,7 @@ def run(args) -> int:
     if out.parent == default:
         output_dir()                             # the default folder, made on demand
 
-    from twolink.render import Renderer, frame_count, trajectory_frames
+    from twolink.viz.render import Renderer, frame_count, trajectory_frames
 
     n = frame_count(args.duration / args.speed, args.fps)
     t0 = time.perf_counter()

@@ -10,18 +10,24 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from twolink.arm.parameters import HORIZON
 from twolink.artifacts import check_outputs, write_json
-from twolink.parameters import HORIZON
-from twolink.plots import paper_fig3
-from twolink.reproduce import MAX_DURATION, PLANTS, check_duration, reproduce
-from twolink.reproduce_table import table
+from twolink.commands import SUMMARIES
 from twolink.resources import output_dir
+from twolink.studies.reproduce.measure import (
+    MAX_DURATION,
+    PLANTS,
+    check_duration,
+    reproduce,
+)
+from twolink.studies.reproduce.table import table
+from twolink.viz.plots import paper_fig3
 
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def add_parser(sub):
-    p = sub.add_parser("reproduce", help="reproduce the paper's experiment (the main job)",
+    p = sub.add_parser("reproduce", help=SUMMARIES["reproduce"],
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--duration", type=float, default=HORIZON,
                    help=f"rollout horizon in seconds (default {HORIZON:g}, at most "

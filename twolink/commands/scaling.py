@@ -11,19 +11,32 @@ import json
 import math
 from pathlib import Path
 
+from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
 from twolink.artifacts import check_outputs
-from twolink.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
+from twolink.commands import SUMMARIES
 from twolink.resources import output_dir
-from twolink.scaling import (DEFAULT_POSES, EVAL_SEED, MAX_POSES, PEAK_METHODS,
-                             QUICK_MAX_LINKS, QUICK_POSES, check_link_list, check_max_bytes,
-                             check_poses, check_rules, check_seed, default_max_bytes,
-                             machine_bytes, plan, scaling)
-from twolink.scaling_report import FILES, tables, target_lines, write
+from twolink.studies.scaling.measure import (
+    DEFAULT_POSES,
+    EVAL_SEED,
+    MAX_POSES,
+    QUICK_MAX_LINKS,
+    QUICK_POSES,
+    check_link_list,
+    check_max_bytes,
+    check_poses,
+    check_rules,
+    check_seed,
+    default_max_bytes,
+    machine_bytes,
+    plan,
+    scaling,
+)
+from twolink.studies.scaling.report import FILES, tables, target_lines, write
+from twolink.studies.scaling.synthesis import PEAK_METHODS
 
 
 def add_parser(sub):
-    p = sub.add_parser("scaling", help="Table II extended to N links: memory, time and "
-                                       "success of both schemes",
+    p = sub.add_parser("scaling", help=SUMMARIES["scaling"],
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--quick", action="store_true",
                    help=f"N <= {QUICK_MAX_LINKS}, {QUICK_POSES} poses, no centralized "
@@ -42,7 +55,7 @@ def add_parser(sub):
                         f"never tuned on)")
     p.add_argument("--max-memory", type=float, default=None, metavar="GIB",
                    help="refuse a centralized synthesis whose estimated peak exceeds this "
-                        "many GiB (default: twolink.chain_centralized.MAX_BYTES, from this "
+                        "many GiB (default: twolink.control.links_centralized.MAX_BYTES, from this "
                         "machine's memory)")
     p.add_argument("--peak", choices=PEAK_METHODS, default="process",
                    help="how peak memory is measured: a fresh process per synthesis "

@@ -7,14 +7,14 @@ or serial, in place, as ApproxRL's ``fuzzyqi.m``), ``--refine K`` subdivides eve
 the paper's grid K times; both are recorded in the policy's provenance.
 ``--robust worst|mean --draws K --spread P --seed S`` solves every agent over K models (the
 centre and K - 1 joint draws of the physical parameters within +-P): the worst case or the
-mean (:func:`twolink.synthesis.synthesize`). ``--params FILE`` takes the centre from a
-parameter file (:mod:`twolink.parameter_file`); ``--model identified`` is the full model (6)
+mean (:func:`twolink.control.synthesis.synthesize`). ``--params FILE`` takes the centre from a
+parameter file (:mod:`twolink.arm.parameter_file`); ``--model identified`` is the full model (6)
 with them. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
-:data:`twolink.registry.SHIPPED` into the source checkout's ``policies/``, with everything
+:data:`twolink.policy.registry.SHIPPED` into the source checkout's ``policies/``, with everything
 its registry entry records. ``--links N`` (with ``--rule``) synthesises the agents of an
-N-link arm (:mod:`twolink.chain_agents`) into ``./decentralized_<N>link[_<rule>].npz``; the
+N-link arm (:mod:`twolink.control.links_decentralized`) into ``./decentralized_<N>link[_<rule>].npz``; the
 centralized policy of N >= 3 links is refused before any work, with its estimate
-(:func:`twolink.chain_centralized.check_size`): over the memory cap, or over what a policy
+(:func:`twolink.control.links_centralized.check_size`): over the memory cap, or over what a policy
 file may hold.
 """
 from __future__ import annotations
@@ -23,16 +23,28 @@ import argparse
 import json
 from pathlib import Path
 
+from twolink.arm.parameters import DELTA, GAMMA, TABLE_I
 from twolink.artifacts import check_outputs
-from twolink.commands.rollout import add_arm_options, arm_of
-from twolink.parameters import DELTA, GAMMA, TABLE_I
-from twolink.registry import SHIPPED, shipped
+from twolink.commands import SUMMARIES
+from twolink.commands._options import add_arm_options, arm_of
+from twolink.control.problems import (
+    CONTEXTS,
+    IDENTIFIED_MODELS,
+    KINDS,
+    MAX_SPREAD,
+    SWEEPS,
+    SYNTHESIS_MODELS,
+    check_robust,
+    check_robust_size,
+    table_sizes,
+)
+from twolink.control.synthesis import synthesize
+from twolink.fqi.iteration import ROBUST_MODES
+from twolink.policy.fuzzy_policy import (
+    MAX_Q_BYTES,  # what Policy.load accepts per Q-table
+)
+from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
-from twolink.policy import MAX_Q_BYTES        # what Policy.load accepts per Q-table
-from twolink.fqi import ROBUST_MODES
-from twolink.synthesis import (CONTEXTS, IDENTIFIED_MODELS, KINDS, MAX_SPREAD, SWEEPS,
-                               SYNTHESIS_MODELS, check_robust, check_robust_size, synthesize,
-                               table_sizes)
 
 #: Defaults of a robust synthesis (those of the shipped robust policies).
 DEFAULT_DRAWS = 8
@@ -70,7 +82,7 @@ def _refine(text: str) -> int:
 
 def add_parser(sub):
     p = sub.add_parser(
-        "synthesize", help="synthesise a policy with fuzzy Q-iteration (Alg. 1)",
+        "synthesize", help=SUMMARIES["synthesize"],
         description="Synthesise the centralized policy (16) or the decentralized agents (18) "
                     "with fuzzy Q-iteration and save them as a policy file: by default "
                     "./<kind>[_<model>][_<context>][_robust|_mean].npz in the current "
@@ -105,7 +117,7 @@ def add_parser(sub):
                    help=f"seed of the draws (default {DEFAULT_SEED}); recorded in the file")
     p.add_argument("--params", type=Path, default=None, metavar="FILE",
                    help="take the model's parameters (the centre of the draws) from a "
-                        "parameter file (twolink.parameter_file, e.g. identified ones) "
+                        "parameter file (twolink.arm.parameter_file, e.g. identified ones) "
                         "instead of Table I")
     p.add_argument("--gamma", type=float, default=GAMMA, help=f"discount factor (default {GAMMA})")
     p.add_argument("--delta", type=float, default=DELTA,
@@ -125,7 +137,7 @@ def add_parser(sub):
 def chain_file_name(kind: str, links: int, rule: str, context: str | None = None) -> str:
     """``<kind>_<N>link[_<rule>][_<context>].npz``: the rule when not tapered, the
     context when given and not the N-link default (so the shipped one gets its name)."""
-    from twolink.chain_agents import CHAIN_DEFAULT
+    from twolink.control.links_decentralized import CHAIN_DEFAULT
 
     name = f"{kind}_{links}link" + ("" if rule == "tapered" else f"_{rule}")
     if context is not None and context != CHAIN_DEFAULT.context:
@@ -153,7 +165,7 @@ def _chain_job(args, links: int) -> tuple[str, dict, Path]:
     if args.kind == "centralized":
         if args.context is not None:
             raise ValueError("--context applies to the decentralized policy only")
-        from twolink.chain_centralized import check_size
+        from twolink.control.links_centralized import check_size
         est = check_size(links)                   # refuses over the memory cap, estimate
         if est.q_bytes > MAX_Q_BYTES:
             raise ValueError(f"a centralized {links}-link Q-table of {est.q_values:,} values "
@@ -214,7 +226,7 @@ def _parameters(args) -> tuple:
             raise ValueError(f"--model {args.model} needs --params FILE (the identified "
                              f"parameters)")
         return TABLE_I, None
-    from twolink import parameter_file
+    from twolink.arm import parameter_file
     content = parameter_file.read(args.params)
     digest = json.loads(Path(args.params).read_bytes()).get("sha256")
     return content.params, {"path": str(args.params), "sha256": digest,

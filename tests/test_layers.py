@@ -1,0 +1,100 @@
+"""The package's shape: the layer contract, no import cycles, no private names imported
+across modules, a shallow top level and small modules."""
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "twolink"
+pytest.importorskip("importlinter")
+
+
+def _modules() -> dict:
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = path
+    return out
+
+
+def _imports(name: str, path: Path, modules: dict) -> list:
+    """(imported module, imported name or None) for every twolink import in ``path``."""
+    tree = ast.parse(path.read_text())
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(a.name, None) for a in node.names if a.name.startswith("twolink")]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join(package.split(".")[:len(package.split(".")) - node.level + 1]
+                                + ([node.module] if node.module else []))
+            if base.split(".")[0] != "twolink":
+                continue
+            for a in node.names:
+                sub = f"{base}.{a.name}"
+                found.append((sub, None) if sub in modules else (base, a.name))
+    return found
+
+
+def test_the_layer_contract_holds():
+    """import-linter's layers contract of pyproject.toml: lower never imports higher."""
+    run = subprocess.run([sys.executable, "-c", "from importlinter.cli import lint_imports_command;"
+                          "lint_imports_command()"], cwd=PACKAGE.parent, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
+    assert "1 kept, 0 broken" in run.stdout
+
+
+def test_no_import_cycles():
+    modules = _modules()
+    graph = {m: {t for t, _ in _imports(m, p, modules) if t in modules and t != m
+                 and not m.startswith(t + ".") and t != "twolink"}
+             for m, p in modules.items()}
+    cycles, state = [], {}
+
+    def visit(m, stack):
+        state[m] = "open"
+        stack.append(m)
+        for t in sorted(graph[m]):
+            if state.get(t) == "open":
+                cycles.append(stack[stack.index(t):] + [t])
+            elif t not in state:
+                visit(t, stack)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [])
+    assert cycles == []
+
+
+def test_no_private_name_is_imported_across_modules():
+    """A private name (``_x``) is used only in its module; a package's private submodules
+    (its compiled kernels) only by that package's modules."""
+    modules = _modules()
+    bad = []
+    for m, p in modules.items():
+        for target, name in _imports(m, p, modules):
+            if name is not None and name.startswith("_") and not name.startswith("__"):
+                bad.append(f"{m} imports {target}.{name}")
+            leaf = target.rpartition(".")[2]
+            if name is None and leaf.startswith("_") and not leaf.startswith("__"):
+                owner = target.rpartition(".")[0]
+                if not (m == owner or m.startswith(owner + ".")):
+                    bad.append(f"{m} imports the private module {target}")
+    assert bad == []
+
+
+def test_the_package_is_shallow_and_its_modules_small():
+    top = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert len(top) <= 8, top
+    kernels = {p for p in PACKAGE.rglob("_*kernel.py")}
+    long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py") if p not in kernels
+            for n in [len(p.read_text().splitlines())] if n > 500}
+    assert long == {}

@@ -1,0 +1,55 @@
+"""Rewards (15) and (17): 0 inside the goal band, -0.5 outside it.
+
+For an arm of N links (states x = [theta_1..theta_N, dtheta_1..dtheta_N], shape (..., 2N))
+the goal band of (15) holds every link in its band, and agent i's reward (17) looks at
+link i alone.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, REWARD_GOAL, REWARD_OTHER
+
+
+def link_in_band(theta, dtheta) -> np.ndarray:
+    """|theta| <= 5 deg and |dtheta| <= 0.1 rad/s, elementwise (angles already wrapped)."""
+    return (np.abs(theta) <= GOAL_ANGLE) & (np.abs(dtheta) <= GOAL_SPEED)
+
+
+def _links(x: np.ndarray) -> int:
+    """N of states x (..., 2N), N >= 2; else a clear ValueError."""
+    if x.ndim == 0 or x.shape[-1] < 4 or x.shape[-1] % 2:
+        raise ValueError(f"states must have 2N components [theta_1..theta_N, "
+                         f"dtheta_1..dtheta_N] with N >= 2, got shape {x.shape}")
+    return x.shape[-1] // 2
+
+
+def in_goal_band(x) -> np.ndarray:
+    """Every link inside the goal band, for states x of shape (..., 2N)."""
+    x = np.asarray(x)
+    n = _links(x)
+    inside = link_in_band(x[..., 0], x[..., n])
+    for i in range(1, n):
+        inside = inside & link_in_band(x[..., i], x[..., n + i])
+    return inside
+
+
+def centralized_reward(x) -> np.ndarray:
+    """Reward (15) of states x (..., 2N)."""
+    return np.where(in_goal_band(x), REWARD_GOAL, REWARD_OTHER)
+
+
+def agent_reward(x, link: int) -> np.ndarray:
+    """Reward (17) of agent ``link`` (1 to N) for states x (..., 2N)."""
+    x = np.asarray(x)
+    n = _links(x)
+    if link not in tuple(range(1, n + 1)):
+        span = "1 or 2" if n == 2 else f"1 to {n}"
+        raise ValueError(f"link must be {span}, got {link}")
+    i = link - 1
+    return np.where(link_in_band(x[..., i], x[..., n + i]), REWARD_GOAL, REWARD_OTHER)
+
+
+def action_levels(tau_max: float) -> np.ndarray:
+    """The discrete torques of one joint in (16) and (18): {-tau_max, 0, tau_max}."""
+    return np.array([-tau_max, 0.0, tau_max])

@@ -1,0 +1,3 @@
+"""Reinforcement-learning environments: the task core shared by dm_env, Gymnasium and
+PettingZoo, and the compensated wrappers.
+"""

@@ -1,0 +1,241 @@
+"""What the arm's tasks mean, independent of any RL API (dm_env, Gymnasium, PettingZoo).
+
+The regulation task of the paper: drive the arm to the origin of the state space. The
+``centralized`` task has one controller that sees the whole state and gets reward (15);
+the ``decentralized`` task has one agent per joint, agent i on link i, each with its own
+observation and reward (17): for two links the agents of (18), for N links
+the same construction one hop at a time (:func:`observation_names`). Every environment
+of the package builds its episodes from these pieces, so the same option means the same
+thing in all.
+
+Arms of N = 2 .. 6 links (:func:`arm`): two links are Table I and behave exactly as
+before; more links are :func:`twolink.arm.parameters.chain`. Episodes last
+:func:`horizon` seconds by default (5 s for two links as in the paper, 8 s beyond).
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from twolink.arm.parameters import (  # noqa: F401
+    CHAIN_HORIZON,
+    HORIZON,
+    LINK_RULES,
+    PAPER_X0,
+    TABLE_I,
+    ArmParameters,
+    ChainParameters,
+    chain,
+    check_links,
+    horizon,
+    state_names,
+)
+from twolink.policy.fuzzy_policy import check_links_match
+from twolink.sim.challenges import Challenge
+from twolink.sim.challenges import challenge as challenge_named
+from twolink.sim.perturbations import perturbed, random_perturbation
+from twolink.sim.plants import check_states
+
+TASKS = ("centralized", "decentralized")
+#: Episode length (s) of arms of three links or more: their tapered outer motors (half
+#: the torque per link) need longer than the paper's 5 s to bring the chain to rest.
+INITIAL_STATES = ("paper", "random")
+
+
+def observation_names(links: int = 2) -> dict:
+    """What each observation of an arm of ``links`` links holds, component by component:
+    ``'state'`` (the whole state, centralized task) and ``'agent1'`` .. ``'agentN'``
+    (decentralized task).
+
+    Two links: the agents of (18), agent 1 (theta1, dtheta1, theta2), agent 2 (theta2,
+    dtheta2). N >= 3 links: agent i < N sees its own angle and speed and its outer
+    neighbour's, (theta_i, dtheta_i, theta_{i+1}, dtheta_{i+1}) (the one-hop context the
+    N-link agents read: the neighbour's speed is what keeps a middle
+    link from limit-cycling); agent N, the outermost, sees (theta_N, dtheta_N). The
+    torque tau_{i+1} agent i also reads is chosen in the same sample (outermost agent
+    first, as (18) orders agent 2 before agent 1), so no observation holds it: a policy
+    hands it on directly (:func:`twolink.envs.dm.policy_action`)."""
+    n = check_links(links)
+    names = {"state": state_names(n)}
+    for i in range(1, n + 1):
+        own = (f"theta{i}", f"dtheta{i}")
+        if i == n:
+            names[f"agent{i}"] = own
+        elif n == 2:
+            names[f"agent{i}"] = own + (f"theta{i + 1}",)
+        else:
+            names[f"agent{i}"] = own + (f"theta{i + 1}", f"dtheta{i + 1}")
+    return names
+
+
+#: What each observation of the two-link arm holds (agent 1 and agent 2 of (18)).
+OBSERVATION_NAMES = observation_names(2)
+
+
+def arm(params=None, *, links=None, rule=None) -> ArmParameters | ChainParameters:
+    """The nominal arm of an environment: ``params`` as given (a two-link
+    :class:`ChainParameters` as its :class:`ArmParameters`, so two links always run the
+    same code), else Table I for two links, else ``chain(links, rule)`` (rule default
+    ``'tapered'``). ``links`` defaults to that of ``params``, else 2; a ValueError when
+    it contradicts ``params``, is out of range, or ``rule`` is unknown or given with
+    ``params``."""
+    n = None if links is None else check_links(links)
+    if rule is not None and rule not in LINK_RULES:
+        raise ValueError(f"unknown link rule {rule!r}; choose one of {', '.join(LINK_RULES)}")
+    if params is None:
+        n = 2 if n is None else n
+        return TABLE_I if n == 2 else chain(n, rule or "tapered")
+    if not isinstance(params, (ArmParameters, ChainParameters)):
+        raise ValueError(f"params must be ArmParameters or ChainParameters, got "
+                         f"{type(params).__name__}")
+    if rule is not None:
+        raise ValueError("give either params or rule: the link rule only builds an arm "
+                         "when no params are given")
+    if n is not None and params.links != n:
+        raise ValueError(f"params describe a {params.links}-link arm, but links={n}")
+    if isinstance(params, ChainParameters) and params.links == 2:
+        return params.as_arm()
+    return params
+
+
+def check_two_link_options(links: int, **options) -> None:
+    """A ValueError naming the options given that exist for the two-link arm only
+    (a perturbation or challenge of Table I's constants, Gaussian observation noise)
+    when the arm has ``links`` > 2 links. ``options``: name -> value (None or 0: not
+    given)."""
+    if links == 2:
+        return
+    given = [k for k, v in options.items() if v is not None and not
+             (isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0)]
+    if given:
+        what = "is a two-link option" if len(given) == 1 else "are two-link options"
+        raise ValueError(f"{', '.join(given)} {what} (Table I's constants, the 4-component "
+                         f"state); this arm has {links} links")
+
+
+def check_task(task: str) -> str:
+    if task not in TASKS:
+        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASKS)}")
+    return task
+
+
+def check_x0(x0, links: int = 2):
+    """``'paper'`` (two links only), ``'random'`` or a copy of one finite state (2N,),
+    or a ValueError."""
+    n = check_links(links)
+    if isinstance(x0, str):
+        if n == 2 and x0 not in INITIAL_STATES:
+            raise ValueError(f"x0 must be 'paper', 'random' or a state (4,), got {x0!r}")
+        if n > 2 and x0 == "paper":
+            raise ValueError(f"x0='paper' is the two-link arm's {list(PAPER_X0)}; an arm of "
+                             f"{n} links starts from 'random' or a state ({2 * n},)")
+        if n > 2 and x0 != "random":
+            raise ValueError(f"x0 must be 'random' or a state ({2 * n},), got {x0!r}")
+        return x0
+    x0 = check_states(x0, what="x0", links=n)
+    if x0.shape != (2 * n,):
+        raise ValueError(f"x0 must be one state of shape ({2 * n},), got shape {x0.shape}")
+    return x0.copy()
+
+
+def default_x0(links: int = 2) -> str:
+    """The default ``x0`` option: the paper's ``'paper'`` for two links, ``'random'``
+    beyond (the paper's state is a two-link one)."""
+    return "paper" if check_links(links) == 2 else "random"
+
+
+def initial_state(x0, random, links: int = 2) -> np.ndarray:
+    """The episode's first state for a checked ``x0`` option: the paper's [-1, -3, 0, 0],
+    angles uniform in [-pi, pi) at rest (one draw of ``links`` angles from ``random``, a
+    ``RandomState`` or ``Generator``), or the given state."""
+    if isinstance(x0, str) and x0 == "random":
+        return np.concatenate([random.uniform(-np.pi, np.pi, links), np.zeros(links)])
+    return np.array(PAPER_X0 if isinstance(x0, str) else x0, dtype=float)
+
+
+def torque_names(links: int) -> str:
+    """``'tau1, tau2'`` .. ``'tau1, ..., tauN'``: the components of a joint action."""
+    return ", ".join(f"tau{i}" for i in range(1, links + 1))
+
+
+def check_action(action, tau_max: np.ndarray, *, rows: int | None = None) -> np.ndarray:
+    """A joint action [tau1, .., tauN] (N = len(tau_max)) as float64, clipped to
+    +-tau_max; a ValueError for a wrong shape, non-numbers, NaN or infinite values.
+    ``rows``: a batch of that many joint actions, shape (rows, N)."""
+    action = getattr(action, "continuous_actions", action)
+    n = len(tau_max)
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"action must be numbers [{torque_names(n)}], got {action!r}") from None
+    shape = (n,) if rows is None else (rows, n)
+    if a.shape != shape:
+        raise ValueError(f"action must have shape {shape} [{torque_names(n)}], "
+                         f"got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action contains NaN or infinite values: {a.tolist()}")
+    return np.clip(a, -tau_max, tau_max)
+
+
+def perturbed_params(params: ArmParameters, perturbation, random) -> ArmParameters:
+    """``params`` under ``perturbation``: None, a dict of relative changes
+    (``{'m2': 0.2}``), or a size s in [0, 1) for one random joint change drawn from
+    ``random``."""
+    if perturbation is None:
+        return params
+    if isinstance(perturbation, dict):
+        return perturbed(params, **perturbation)
+    if isinstance(perturbation, (int, float)) and not isinstance(perturbation, bool):
+        return random_perturbation(random, float(perturbation), base=params)
+    raise ValueError(f"perturbation must be a dict of relative changes or a size in [0, 1), "
+                     f"got {perturbation!r}")
+
+
+def check_challenge(challenge, **separate) -> Challenge | None:
+    """The ``challenge`` option of an environment: None, or the
+    :class:`twolink.sim.challenges.Challenge` it names (``'easy'``, ``'medium'``, ``'hard'``,
+    ...). A challenge sets the plant, delays and noise itself, so a ValueError when any of
+    the ``separate`` options (``perturbation``, noise levels, ``delay``) is also given."""
+    if challenge is None:
+        return None
+    given = [k for k, v in separate.items()
+             if (v is not None if k == "perturbation" else v != 0)]
+    if given:
+        raise ValueError(f"give either challenge or {', '.join(given)}: a challenge sets the "
+                         f"plant, delays and noise itself")
+    return challenge_named(challenge)
+
+
+@functools.lru_cache(maxsize=None)
+def _indices(links: int, key: str) -> list:
+    names = state_names(links)
+    return [names.index(c) for c in observation_names(links)[key]]
+
+
+def observe(x: np.ndarray, key: str) -> np.ndarray:
+    """The observation ``key`` of :func:`observation_names` from states x (..., 2N)."""
+    x = np.asarray(x)
+    return x[..., _indices(x.shape[-1] // 2, key)]
+
+
+def check_policy_links(policy, links: int) -> None:
+    """A ValueError naming both numbers of links unless ``policy`` (a
+    :class:`twolink.policy.fuzzy_policy.Policy`; any other callable passes) is for an arm of ``links``
+    links."""
+    if hasattr(policy, "links"):
+        check_links_match(policy, links)
+
+
+def check_reset_options(options, allowed) -> dict:
+    """The ``reset(options=...)`` of an environment: None or a dict whose keys are all in
+    ``allowed``; a ValueError naming the unknown keys otherwise."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"options must be a dict, got {type(options).__name__}")
+    unknown = sorted(set(options) - set(allowed), key=str)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                         f"known: {', '.join(map(repr, allowed))}")
+    return options

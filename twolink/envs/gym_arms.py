@@ -1,0 +1,224 @@
+"""The batched episode core of the Gymnasium environments of :mod:`twolink.envs.gym`.
+
+:class:`Arms` keeps N arms under one :class:`twolink.sim.plants.MujocoPlant` (one
+``mujoco.rollout`` call per Ts): their options and spaces, the checks of actions and
+x0, resets, observations and steps; :func:`features` and :func:`joint_actions` are the
+observations and the discrete joint actions they use.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from gymnasium import spaces
+
+from twolink.arm.parameters import TS, ArmParameters, ChainParameters
+from twolink.arm.task import action_levels, centralized_reward
+from twolink.control.problems import centralized_actions
+from twolink.envs.core import (
+    arm,
+    check_action,
+    check_challenge,
+    check_two_link_options,
+    check_x0,
+    default_x0,
+    horizon,
+    initial_state,
+    observe,
+    perturbed_params,
+)
+from twolink.sim.perturbations import ActuationDelay, Sensors
+from twolink.sim.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
+
+OBSERVATIONS = ("state", "cos_sin")
+ACTIONS = ("box", "discrete")
+
+
+def check_choice(value, choices, what: str):
+    if value not in choices:
+        raise ValueError(f"{what} must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
+
+
+def _check_steps(time_limit) -> int:
+    if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)) \
+            or not np.isfinite(time_limit) or time_limit <= 0:
+        raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+    return max(1, int(round(time_limit / TS)))
+
+
+
+def _check_x0(x0, speed_max, links: int = 2):
+    """``check_x0`` plus the plant's bounds, so a bad x0 fails at reset, not at a step."""
+    x0 = check_x0(x0, links)
+    if not isinstance(x0, str):
+        check_states(x0, what="x0", speed_max=speed_max, links=links)
+    return x0
+
+
+def joint_actions(params) -> np.ndarray:
+    """The discrete joint actions: every combination of the levels {-tau_max, 0, tau_max}
+    of the links, the last link varying fastest, shape (3^N, N); for two links the 9 of
+    (16) (:func:`twolink.control.problems.centralized_actions`)."""
+    if params.links == 2:
+        return centralized_actions(params)
+    return np.array(list(itertools.product(*(action_levels(t) for t in params.tau_max))))
+
+
+def _real(action, what: str = "action") -> np.ndarray:
+    a = np.asarray(action)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{what} must hold real numbers, got dtype {a.dtype}")
+    return a
+
+
+def _hold(u):
+    return np.array(u, dtype=np.float64)     # a copy: the delay keeps it
+
+
+def features(x: np.ndarray, observation: str = "state") -> np.ndarray:
+    """The observation of (measured) states x (..., 2N): ``'state'`` as given, or
+    ``'cos_sin'`` = [cos theta1, sin theta1, .., cos thetaN, sin thetaN, dtheta1 ..
+    dthetaN] (for two links [cos theta1, sin theta1, cos theta2, sin theta2, dtheta1,
+    dtheta2])."""
+    if observation == "state":
+        return observe(x, "state")
+    x = np.asarray(x)
+    n = x.shape[-1] // 2
+    trig = [f(x[..., k]) for k in range(n) for f in (np.cos, np.sin)]
+    return np.stack(trig + [x[..., n + k] for k in range(n)], -1)
+
+
+class Arms:
+    """N arms under one :class:`MujocoPlant` (one ``mujoco.rollout`` call per Ts): states,
+    per-arm generators, step counts, and the challenges of :mod:`twolink.sim.perturbations`.
+
+    Each arm draws from its own generator, in the order: random plant (a perturbation
+    size or a challenge's spread), x0 (``'random'``), then at every observation its noise
+    and its reading faults (:class:`twolink.sim.perturbations.Sensors`); so an arm's episode
+    never depends on the arms beside it.
+    """
+
+    def __init__(self, rows: int, *, params, observation: str, actions: str,
+                 x0, time_limit, perturbation, angle_noise, speed_noise, delay,
+                 nthread, challenge=None, links=None, rule=None):
+        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
+            raise ValueError(f"params must be an ArmParameters or a ChainParameters, got "
+                             f"{type(params).__name__}")
+        params = arm(params, links=links, rule=rule)
+        self.rows = rows
+        self.params = params
+        self.links = n = params.links
+        check_two_link_options(n, perturbation=perturbation, challenge=challenge,
+                               angle_noise=angle_noise, speed_noise=speed_noise)
+        self.observation = check_choice(observation, OBSERVATIONS, "observation")
+        self.actions = check_choice(actions, ACTIONS, "actions")
+        self.x0 = _check_x0(default_x0(n) if x0 is None else x0, params.speed_max, n)
+        self.steps = _check_steps(horizon(n) if time_limit is None else time_limit)
+        size = perturbation is not None and not isinstance(perturbation, dict)
+        # Checks a dict or a size now (a size is drawn anew every episode).
+        fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
+        for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
+                            ("delay", delay)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+                raise ValueError(f"{name} must be one number, got {value!r}")
+        self.challenge = check_challenge(challenge, perturbation=perturbation,
+                                          angle_noise=angle_noise, speed_noise=speed_noise,
+                                          delay=delay)
+        if self.challenge is not None:
+            ch = self.challenge
+            size = ch.perturbs_plant()          # a new plant every episode
+            self._draw = lambda rng: ch.plant(rng, params)
+            self.sensors = ch.sensors(rngs=[None] * rows)
+            delay = ch.action_delay
+        else:
+            self._draw = lambda rng: perturbed_params(params, perturbation, rng)
+            self.sensors = Sensors(float(angle_noise), float(speed_noise), rngs=[None] * rows)
+        self._size = size
+        self._noisy = self.sensors.noisy
+        self._delay = ActuationDelay(_hold, delay)                     # checks the delay
+        self.table = joint_actions(params)      # the controller's levels, not the plant's
+        self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
+        self.rngs: list = [None] * rows
+        self.x = np.zeros((rows, 2 * n))
+        self.k = np.zeros(rows, dtype=int)
+
+    # -------------------------------------------------------------- spaces
+    def action_space(self) -> spaces.Space:
+        if self.actions == "discrete":
+            return spaces.Discrete(len(self.table))
+        t = self.params.tau_max
+        return spaces.Box(-t, t, (self.links,), np.float64)
+
+    def observation_space(self) -> spaces.Space:
+        """Bounds of the true state (x0's bounds; the plant keeps states inside them);
+        unbounded where noise may leave them."""
+        speed = SPEED_BOUND * self.params.speed_max
+        n = self.links
+        if self.observation == "state":
+            high = np.array([MAX_ANGLE] * n + [*speed])
+            if self._noisy:
+                high[:] = np.inf
+        else:
+            high = np.array([1.0] * (2 * n) + [*speed])
+            if self._noisy:
+                high[2 * n:] = np.inf
+        return spaces.Box(-high, high, (len(high),), np.float64)
+
+    # -------------------------------------------------------------- checks
+    def torques(self, action, *, single: bool = False) -> np.ndarray:
+        """Checked torques (rows, N) for the actions of all arms (``single``: the one
+        action of a one-arm environment); a ValueError otherwise."""
+        a = _real(action)
+        if self.actions == "box":
+            if single:
+                return check_action(a, self.params.tau_max)[None]
+            return check_action(a, self.params.tau_max, rows=self.rows)
+        want = () if single else (self.rows,)
+        if a.shape != want or a.dtype.kind not in "iu":
+            raise ValueError(f"a discrete action must be {'one whole number' if single else 'whole numbers'}"
+                             f" of shape {want}, got dtype {a.dtype} and shape {a.shape}")
+        if np.any((a < 0) | (a >= len(self.table))):
+            raise ValueError(f"a discrete action must lie in [0, {len(self.table) - 1}], "
+                             f"got {a.tolist()}")
+        return self.table[np.reshape(a, (-1,))]
+
+    def check_x0_option(self, x0):
+        """One x0 for all arms, or one per arm (rows, 2N); a list of per-arm x0 options."""
+        n = self.links
+        if isinstance(x0, str) or np.ndim(x0) == 1:
+            x0 = _check_x0(x0, self.params.speed_max, n)
+            return [x0] * self.rows
+        x0 = check_states(x0, what="x0", speed_max=self.params.speed_max, links=n)
+        if x0.shape != (self.rows, 2 * n):
+            raise ValueError(f"x0 must be one state ({2 * n},) or one per arm ({self.rows}, "
+                             f"{2 * n}), got shape {x0.shape}")
+        return list(x0.copy())
+
+    # -------------------------------------------------------------- episodes
+    def reset_rows(self, rows, rngs, x0s) -> None:
+        """Start new episodes of ``rows`` with generators ``rngs`` and x0 options ``x0s``
+        (all checked)."""
+        for i, rng, x0 in zip(rows, rngs, x0s):
+            self.rngs[i] = rng
+            self.sensors.set_generator(i, rng)
+            if self._size:
+                self.plant.set_row_params(i, self._draw(rng))
+            self.x[i] = initial_state(x0, rng, self.links)
+            self.k[i] = 0
+        self._delay.restart(rows)
+        self.sensors.restart(rows)
+
+    def observe(self, rows) -> np.ndarray:
+        """Observations of ``rows`` (noise and faults drawn from each row's generator,
+        once; then the observation delay)."""
+        return features(self.sensors(self.x[rows], rows=rows), self.observation)
+
+    def step(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One sample period of every arm under checked torques ``tau``: the next states
+        (not yet stored), rewards (15) and truncation flags."""
+        x = self.plant.step(self.x, self._delay(tau))
+        return x, centralized_reward(x).astype(np.float64), self.k + 1 >= self.steps
+
+    def close(self) -> None:
+        self.plant.close()

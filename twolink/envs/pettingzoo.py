@@ -1,0 +1,480 @@
+"""The decentralized task as a PettingZoo environment: one agent per joint, (17)-(18).
+
+``parallel_env(...)`` returns a :class:`pettingzoo.ParallelEnv` whose every step is one
+sample period Ts = 0.05 s of the MuJoCo arm, stepped by :class:`twolink.sim.plants.MujocoPlant`
+(the same code path as ``rollout(policy, MujocoPlant(), x0)``, so the same x0 and the
+same torques give the same trajectory bit for bit). ``env(...)`` is its AEC form through
+PettingZoo's own converter (:func:`pettingzoo.utils.conversions.parallel_to_aec`), and
+``raw_env(...)`` the same without the order-enforcing wrapper, as PettingZoo's modules do.
+
+Agents ``link1``, ``link2`` (one per joint of :data:`twolink.arm.mjcf.JOINTS`). Each sends
+its torque tau_i as an array of shape (1,), clipped to +-tau_i_max, and observes (18):
+``link1`` (theta1, dtheta1, theta2), ``link2`` (theta2, dtheta2). Rewards are (17) per
+link on the state reached (``reward="individual"``), or the same number to every agent:
+(15) (``"centralized"``) or r1 + r2 (``"sum"``). Episodes are truncated at the time limit
+(default 5 s = 100 steps), never terminated.
+
+N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``): agents
+``link1`` .. ``linkN``, one per joint; ``linkI`` (I < N) observes the one-hop
+(theta_I, dtheta_I, theta_{I+1}, dtheta_{I+1}) and ``linkN`` (theta_N, dtheta_N)
+(:func:`twolink.envs.core.observation_names`); rewards (17) per link (or (15), or their sum,
+to every agent); episodes of 8 s from random angles at rest by default
+(:func:`twolink.envs.core.horizon`). ``link1_tau2`` then applies to every inner agent: link I
+sees its outer neighbour's torque tau_{I+1} (``"previous"``; in the AEC form
+``"current"``, with the turns running linkN first down to link1). Perturbations,
+challenges and observation noise are two-link options.
+
+How link1 can see tau2 (``link1_tau2``). In (18) agent 2 chooses tau2 first and agent 1
+reads it in the same sample.
+- ``"previous"`` (parallel and AEC-through-the-converter): in a parallel step both agents
+  act at once, so no observation can hold the tau2 of that step; the only causal reading
+  is link2's *previous* torque, appended to link1's observation (as link2 commanded it,
+  before the plant clips it to +-tau2_max, as a policy's agent 1 reads it; 0 after
+  reset). The converter refreshes observations once per cycle, so its AEC form
+  shows link1 that same previous tau2, whatever the turn order.
+- ``"current"`` (AEC only, ``env(link1_tau2="current")``): :class:`SequentialArm` lets
+  link2 act first and then shows link1 the tau2 just chosen: the paper's ordering (18).
+- ``"none"`` (default): observations exactly as (18) lists the states.
+For a policy file, :func:`policy_actions` keeps the paper's ordering on any of these: its
+agent 2 acts first and hands tau2 to agent 1 directly, as
+:func:`twolink.envs.dm.decentralized_action` does for the dm_env task.
+
+Options (keyword-only), as in :func:`twolink.envs.dm.load`: ``x0`` (``'paper'``, ``'random'``
+or a state (4,); also ``reset(options={'x0': ...})`` for one episode), ``params``,
+``perturbation`` (a dict of relative changes, or a size s: one random joint change of every
+Table I constant within +-s, drawn anew each episode), ``angle_noise``/``speed_noise``
+(observation noise; rewards read the true state) and ``delay`` (actuation delay in sample
+periods), or instead of these ``challenge`` (a level of :data:`twolink.sim.challenges.LEVELS`,
+``'easy'``, ``'medium'``, ``'hard'``, or a :class:`twolink.sim.challenges.Challenge`): a new
+plant every episode, its delays, noise and dropped/stuck readings. All randomness comes
+from ``reset(seed=...)``: per episode the plant, then x0, then at every observation the
+noise and the reading faults.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pettingzoo
+from gymnasium import logger, spaces
+from pettingzoo.utils import conversions
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
+from twolink.arm import mjcf
+from twolink.arm.parameters import TS, ArmParameters, ChainParameters, check_links
+from twolink.arm.task import agent_reward, centralized_reward
+from twolink.envs.core import (
+    arm,
+    check_action,
+    check_challenge,
+    check_policy_links,
+    check_reset_options,
+    check_two_link_options,
+    check_x0,
+    default_x0,
+    horizon,
+    initial_state,
+    observation_names,
+    observe,
+    perturbed_params,
+)
+from twolink.sim.perturbations import ActuationDelay, Sensors
+from twolink.sim.plants import MujocoPlant, check_states
+from twolink.sim.rollout import steps_for
+
+
+def agents(links: int = 2) -> tuple:
+    """The agents of an arm of ``links`` links, one per joint: ``link1`` .. ``linkN``;
+    agent ``linkI`` is agent I of (17)-(18)."""
+    return tuple(f"link{i}" for i in range(1, check_links(links) + 1))
+
+
+#: The agents of the two-link arm, one per joint; agent ``linkI`` is agent I of (17)-(18).
+AGENTS = agents(len(mjcf.JOINTS))
+#: Reward modes: (17) per agent, (15) to every agent, or the sum of (17) to every agent.
+REWARDS = ("individual", "centralized", "sum")
+#: What link1 may see of link2's torque in a parallel step (see the module docstring);
+#: ``"current"`` exists in the AEC form only (:class:`SequentialArm`).
+LINK1_TAU2 = ("none", "previous")
+RESET_OPTIONS = ("x0",)
+
+
+def _task_keys(names) -> dict:
+    """Agent ``linkI`` -> its observation ``agentI`` of :func:`twolink.envs.core.observation_names`."""
+    return {agent: f"agent{i}" for i, agent in enumerate(names, 1)}
+
+
+def _check_choice(name: str, value, choices) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
+    return value
+
+
+def _check_number(name: str, value, what: str) -> None:
+    """One real number (not a bool, not an array), or a ValueError."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def _check_agent_action(agent: str, action) -> np.ndarray:
+    """The torque of ``agent`` as float64 (1,), or a ValueError naming the agent."""
+    try:
+        a = np.asarray(action)
+    except Exception:
+        a = np.asarray(None)
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"action of {agent} must be real numbers, got {action!r} "
+                         f"(dtype {a.dtype})")
+    if a.shape != (1,):
+        raise ValueError(f"action of {agent} must have shape (1,) [its torque], "
+                         f"got shape {a.shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action of {agent} contains NaN or infinite values: {a.tolist()}")
+    return a
+
+
+class ParallelArm(pettingzoo.ParallelEnv):
+    """The decentralized task (17)-(18) as a :class:`pettingzoo.ParallelEnv`."""
+
+    metadata = {"name": "twolink_decentralized_v0", "render_modes": ["rgb_array"],
+                "render_fps": round(1 / TS), "is_parallelizable": True}
+
+    def __init__(self, *, x0=None, params=None, perturbation=None,
+                 angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
+                 reward: str = "individual", link1_tau2: str = "none",
+                 time_limit: float | None = None, render_mode: str | None = None,
+                 challenge=None, links: int | None = None, rule: str | None = None):
+        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
+            raise ValueError(f"params must be ArmParameters or ChainParameters, got {params!r}")
+        params = arm(params, links=links, rule=rule)
+        n = self.links = params.links
+        check_two_link_options(n, perturbation=perturbation, challenge=challenge,
+                               angle_noise=angle_noise, speed_noise=speed_noise)
+        x0 = default_x0(n) if x0 is None else x0
+        time_limit = horizon(n) if time_limit is None else time_limit
+        if link1_tau2 == "current":
+            raise ValueError("link1_tau2='current' is impossible in a parallel step: both "
+                             "agents act at once, so link2's torque of this step does not "
+                             "exist when link1 observes; use 'previous', or the AEC form "
+                             "env(link1_tau2='current') for the paper's ordering (18)")
+        self._link1_tau2 = _check_choice("link1_tau2", link1_tau2, LINK1_TAU2)
+        self._reward = _check_choice("reward", reward, REWARDS)
+        if render_mode is not None:
+            _check_choice("render_mode", render_mode, self.metadata["render_modes"])
+        _check_number("time_limit", time_limit, "a positive number of seconds")
+        if not (np.isfinite(time_limit) and time_limit > 0):
+            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+        self._steps = steps_for(float(time_limit))
+        _check_number("angle_noise", angle_noise, "one standard deviation (rad)")
+        _check_number("speed_noise", speed_noise, "one standard deviation (rad/s)")
+        _check_number("delay", delay, "a whole number of sample periods")
+        self._x0 = self._check_x0(x0, params)
+        # Check the remaining options now (with a throw-away generator), not at reset.
+        perturbed_params(params, perturbation, np.random.default_rng(0))
+        Sensors(angle_noise, speed_noise, rngs=[None])
+        ActuationDelay(None, delay)
+        self._challenge = check_challenge(challenge, perturbation=perturbation,
+                                          angle_noise=angle_noise, speed_noise=speed_noise,
+                                          delay=delay)
+        self._base, self._perturbation = params, perturbation
+        self._noise_std = (float(angle_noise), float(speed_noise))
+        self._delay = delay if self._challenge is None else self._challenge.action_delay
+        self.render_mode = render_mode
+
+        self._agents = agents(n)
+        self._keys = _task_keys(self._agents)
+        self.possible_agents = list(self._agents)
+        self.agents: list = []
+        names = observation_names(n)
+        # With link1_tau2="previous" every inner agent also sees its outer neighbour's torque.
+        extra = 1 if link1_tau2 == "previous" else 0
+        self.observation_spaces = {
+            a: spaces.Box(-np.inf, np.inf, (len(names[self._keys[a]]) +
+                                            (extra if i < n else 0),), np.float64)
+            for i, a in enumerate(self._agents, 1)}
+        tau_max = params.tau_max
+        self.action_spaces = {a: spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64)
+                              for i, a in enumerate(self._agents)}
+        self.state_space = spaces.Box(-np.inf, np.inf, (2 * n,), np.float64)
+
+        self._rng = None
+        self._plant = None
+        self._renderer = None
+        self.params = None
+        self._x = None
+        self._k = 0
+
+    # ------------------------------------------------------------------ spaces
+    @staticmethod
+    def _check_x0(x0, params):
+        """A checked ``x0`` option; a given state also within the plant's speed bound."""
+        x0 = check_x0(x0, params.links)
+        if not isinstance(x0, str):
+            check_states(x0, what="x0", speed_max=params.speed_max, links=params.links)
+        return x0
+
+    def observation_space(self, agent):
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent):
+        return self.action_spaces[agent]
+
+    # ------------------------------------------------------------------ episodes
+    def reset(self, seed=None, options=None):
+        """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
+        options = check_reset_options(options, RESET_OPTIONS)
+        x0 = self._check_x0(options["x0"], self._base) if "x0" in options else self._x0
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                                 or seed < 0):
+            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        if seed is not None or self._rng is None:
+            self._rng = np.random.default_rng(seed)
+        ch = self._challenge
+        params = (ch.plant(self._rng, self._base) if ch is not None
+                  else perturbed_params(self._base, self._perturbation, self._rng))
+        x = initial_state(x0, self._rng, self.links)
+        if self._plant is None or params != self.params:
+            self._close_plant()
+            self._plant = MujocoPlant(params, nthread=1)
+        self.params, self._x, self._k = params, x, 0
+        self._noise = (ch.sensors(rngs=[self._rng]) if ch is not None
+                       else Sensors(*self._noise_std, rngs=[self._rng]))
+        self._delay_line = ActuationDelay(lambda u: u, self._delay)
+        self._last = np.zeros(self.links)
+        self._applied = np.zeros(self.links)
+        self._rewards = dict.fromkeys(self._agents, 0.0)
+        self.agents = list(self._agents)
+        return self._observations(), {a: {} for a in self.agents}
+
+    def step(self, actions):
+        """One sample period under the agents' torques: (observations, rewards,
+        terminations, truncations, infos)."""
+        if self._x is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.agents:
+            raise RuntimeError("the episode is over (truncated at the time limit); call reset()")
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict {{agent: action}}, "
+                             f"got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in self.agents]
+        missing = [a for a in self.agents if a not in actions]
+        if unknown or missing:
+            raise ValueError(f"actions must name every agent exactly ({', '.join(self.agents)}); "
+                             + "; ".join(f"{what}: {', '.join(map(repr, names))}" for what, names
+                                         in (("unknown", unknown), ("missing", missing)) if names))
+        commanded = np.concatenate([_check_agent_action(a, actions[a]) for a in self._agents])
+        tau = check_action(commanded, self.params.tau_max)
+        applied = np.asarray(self._delay_line(tau), dtype=np.float64)
+        x = self._plant.step(self._x, applied)
+        self._x, self._k, self._last, self._applied = x, self._k + 1, commanded, applied
+        self._rewards = self._reward_of(x)
+        done = self._k >= self._steps
+        obs = self._observations()
+        rewards = dict(self._rewards)
+        terminations = dict.fromkeys(self._agents, False)
+        truncations = dict.fromkeys(self._agents, done)
+        infos = {a: {} for a in self._agents}
+        if done:
+            self.agents = []
+        return obs, rewards, terminations, truncations, infos
+
+    def _observations(self) -> dict:
+        """Per-agent observations (18), fresh arrays; noise on the measured state only."""
+        seen = self._noise(self._x)
+        obs = {a: observe(seen, self._keys[a]) for a in self._agents}
+        if self._link1_tau2 == "previous":          # agent i sees tau_{i+1}, i < N
+            for i, a in enumerate(self._agents[:-1]):
+                obs[a] = np.append(obs[a], self._last[i + 1])
+        return {a: obs[a] for a in self.agents}
+
+    def _reward_of(self, x) -> dict:
+        """(17) per agent, (15) to every agent, or the sum of (17) to every agent."""
+        if self._reward == "centralized":
+            return dict.fromkeys(self._agents, float(centralized_reward(x)))
+        own = {a: float(agent_reward(x, i)) for i, a in enumerate(self._agents, 1)}
+        if self._reward == "sum":
+            return dict.fromkeys(self._agents, float(sum(own.values())))
+        return own
+
+    def state(self) -> np.ndarray:
+        """The true state x = [theta1 .. thetaN, dtheta1 .. dthetaN] (a copy)."""
+        if self._x is None:
+            raise RuntimeError("call reset() before state()")
+        return self._x.copy()
+
+    # ------------------------------------------------------------------ rendering
+    def render(self):
+        """An RGB frame (H, W, 3) of the arm when ``render_mode='rgb_array'``, else None."""
+        if self.render_mode is None:
+            logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
+            return None
+        if self._x is None:
+            raise RuntimeError("call reset() before render()")
+        from twolink.viz.render import (
+            Renderer,  # GL is set up only when a frame is wanted
+        )
+        if self._renderer is None or self._renderer.params != self.params:
+            self._close_renderer()
+            self._renderer = Renderer(width=320, height=240, params=self.params)
+        lines = (f"t = {self._k * TS:4.2f} s",
+                 "tau = " + ", ".join(f"{t:+.3f}" for t in self._applied),
+                 "r = " + ", ".join(f"{r:+.1f}" for r in self._rewards.values()))
+        return self._renderer.frame(self._x, lines=lines)
+
+    # ------------------------------------------------------------------ resources
+    def _close_plant(self):
+        if self._plant is not None:
+            self._plant.close()
+            self._plant = None
+
+    def _close_renderer(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def close(self):
+        """Free the renderer's GL context and the MuJoCo plant (its models and data)."""
+        self._close_renderer()
+        self._close_plant()
+        self._x, self.agents = None, []
+
+
+class SequentialArm(pettingzoo.AECEnv):
+    """The decentralized task as an AEC env in the ordering of (18): in every sample
+    link2 acts first, then link1 observes (theta1, dtheta1, theta2, tau2) with the tau2
+    link2 has just commanded (before clipping) and acts, then the arm moves one sample period.
+    For N links the turns run linkN, .., link1, and every inner link I observes its own
+    observation followed by the tau_{I+1} its outer neighbour has just commanded.
+
+    ``arm`` (a :class:`ParallelArm` without ``link1_tau2``) holds the physics, the options,
+    the perturbations and the rewards; this class only orders the turns. Outside link1's
+    turn its observation holds link2's latest torque (0 after reset).
+    """
+
+    def __init__(self, arm: ParallelArm):
+        if not isinstance(arm, ParallelArm) or arm._link1_tau2 != "none":
+            raise ValueError("SequentialArm needs a ParallelArm made without link1_tau2")
+        super().__init__()
+        self.arm = arm
+        # The converter to a parallel env would have link1 choose before link2: not (18).
+        self.metadata = {**arm.metadata, "name": "twolink_decentralized_sequential_v0",
+                         "is_parallelizable": False}
+        self.render_mode = arm.render_mode
+        self._agents = tuple(arm.possible_agents)
+        self.possible_agents = list(reversed(self._agents))  # the turn order: outermost first
+        self.agents: list = []
+        self.observation_spaces = {a: arm.observation_space(a) for a in self._agents}
+        for a in self._agents[:-1]:                          # inner agents: + tau_{i+1}
+            own = arm.observation_space(a).shape[0]
+            self.observation_spaces[a] = spaces.Box(-np.inf, np.inf, (own + 1,), np.float64)
+        self.action_spaces = {a: arm.action_space(a) for a in self._agents}
+        self.state_space = arm.state_space
+
+    def observation_space(self, agent):
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent):
+        return self.action_spaces[agent]
+
+    def reset(self, seed=None, options=None):
+        self._obs, infos = self.arm.reset(seed=seed, options=options)
+        self._tau = np.zeros(len(self._agents))   # the latest torque each agent commanded
+        self._chosen: dict = {}
+        self.agents = list(self.possible_agents)
+        self.rewards = dict.fromkeys(self.agents, 0.0)
+        self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
+        self.terminations = dict.fromkeys(self.agents, False)
+        self.truncations = dict.fromkeys(self.agents, False)
+        self.infos = {a: infos[a] for a in self.agents}
+        self.agent_selection = self.agents[0]
+
+    def observe(self, agent):
+        """The agent's observation (18); link1's ends with link2's latest torque (link I's,
+        I < N, with tau_{I+1})."""
+        i = self._agents.index(agent)
+        if i < len(self._agents) - 1:
+            return np.append(self._obs[agent], self._tau[i + 1])
+        return self._obs[agent].copy()
+
+    def step(self, action):
+        agent = self.agent_selection
+        if self.terminations[agent] or self.truncations[agent]:
+            self._was_dead_step(action)
+            return
+        i = self._agents.index(agent)
+        a = _check_agent_action(agent, action)
+        if agent == self.agents[0]:
+            self._clear_rewards()
+        self._cumulative_rewards[agent] = 0.0
+        self._chosen[agent] = a
+        self._tau[i] = a[0]
+        if agent != self.agents[-1]:
+            self.agent_selection = self.agents[self.agents.index(agent) + 1]
+            return
+        chosen, self._chosen = self._chosen, {}
+        self._obs, self.rewards, self.terminations, self.truncations, self.infos = \
+            self.arm.step(chosen)
+        self._accumulate_rewards()
+        self.agent_selection = self.agents[0]
+
+    def state(self) -> np.ndarray:
+        return self.arm.state()
+
+    def render(self):
+        return self.arm.render()
+
+    def close(self):
+        """Free the renderer and the MuJoCo plant (see :meth:`ParallelArm.close`)."""
+        self.arm.close()
+        self.agents = []
+
+
+def parallel_env(**kwargs) -> ParallelArm:
+    """The decentralized task as a ParallelEnv (options: see :class:`ParallelArm`)."""
+    return ParallelArm(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC form without PettingZoo's order-enforcing wrapper: with
+    ``link1_tau2='current'`` the :class:`SequentialArm` of (18), else the parallel env
+    through PettingZoo's converter."""
+    if kwargs.get("link1_tau2") == "current":
+        return SequentialArm(ParallelArm(**{**kwargs, "link1_tau2": "none"}))
+    return conversions.parallel_to_aec_wrapper(parallel_env(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC form: with ``link1_tau2='current'`` the :class:`SequentialArm` of (18)
+    (link2 first, link1 sees its torque), else the parallel env through PettingZoo's
+    converter (:func:`parallel_to_aec`); both order-enforced."""
+    if kwargs.get("link1_tau2") == "current":
+        return OrderEnforcingWrapper(raw_env(**kwargs))
+    return conversions.parallel_to_aec(parallel_env(**kwargs))
+
+
+def policy_actions(policy, observations) -> dict:
+    """``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.fuzzy_policy.Policy` in the
+    ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
+    agent 1, which reads link1's observation (its (18) components) and that tau2. For N
+    links the same down the chain (agent N first); the arm's N is the number of
+    ``linkI`` observations, and a policy of another N is refused (ValueError)."""
+    from twolink.envs.dm import (
+        policy_action,  # the one implementation of (18) for policies
+    )
+
+    n = sum(1 for key in observations if str(key).startswith("link"))
+    names = agents(n) if 2 <= n else AGENTS
+    missing = [a for a in names if a not in observations]
+    if missing:
+        raise ValueError(f"observations lack agent(s) {', '.join(missing)}")
+    check_policy_links(policy, len(names))
+    keys, wanted = _task_keys(names), observation_names(len(names))
+    seen = {}
+    for a in names:
+        o = np.asarray(observations[a], dtype=float)
+        k = len(wanted[keys[a]])
+        if o.ndim != 1 or len(o) < k:
+            raise ValueError(f"observation of {a} must be a vector of at least {k} numbers, "
+                             f"got shape {o.shape}")
+        seen[keys[a]] = o[:k]
+    tau = policy_action(policy, seen)
+    return {a: np.array([tau[i]], dtype=np.float64) for i, a in enumerate(names)}

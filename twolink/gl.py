@@ -1,0 +1,179 @@
+"""The GL backend of mujoco and dm_control, deferred to the first renderer.
+
+mujoco (and dm_control's renderer module, when installed) pick their GL backend from
+``MUJOCO_GL`` at import; loading it (EGL) fails where libEGL is missing, and a MUJOCO_GL
+value they don't know is an error, so every use of the arm would fail, not only
+rendering. ``import twolink`` calls :func:`install`: whoever imports mujoco next, it
+executes with ``MUJOCO_GL=disable`` and gets stand-ins that bind the backend
+(:func:`use_gl_backend`) at the first ``mujoco.Renderer``, ``mujoco.GLContext`` or
+dm_control render context. The user's MUJOCO_GL is kept for it.
+"""
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import glob
+import importlib
+import os
+import sys
+
+from twolink._imports import around_import
+
+
+class RenderError(RuntimeError):
+    """Headless rendering is impossible on this machine; the message says why in one line."""
+
+
+# --------------------------------------------------------------------------- GL backend
+#: MUJOCO_GL values a renderer can use: mujoco's GLContext module and dm_control's
+#: render-context class for each.
+_BACKENDS = {
+    "egl": ("mujoco.egl", "dm_control._render.pyopengl.egl_renderer", "EGLContext"),
+    "osmesa": ("mujoco.osmesa", "dm_control._render.pyopengl.osmesa_renderer",
+               "OSMesaContext"),
+    "glfw": ("mujoco.glfw", "dm_control._render.glfw_renderer", "GLFWContext"),
+}
+
+
+def gl_backend() -> str:
+    """The GL backend renderers use: ``MUJOCO_GL`` when set, else ``egl``."""
+    return (os.environ.get("MUJOCO_GL") or "egl").strip().lower()
+
+
+def unavailable_error(exc: BaseException | None = None) -> RenderError:
+    """The RenderError of this machine: :func:`diagnose`'s line."""
+    return RenderError(f"headless rendering is unavailable: {diagnose(exc)}")
+
+
+def use_gl_backend():
+    """Bind mujoco's offscreen GL backend (:func:`gl_backend`); return its GLContext class.
+
+    This module imports mujoco with ``MUJOCO_GL=disable`` so that importing never
+    touches a GL library, and leaves a stand-in that calls this at the first
+    ``mujoco.Renderer`` or ``mujoco.GLContext``: this completes what mujoco's
+    ``gl_context`` module would have done at import. Raises :class:`RenderError` with
+    :func:`diagnose`'s line.
+    """
+    import mujoco
+
+    name = gl_backend()
+    if name not in _BACKENDS:
+        raise unavailable_error()
+    try:
+        context = importlib.import_module(_BACKENDS[name][0]).GLContext
+    except Exception as exc:  # a missing library surfaces as several exception types
+        raise unavailable_error(exc) from None
+    sys.modules[mujoco.Renderer.__module__].gl_context.GLContext = context
+    mujoco.GLContext = context
+    return context
+
+
+def dm_control_context(*args, **kwargs):
+    """dm_control's render context on :func:`gl_backend` (what ``physics.render`` makes).
+
+    The first import installs this as ``dm_control._render.Renderer``, so a dm_control
+    environment picks its GL backend at its first render, as :class:`Renderer` does.
+    """
+    from dm_control import _render
+
+    use_gl_backend()
+    name = gl_backend()
+    try:
+        module, cls = _BACKENDS[name][1:]
+        context = getattr(importlib.import_module(module), cls)
+    except Exception as exc:
+        raise unavailable_error(exc) from None
+    _render.Renderer, _render.BACKEND = context, name
+    _render.USING_GPU = name in ("egl", "glfw")
+    try:
+        return context(*args, **kwargs)
+    except Exception as exc:
+        raise unavailable_error(exc) from None
+
+
+# --------------------------------------------------------------------------- diagnosis
+def _loadable(name: str) -> bool:
+    try:
+        ctypes.CDLL(name)
+        return True
+    except OSError:
+        return False
+
+
+def _egl_vendor_files() -> list[str]:
+    listed = os.environ.get("__EGL_VENDOR_LIBRARY_FILENAMES")
+    if listed:
+        return [f for f in listed.split(":") if os.path.isfile(f)]
+    dirs = os.environ.get("__EGL_VENDOR_LIBRARY_DIRS",
+                          "/etc/glvnd/egl_vendor.d:/usr/share/glvnd/egl_vendor.d")
+    return [f for d in dirs.split(":") for f in glob.glob(os.path.join(d, "*.json"))]
+
+
+def diagnose(exc: BaseException | None = None) -> str:
+    """One line naming what stops headless EGL rendering (missing library, setting)."""
+    fix = "run scripts/install-system-deps.sh as root, or apt-get install"
+    backend = os.environ.get("MUJOCO_GL", "")
+    if gl_backend() != "egl":
+        return (f"MUJOCO_GL={backend!r} is set; headless rendering needs MUJOCO_GL=egl "
+                f"(unset it or set it to egl)")
+    if not _loadable("libEGL.so.1"):
+        return f"libEGL.so.1 is missing ({fix} libegl1)"
+    if not _loadable("libOpenGL.so.0") and not _loadable("libGL.so.1"):
+        return f"libOpenGL.so.0 / libGL.so.1 are missing ({fix} libopengl0 libgl1)"
+    vendors = _egl_vendor_files()
+    if not vendors:
+        where = ("__EGL_VENDOR_LIBRARY_FILENAMES="
+                 f"{os.environ['__EGL_VENDOR_LIBRARY_FILENAMES']!r} names no existing file"
+                 if os.environ.get("__EGL_VENDOR_LIBRARY_FILENAMES")
+                 else "no EGL vendor library is registered")
+        return (f"{where}: need Mesa's libEGL_mesa.so.0 ({fix} libegl-mesa0) "
+                f"or the NVIDIA driver")
+    if any("mesa" in os.path.basename(v) for v in vendors) and not glob.glob(
+            "/usr/lib/*/dri/swrast_dri.so") and not _has_nvidia(vendors):
+        return f"Mesa's software driver swrast_dri.so is missing ({fix} libgl1-mesa-dri)"
+    detail = f"{type(exc).__name__}: {exc}" if exc is not None else "unknown cause"
+    detail = " ".join(detail.split())
+    return f"cannot create an EGL context ({detail}); check the EGL driver ({fix} " \
+           f"libegl1 libegl-mesa0 libgl1-mesa-dri)"
+
+
+def _has_nvidia(vendors) -> bool:
+    return any("nvidia" in os.path.basename(v) for v in vendors)
+
+
+@contextlib.contextmanager
+def _gl_disabled():
+    """``MUJOCO_GL=disable`` while a module that reads it at import executes."""
+    saved = os.environ.get("MUJOCO_GL")
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        yield
+    finally:
+        if saved is None:
+            del os.environ["MUJOCO_GL"]
+        else:
+            os.environ["MUJOCO_GL"] = saved
+
+
+def _mujoco_loaded(mujoco) -> None:
+    sys.modules[mujoco.Renderer.__module__].gl_context.GLContext = _gl_context
+    mujoco.GLContext = _gl_context
+
+
+def _dm_control_render_loaded(module) -> None:
+    module.Renderer = dm_control_context
+
+
+def _gl_context(*args, **kwargs):
+    return use_gl_backend()(*args, **kwargs)
+
+
+def install() -> None:
+    """Defer the GL backend of mujoco and of dm_control's renderer, whenever they are first
+    imported: each executes with ``MUJOCO_GL=disable`` and then gets the stand-ins that
+    call :func:`use_gl_backend` at the first render. A mujoco imported before twolink keeps
+    the backend it chose."""
+    if "mujoco" not in sys.modules:
+        around_import("mujoco", _mujoco_loaded, _gl_disabled)
+    if "dm_control._render" not in sys.modules:
+        around_import("dm_control._render", _dm_control_render_loaded, _gl_disabled)

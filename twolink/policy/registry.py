@@ -1,0 +1,97 @@
+"""The registry of shipped policies: one table that the CLI, reports, tests and README read.
+
+Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
+(18), the model the transitions come from, agent 1's context, the sweeps of Alg. 1:
+synchronous as printed for all of them, docs/conventions.md; for the robust ones the worst case over
+K parameter draws, their spread and seed) and whether it is one of the paper's policies or
+one of ours synthesised on the full model (6).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Optional
+
+
+@dataclasses.dataclass(frozen=True)
+class ShippedPolicy:
+    """One committed policy: its name, how it is synthesised and what it stands for."""
+
+    name: str
+    kind: str                       # "centralized" (16) or "decentralized" (18)
+    model: str                      # synthesis model: "simplified" (11) or "full" (6)
+    context: Optional[str]          # agent 1's context, decentralized only
+    paper: bool                     # one of the paper's policies (synthesised on (11))
+    description: str
+    sweeps: str = "synchronous"     # Alg. 1's sweeps (twolink.control.problems.SWEEPS)
+    robust: Optional[str] = None    # robust synthesis: "worst" or "mean" over the draws
+    draws: int = 1                  # K models: the centre and K - 1 joint draws
+    spread: float = 0.0             # each physical parameter uniform in +-spread (relative)
+    seed: int = 0                   # seed of the draws (twolink.control.problems.parameter_draws)
+    links: int = 2                  # links of the arm (twolink.arm.parameters.chain beyond 2)
+    rule: str = "tapered"           # how links beyond the second are made (links > 2 only)
+
+    @property
+    def file(self) -> Path:
+        from twolink.resources import shipped_policy_dir
+        return shipped_policy_dir() / f"{self.name}.npz"
+
+    def synthesis_options(self) -> dict:
+        """Keyword arguments of :func:`twolink.control.synthesis.synthesize` that rebuild it."""
+        opts = {"model": self.model, "sweeps": self.sweeps}
+        if self.context is not None:
+            opts["context"] = self.context
+        if self.robust is not None:
+            opts.update(robust=self.robust, draws=self.draws, spread=self.spread,
+                        seed=self.seed)
+        if self.links > 2:
+            opts.update(links=self.links, rule=self.rule)
+        return opts
+
+
+#: The seed of the shipped robust policies' parameter draws (fixed before any evaluation).
+ROBUST_SEED = 2006
+
+#: Every shipped policy, in report order: the paper's three, the two on (6), the two
+#: robust ones (worst case over K = 8 models within +-20 %, on (6)), then the three-link
+#: agents.
+SHIPPED = {p.name: p for p in (
+    ShippedPolicy("centralized", "centralized", "simplified", None, True,
+                  "the centralized policy (16) on the simplified model (11)"),
+    ShippedPolicy("decentralized", "decentralized", "simplified", "frozen", True,
+                  "the decentralized agents (18) on (11), agent 1 with a frozen context"),
+    ShippedPolicy("decentralized_propagated", "decentralized", "simplified", "propagated", True,
+                  "the decentralized agents (18) on (11), agent 1 with a propagated context"),
+    ShippedPolicy("centralized_full", "centralized", "full", None, False,
+                  "the centralized policy (16) synthesised on the full model (6)"),
+    ShippedPolicy("decentralized_full", "decentralized", "full", "frozen", False,
+                  "the decentralized agents (18) synthesised on (6), frozen context"),
+    ShippedPolicy("centralized_robust", "centralized", "full", None, False,
+                  "the centralized policy (16) on (6), worst case over 8 models within "
+                  "+-20 % (all physical parameters jointly)",
+                  robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
+    ShippedPolicy("decentralized_robust", "decentralized", "full", "frozen", False,
+                  "the decentralized agents (18) on (6), each the worst case over 8 models "
+                  "within +-20 %, frozen context",
+                  robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
+    ShippedPolicy("decentralized_3link", "decentralized", "full", "propagated", False,
+                  "one agent per joint of the three-link tapered arm (twolink.control.links_decentralized) "
+                  "on its full model: the middle agent holds joint 1, propagated context "
+                  "with the neighbour's speed", links=3, rule="tapered"),
+)}
+#: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
+TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
+#: The paper's policies (synthesised on (11)).
+PAPER_POLICIES = tuple(n for n, p in SHIPPED.items() if p.paper)
+#: Which policy synthesised on (6) answers which paper policy.
+COUNTERPART = {"centralized": "centralized_full", "decentralized": "decentralized_full",
+               "decentralized_propagated": "decentralized_full"}
+
+
+def shipped(name: str) -> ShippedPolicy:
+    """The registry entry ``name``, or a ValueError listing the names."""
+    try:
+        return SHIPPED[name]
+    except KeyError:
+        raise ValueError(f"unknown shipped policy {name!r}; shipped policies: "
+                         f"{', '.join(SHIPPED)}") from None

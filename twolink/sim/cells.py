@@ -1,0 +1,345 @@
+"""Robustness sweeps: cells of (policy, perturbation), run in batches, saved resumably.
+
+A :class:`Cell` is one policy under one perturbation of the MuJoCo plant, run from every
+state of an evaluation set. Families:
+
+* ``nominal`` - Table I, no perturbation;
+* ``parameter`` - one Table I parameter of the plant changed by ``size`` (relative);
+* ``joint`` - every perturbable parameter changed at once, each uniformly in
+  [-size, size], for ``draws`` random plants (seeded by the cell);
+* ``noise`` - Gaussian noise on the measured state: angle std ``size`` degrees and speed
+  std ``size`` * (0.1 rad/s / 5 deg), so ``size = 5`` matches the goal band;
+* ``delay`` - the torque reaches the plant ``size`` sample periods late;
+* ``torque_limit`` - the plant's tau1_max and tau2_max both changed by ``size`` (relative).
+
+Cells of one policy are concatenated into a single batch (many states x many plants),
+the policy is evaluated for the whole batch at once and MuJoCo advances it with
+``mujoco.rollout`` on a thread pool (:class:`twolink.sim.plants.MujocoPlant`). A result never
+depends on which cells share its batch: noise and delay are the per-row perturbations
+of :mod:`twolink.sim.perturbations`, each noisy row drawing from its own generator (held
+bit-for-bit by tests against a one-rollout-at-a-time reference loop).
+
+Tasks run in this process, on local worker processes (which die with the run), or on a
+Ray cluster; every finished task is appended to a locked JSON-lines results file
+(:mod:`twolink.sim.cell_store`), so an interrupted sweep resumes without redoing finished
+cells and two runs never share one file.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import hashlib
+import json
+import math
+import multiprocessing
+import os
+import sys
+import threading
+from typing import Callable, Iterable, Optional, Sequence
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
+from twolink.policy.fuzzy_policy import load_policy
+from twolink.sim.cell_store import SweepFile, load_results  # noqa: F401  (re-exported)
+from twolink.sim.metrics import discounted_return, evaluation_set, settle_time, success
+from twolink.sim.perturbations import (
+    NOISE_STREAM,
+    PERTURBABLE,
+    SPEED_PER_DEG,
+    ActuationDelay,
+    ObservationNoise,
+    perturbed,
+    random_perturbation,
+    row_generators,
+    torque_limited,
+)
+from twolink.sim.plants import MujocoPlant
+from twolink.sim.rollout import rollout, steps_for
+
+FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
+EXECUTORS = ("serial", "local", "ray")
+#: Evaluation sets a cell can use: all 65 states of docs/conventions.md, or every 13th (the paper's x0
+#: and 4 grid states) for quick runs.
+STATE_SETS = ("full", "quick")
+#: Rows per batch a task aims for (more rows, fewer Python steps per MuJoCo step).
+_ROWS_PER_TASK = 1100
+
+
+def policy_digest(policy) -> str:
+    """A content hash of a policy's Q-tables: a stored cell is reused only for the same one."""
+    h = hashlib.sha256(policy.kind.encode())
+    for a in policy.agents:
+        h.update(a.name.encode())
+        h.update(np.ascontiguousarray(a.q).tobytes())
+    return h.hexdigest()[:16]
+
+
+def states_of(name: str) -> np.ndarray:
+    """The initial states of an evaluation set named in :data:`STATE_SETS`."""
+    if name == "full":
+        return evaluation_set()
+    if name == "quick":
+        return evaluation_set()[::13]
+    raise ValueError(f"unknown state set {name!r}; choose one of {', '.join(STATE_SETS)}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Cell:
+    """One policy under one perturbation, from every state of ``states``."""
+
+    policy: str
+    family: str
+    size: float = 0.0
+    name: str = ""
+    draws: int = 1
+    seed: int = 0
+    states: str = "full"
+    duration: float = HORIZON
+
+    def __post_init__(self):
+        _check_cell(self)
+
+    @property
+    def key(self) -> str:
+        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+
+    def plants(self) -> list[ArmParameters]:
+        """One parameter set per random draw (a single one for deterministic families)."""
+        if self.family == "parameter":
+            return [perturbed(TABLE_I, **{self.name: self.size})]
+        if self.family == "torque_limit":
+            return [torque_limited(TABLE_I, self.size)]
+        if self.family == "joint":
+            rng = np.random.default_rng([self.seed, int(round(self.size * 1e6))])
+            return [random_perturbation(rng, self.size) for _ in range(self.draws)]
+        return [TABLE_I]
+
+    def rows(self) -> tuple[list[ArmParameters], np.ndarray]:
+        """Per-row plant parameters and initial states (plants outer, states inner)."""
+        x0 = states_of(self.states)
+        plist = self.plants()
+        return [p for p in plist for _ in x0], np.tile(x0, (len(plist), 1))
+
+
+def _check_cell(c: Cell) -> None:
+    if c.family not in FAMILIES:
+        raise ValueError(f"unknown perturbation family {c.family!r}; choose one of "
+                         f"{', '.join(FAMILIES)}")
+    if c.states not in STATE_SETS:
+        raise ValueError(f"unknown state set {c.states!r}; choose one of {', '.join(STATE_SETS)}")
+    if not math.isfinite(c.size):
+        raise ValueError(f"perturbation size must be finite, got {c.size}")
+    if c.family == "parameter" and c.name not in PERTURBABLE:
+        raise ValueError(f"unknown parameter {c.name!r}; perturbable: {', '.join(PERTURBABLE)}")
+    if c.family in ("parameter", "torque_limit", "joint") and not -1.0 < c.size < 1.0:
+        raise ValueError(f"relative change must lie in (-1, 1), got {c.size}")
+    if c.family == "joint" and (c.size < 0 or c.draws < 1):
+        raise ValueError("joint perturbations need size >= 0 and at least one draw")
+    if c.family == "noise" and c.size < 0:
+        raise ValueError(f"noise level must be non-negative, got {c.size}")
+    if c.family == "delay" and (c.size < 0 or c.size != int(c.size)):
+        raise ValueError(f"delay must be a non-negative whole number of samples, got {c.size}")
+    if c.family == "nominal" and c.size != 0:
+        raise ValueError("the nominal family has size 0")
+
+
+# --------------------------------------------------------------------------- running
+def _noise_rows(c: Cell, rows: int) -> tuple[np.ndarray, list]:
+    """Per-row angle noise std [deg] of a cell and its rows' generators (None: no noise)."""
+    level = c.size if c.family == "noise" else 0.0
+    rngs = row_generators([c.seed, NOISE_STREAM], rows) if level > 0 else [None] * rows
+    return np.full(rows, level), rngs
+
+
+def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dict] = None
+              ) -> list[dict]:
+    """Run cells of one policy as one batch on MuJoCo; one result record per cell."""
+    cells = list(cells)
+    if not cells:
+        return []
+    names = {c.policy for c in cells}
+    durations = {c.duration for c in cells}
+    if len(names) != 1 or len(durations) != 1:
+        raise ValueError("a batch holds cells of one policy and one duration")
+    name = names.pop()
+    policy = (policies or {}).get(name) or load_policy(name)
+    plist, x0, counts = [], [], []
+    for c in cells:
+        p, x = c.rows()
+        plist += p
+        x0.append(x)
+        counts.append(len(x))
+    x0 = np.concatenate(x0)
+    delays = np.concatenate([np.full(n, c.size if c.family == "delay" else 0)
+                             for c, n in zip(cells, counts)])
+    parts = [_noise_rows(c, n) for c, n in zip(cells, counts)]
+    level = np.concatenate([lv for lv, _ in parts])
+    noise = ObservationNoise(np.deg2rad(level), level * SPEED_PER_DEG,
+                             rngs=[g for _, rngs in parts for g in rngs],
+                             block=steps_for(cells[0].duration))
+    with MujocoPlant(plist, nthread=nthread) as plant:
+        traj = rollout(ActuationDelay(policy, delays), plant, x0, duration=durations.pop(),
+                       observe=lambda k, x: noise(x))
+    st, ok, ret = settle_time(traj), success(traj), discounted_return(traj)
+    out, start = [], 0
+    for c, n in zip(cells, counts):
+        rows = slice(start, start + n)
+        start += n
+        out.append(cell_record(c, st[rows], ok[rows], ret[rows], policy_digest(policy)))
+    return out
+
+
+def cell_record(c: Cell, st, ok, ret, digest: str) -> dict:
+    """A cell's result: per-row settle times, successes, discounted returns, and their
+    summaries (JSON-ready)."""
+    return {"key": c.key, "cell": dataclasses.asdict(c), "rows": int(len(ok)),
+            "policy_digest": digest,
+            "success_rate": float(np.mean(ok)),
+            "settle_times": [float(v) if math.isfinite(v) else None for v in st],
+            "successes": [bool(v) for v in ok],
+            "returns": [float(v) for v in ret],
+            "mean_return": math.fsum(float(v) for v in ret) / len(ret)}
+
+
+# --------------------------------------------------------------------------- executors
+def _tasks(cells: Sequence[Cell]) -> list[list[Cell]]:
+    """Cells grouped by policy and duration, chunked to about _ROWS_PER_TASK rows."""
+    groups: dict = {}
+    for c in cells:
+        groups.setdefault((c.policy, c.duration), []).append(c)
+    tasks = []
+    for group in groups.values():
+        chunk, rows = [], 0
+        for c in group:
+            n = len(states_of(c.states)) * (c.draws if c.family == "joint" else 1)
+            if chunk and rows + n > _ROWS_PER_TASK:
+                tasks.append(chunk)
+                chunk, rows = [], 0
+            chunk.append(c)
+            rows += n
+        tasks.append(chunk)
+    return tasks
+
+
+def _check_executor(executor: str, workers: int) -> None:
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+
+
+def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
+              store: Optional[SweepFile] = None,
+              executor: str = "local", workers: Optional[int] = None, nthread: int = 1,
+              address: Optional[str] = None, progress: bool = False,
+              digests: Optional[dict] = None,
+              on_task: Optional[Callable[[list], None]] = None) -> dict:
+    """Run every cell not already stored; returns all results by key, in ``cells`` order.
+
+    Results go to an open ``store`` (:class:`twolink.sim.cell_store.SweepFile`), or to the
+    file ``path`` (opened and locked for the run), or nowhere. ``executor``: ``serial``
+    (this process), ``local`` (worker processes) or ``ray`` (the cluster at ``address``,
+    or an already initialised Ray, or a new local one). Stored cells are reused only when
+    their policy's digest matches ``digests`` (by default the digests of the policies as
+    they are now). Every finished task is appended to the file at once.
+    """
+    cells = list(dict.fromkeys(cells))
+    workers = workers or max(1, (os.cpu_count() or 1) // nthread)
+    _check_executor(executor, workers)
+    if store is None and path is not None:
+        with SweepFile(path) as opened:
+            if opened.note:
+                print(f"twolink: {opened.note}", file=sys.stderr)
+            return run_sweep(cells, store=opened, executor=executor, workers=workers,
+                             nthread=nthread, address=address, progress=progress,
+                             digests=digests, on_task=on_task)
+    if digests is None:
+        digests = {n: policy_digest(load_policy(n)) for n in {c.policy for c in cells}}
+    stored = store.records if store is not None else {}
+    results = {k: r for k, r in stored.items()      # policies changed since: redo those
+               if digests.get(r["cell"]["policy"], r.get("policy_digest"))
+               == r.get("policy_digest")}
+    pending = [c for c in cells if c.key not in results]
+    tasks = _tasks(pending)
+    bar = tqdm(total=len(pending), desc="sweep cells", unit=" cells",
+               disable=None if progress else True, leave=False)
+
+    def done(records):
+        if store is not None:
+            store.append(records)
+        for r in records:
+            results[r["key"]] = r
+        bar.update(len(records))
+        if on_task is not None:
+            on_task(records)
+
+    try:
+        if executor == "serial" or not tasks:
+            for t in tasks:
+                done(run_cells(t, nthread=nthread))
+        elif executor == "local":
+            _run_local(tasks, done, nthread=nthread, workers=workers)
+        else:
+            _run_ray(tasks, done, nthread=nthread, address=address, workers=workers)
+    finally:
+        bar.close()
+    return {c.key: results[c.key] for c in cells}
+
+
+def _die_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the run that started it ends, even by
+    SIGKILL (Linux: PR_SET_PDEATHSIG; elsewhere a thread watching the parent)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent:                     # the parent died before we asked
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent:
+            threading.Event().wait(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="twolink-parent-watch").start()
+
+
+def _run_local(tasks, done, *, nthread, workers) -> None:
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx,
+                                initializer=_die_with_parent,
+                                initargs=(os.getpid(),)) as pool:
+        futures = [pool.submit(run_cells, t, nthread=nthread) for t in tasks]
+        try:
+            for f in cf.as_completed(futures):
+                done(f.result())
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def _run_ray(tasks, done, *, nthread, address, workers) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise RuntimeError("the ray executor needs Ray: pip install ray") from None
+    started = False
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=nthread)(run_cells)
+        pending = [remote.remote(t, nthread=nthread) for t in tasks]
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            done(ray.get(ready[0]))
+    finally:
+        if started:
+            ray.shutdown()

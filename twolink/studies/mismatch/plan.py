@@ -1,0 +1,100 @@
+"""What the model-mismatch report measures: named plans, each one row of :data:`PLANS`.
+
+A plan names the sweep's perturbation sizes per family, the evaluation states of every
+sweep cell, the random plants per joint size, the robust section (random plants per
+challenge level, its evaluation set and the seed its plants and noise are drawn from) and
+the throughput batch. ``full`` is the committed report (32 random plants per joint size
+and per challenge level, all 65 states); ``quick`` is the CI form (5 states per cell,
+fewer sizes, 4 plants per joint size and per level: its margins are coarse). The N-link
+section (``twolink mismatch --links N``) takes from the plan only its number of random
+poses, drawn from :data:`CHAIN_SEED`.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Iterable, Mapping
+
+from twolink.policy.registry import TWO_LINK
+from twolink.sim.cells import Cell, states_of
+from twolink.sim.perturbations import PERTURBABLE
+
+#: Perturbation families of the robustness sweep, in report order.
+FAMILIES = ("parameter", "joint", "noise", "delay", "torque_limit")
+#: What a family's size measures.
+UNITS = {"parameter": "relative change", "joint": "relative change (each parameter)",
+         "noise": "angle noise std [deg]", "delay": "samples", "torque_limit": "relative change"}
+#: Seed of the robust section's plants and noise. Chosen once for the report and used for
+#: nothing else: no policy, compensator or challenge level was tuned on it.
+ROBUST_SEED = 9_061_127
+#: Seed of the N-link section's random poses (:func:`twolink.sim.metrics.random_poses`). Chosen
+#: once for the report and used for nothing else: no construction was tuned on it.
+CHAIN_SEED = 7_311_011
+#: Curves of the robustness analysis, in report order: one per parameter, then the rest.
+CURVES = tuple(f"parameter:{n}" for n in PERTURBABLE) + FAMILIES[1:]
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """One way to run the report: sweep sizes, states per cell, throughput batch."""
+
+    name: str
+    folder: str                        # default output folder under twolink.resources.output_dir
+    states: str                        # a twolink.sim.cells.STATE_SETS name
+    sizes: Mapping[str, tuple]         # perturbation sizes per family of FAMILIES
+    joint_draws: int                   # random plants per joint size
+    robust_plants: int                 # random plants per challenge level (robust section)
+    robust_states: str                 # its evaluation set (a STATE_SETS name)
+    robust_seed: int                   # its plants' and noise seed: never tuned on
+    throughput_rows: int               # closed-loop rollouts timed against open-loop MuJoCo
+    throughput_samples: int
+    throughput_repeats: int
+    throughput_policy: str = "centralized_full"
+    chain_poses: int = 64              # random poses at rest of the N-link section
+
+    def cells(self, policies: Iterable[str]) -> list[Cell]:
+        """Every sweep cell, the nominal one first, per policy in the order given."""
+        cells = []
+        for pol in policies:
+            cells.append(Cell(pol, "nominal", states=self.states))
+            for name in PERTURBABLE:
+                cells += [Cell(pol, "parameter", s, name, states=self.states)
+                          for s in self.sizes["parameter"]]
+            cells += [Cell(pol, "joint", s, draws=self.joint_draws, states=self.states)
+                      for s in self.sizes["joint"]]
+            for fam in FAMILIES[2:]:
+                cells += [Cell(pol, fam, s, states=self.states) for s in self.sizes[fam]]
+        return cells
+
+    def sweep_states(self) -> int:
+        return len(states_of(self.states))
+
+
+PLANS = {p.name: p for p in (
+    Plan("full", "mismatch", "full",
+         {"parameter": (-0.5, -0.2, -0.1, 0.1, 0.2, 0.5), "joint": (0.1, 0.2, 0.3, 0.5),
+          "noise": (0.25, 0.5, 1.0, 2.0, 5.0), "delay": (1.0, 2.0),
+          "torque_limit": (-0.5, -0.3, -0.2, -0.1, 0.2)},
+         joint_draws=32, robust_plants=32, robust_states="full", robust_seed=ROBUST_SEED,
+         throughput_rows=520, throughput_samples=100, throughput_repeats=3),
+    Plan("quick", "mismatch-quick", "quick",
+         {"parameter": (-0.5, 0.5), "joint": (0.2,), "noise": (2.0,), "delay": (1.0,),
+          "torque_limit": (-0.5,)},
+         joint_draws=4, robust_plants=4, robust_states="quick", robust_seed=ROBUST_SEED,
+         throughput_rows=130, throughput_samples=20, throughput_repeats=2, chain_poses=8),
+)}
+
+
+def plan(name: str) -> Plan:
+    """The plan ``name``, or a ValueError listing the plans."""
+    try:
+        return PLANS[name]
+    except KeyError:
+        raise ValueError(f"unknown plan {name!r}; choose one of {', '.join(PLANS)}") from None
+
+
+def report_order(policies: Iterable[str]) -> tuple[str, ...]:
+    """Policies without repeats, shipped two-link ones in registry order, then any others
+    as given."""
+    names = list(dict.fromkeys(policies))
+    rank = {n: i for i, n in enumerate(TWO_LINK)}
+    return tuple(sorted(names, key=lambda n: (rank.get(n, len(rank)), names.index(n))))

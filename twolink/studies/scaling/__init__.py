@@ -1,0 +1,2 @@
+"""The N-link scaling study: decentralized and centralized synthesis as links are added.
+"""

@@ -1,0 +1,385 @@
+"""Table II extended to N = 2..6 links: what each scheme costs and how well it controls.
+
+For every arm of N links (:func:`twolink.arm.parameters.chain`, each link rule) and both
+schemes, the centralized policy (16) and one decentralized agent per joint (18):
+
+* the sizes: Q-values and non-zeros of T (Alg. 1's transition table (12)-(13));
+* the synthesis: wall and CPU seconds, sweeps per agent and the peak memory, measured
+  per synthesis (:mod:`twolink.studies.scaling.synthesis`);
+* the control: success (settled one second before the end, SPEC.md) and median settle
+  time on MuJoCo over :func:`twolink.sim.metrics.random_poses` at rest, drawn from
+  :data:`EVAL_SEED` + N, at the horizon of :func:`horizon` (and at the paper's 5 s
+  beside it for N >= 3).
+
+The centralized problem is estimated for every N before any work
+(:func:`twolink.control.links_centralized.estimate`) and synthesised only where its estimated peak
+fits under the memory cap; otherwise its row is a refusal carrying the estimate. For
+N = 2 the rows are the registry's ``centralized_full`` and ``decentralized_full``
+(synthesised on the full model (6)); the paper's own Table II figures for (11) are in
+``twolink reproduce``.
+
+Measurement only: :func:`scaling` returns a :class:`Scaling`, whose :meth:`Scaling.report`
+is the JSON that :mod:`twolink.studies.scaling.report` presents.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from typing import Optional
+
+import numpy as np
+from tqdm import tqdm
+
+from twolink.arm.parameters import (
+    CHAIN_HORIZON,
+    HORIZON,
+    LINK_RULES,
+    MAX_LINKS,
+    MIN_LINKS,
+    TABLE_I,
+    TS,
+    as_chain,
+    chain,
+    check_links,
+    horizon,
+)
+from twolink.artifacts import provenance
+from twolink.sim.metrics import random_poses, settle_time, success, wilson_interval
+from twolink.sim.plants import make_plant
+from twolink.sim.rollout import Trajectory, rollout
+from twolink.studies.scaling.synthesis import (
+    ProcessDied,
+    Synthesis,
+    cell_policy,
+    check_peak_method,
+    in_fresh_process,
+    synthesize_measured,
+)
+
+#: Seed of the evaluation poses (N links draw from EVAL_SEED + N). Fixed before any
+#: measurement; nothing is tuned on it.
+EVAL_SEED = 20061122
+#: The two schemes of the paper, in table order.
+SCHEMES = ("centralized", "decentralized")
+#: Horizon for N >= 3 links (:data:`twolink.arm.parameters.CHAIN_HORIZON`).
+LONG_HORIZON = CHAIN_HORIZON
+#: Random poses per arm by default (about +-5 points of 95 % interval at 95 % success).
+DEFAULT_POSES = 64
+#: Poses and the largest N of ``quick=True``.
+QUICK_POSES = 16
+QUICK_MAX_LINKS = 4
+#: Most poses a run accepts (the rollouts of one arm stay well under a second per pose).
+MAX_POSES = 4096
+#: Row statuses: synthesised and evaluated, refused over the cap, skipped by quick, failed.
+STATUSES = ("run", "refused", "not run (quick)", "failed")
+
+_GIB = 2.0**30
+_MAX_SEED = 2**63 - MAX_LINKS
+
+
+def horizons(links: int) -> tuple:
+    """Every horizon reported for N links: (5 s,) for N = 2, (5 s, 8 s) for N >= 3."""
+    long = horizon(links)
+    return (HORIZON,) if long == HORIZON else (HORIZON, long)
+
+
+def machine_bytes() -> int:
+    """Physical memory of this machine."""
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def default_max_bytes() -> int:
+    """The centralized memory cap by default: :data:`twolink.control.links_centralized.MAX_BYTES`."""
+    from twolink.control.links_centralized import MAX_BYTES
+    return int(MAX_BYTES)
+
+
+# -- input checks ---------------------------------------------------------------------
+
+def check_rules(rules) -> tuple:
+    """The link rules, deduplicated in order; a ValueError naming the known ones."""
+    rules = tuple(dict.fromkeys(rules))
+    if not rules:
+        raise ValueError(f"give at least one link rule ({', '.join(LINK_RULES)})")
+    for r in rules:
+        if r not in LINK_RULES:
+            raise ValueError(f"unknown link rule {r!r}; choose from {', '.join(LINK_RULES)}")
+    return rules
+
+
+def check_link_list(links) -> tuple:
+    """The arm sizes, each checked by :func:`twolink.arm.parameters.check_links`, sorted."""
+    links = tuple(sorted({check_links(n) for n in links}))
+    if not links:
+        raise ValueError(f"give at least one number of links ({MIN_LINKS} to {MAX_LINKS})")
+    return links
+
+
+def check_poses(poses) -> int:
+    """A whole number of evaluation poses, 1 to :data:`MAX_POSES`."""
+    if isinstance(poses, bool) or int(poses) != poses or not 1 <= poses <= MAX_POSES:
+        raise ValueError(f"poses must be a whole number from 1 to {MAX_POSES}, got {poses}")
+    return int(poses)
+
+
+def check_max_bytes(max_bytes) -> int:
+    """A memory cap in bytes: positive and at most this machine's physical memory."""
+    total = machine_bytes()
+    if not (isinstance(max_bytes, (int, float)) and math.isfinite(max_bytes)
+            and 0 < max_bytes <= total):
+        shown = f"{max_bytes / _GIB:g} GiB" if isinstance(max_bytes, (int, float)) \
+            else repr(max_bytes)
+        raise ValueError(f"the memory cap must be more than 0 and at most this machine's "
+                         f"{total / _GIB:.1f} GiB, got {shown}")
+    return int(max_bytes)
+
+
+def check_seed(seed) -> int:
+    """An evaluation seed: a whole number from 0 (N links draw from seed + N)."""
+    if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < _MAX_SEED:
+        raise ValueError(f"seed must be a whole number from 0 to {_MAX_SEED - 1}, got {seed}")
+    return int(seed)
+
+
+# -- what is measured -----------------------------------------------------------------
+
+@dataclasses.dataclass
+class Evaluation:
+    """Closed-loop success on MuJoCo from ``poses`` random poses at rest (seed ``seed``):
+    per horizon (seconds, as a string key) the successes, the 95 % Wilson interval and the
+    median settle time over all poses (None when more than half never settle)."""
+
+    poses: int
+    seed: int
+    horizons: dict
+
+
+@dataclasses.dataclass
+class Row:
+    """One (N, link rule, scheme) cell of the table. ``estimate`` is the centralized
+    problem's size and memory estimate (centralized rows); ``note`` says why a row was not
+    run (the refusal with its estimate) or how it failed."""
+
+    links: int
+    rule: str
+    scheme: str
+    status: str
+    estimate: Optional[dict] = None
+    synthesis: Optional[Synthesis] = None
+    evaluation: Optional[Evaluation] = None
+    note: str = ""
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass
+class Scaling:
+    """Every row measured, in table order, with the options they were measured under."""
+
+    rows: list
+    options: dict
+
+    def report(self) -> dict:
+        """JSON-ready: the options, the horizons, every row and the provenance."""
+        return {"options": self.options,
+                "horizons": {str(n): list(horizons(n)) for n in self.options["links"]},
+                "eval_seed": EVAL_SEED,
+                "rows": [r.as_dict() for r in self.rows],
+                "provenance": provenance()}
+
+
+def estimate(links: int) -> dict:
+    """The centralized problem of N links before any work (Q-values, non-zeros of T,
+    bytes): :func:`twolink.control.links_centralized.estimate` as a dict."""
+    from twolink.control.links_centralized import estimate as _estimate
+    e = _estimate(check_links(links))
+    return {k: (int(v) if isinstance(v, (int, np.integer)) else v)
+            for k, v in dataclasses.asdict(e).items()}
+
+
+def decentralized_estimate(links: int, rule: str) -> dict:
+    """The decentralized agents' largest transition memory, known before any work
+    (:func:`twolink.control.links_decentralized.transition_bytes` of the default construction)."""
+    from twolink.control.links_decentralized import construction, transition_bytes
+    p = as_chain(params_of(links, rule))
+    return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule)))}
+
+
+def refusal(est: dict, max_bytes: int) -> Optional[str]:
+    """The refusal line when the estimated peak exceeds ``max_bytes``, else None."""
+    need = est["peak_bytes"]
+    if need <= max_bytes:
+        return None
+    return f"refused: needs {_gib(need)} GiB > cap {_gib(max_bytes)} GiB"
+
+
+def _gib(b: int) -> str:
+    g = b / _GIB
+    return f"{g:.1f}" if g < 1000 else f"{g:.2g}"
+
+
+def params_of(links: int, rule: str):
+    """The arm: Table I itself for two links (as the shipped policies use it), else
+    :func:`twolink.arm.parameters.chain`."""
+    return TABLE_I if check_links(links) == 2 else chain(links, rule)
+
+
+def truncated(traj: Trajectory, duration: float) -> Trajectory:
+    """The first ``duration`` seconds of ``traj`` (the plant and policy are causal and
+    deterministic, so this is the shorter rollout)."""
+    k = int(round(duration / TS))
+    if not 1 <= k <= traj.steps:
+        raise ValueError(f"cannot cut a {traj.t[-1]:g} s trajectory at {duration:g} s")
+    return dataclasses.replace(traj, t=traj.t[:k + 1], x=traj.x[..., :k + 1, :],
+                               u=traj.u[..., :k, :], r=traj.r[..., :k],
+                               r_links=traj.r_links[..., :k, :])
+
+
+def evaluate(policy, links: int, rule: str, *, poses: int = DEFAULT_POSES,
+             seed: int = EVAL_SEED) -> Evaluation:
+    """Run ``policy`` on MuJoCo from ``poses`` random poses at rest
+    (:func:`random_poses` with ``seed + links``) for :func:`horizon` seconds and score every
+    horizon of :func:`horizons` on that run."""
+    poses = check_poses(poses)
+    x0 = random_poses(links, poses, seed + links)
+    with make_plant("mujoco", params_of(links, rule)) as plant:
+        traj = rollout(policy, plant, x0, duration=horizon(links))
+    out = {}
+    for h in horizons(links):
+        part = truncated(traj, h)
+        ok = success(part)
+        settle = np.median(settle_time(part))
+        k = int(ok.sum())
+        out[f"{h:g}"] = {"successes": k, "n": poses, "rate": k / poses,
+                         "wilson_95": list(wilson_interval(k, poses)),
+                         "median_settle": float(settle) if np.isfinite(settle) else None}
+    return Evaluation(poses, seed + links, out)
+
+
+def _cell(links: int, rule: str, scheme: str, poses: int, seed: int, max_bytes: int,
+          peak: str, warm_up: bool) -> tuple:
+    """Synthesis and evaluation of one cell (run in a fresh process by :func:`measure`)."""
+    if warm_up:          # load the compiled kernels before the measured synthesis
+        cell_policy(2, rule, "decentralized", max_bytes)
+    policy, synth = synthesize_measured(links, rule, scheme, max_bytes=max_bytes, peak=peak)
+    return synth, evaluate(policy, links, rule, poses=poses, seed=seed)
+
+
+def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
+            seed: int = EVAL_SEED, max_bytes: Optional[int] = None,
+            peak: str = "process", quick: bool = False) -> Row:
+    """One row: the estimate (centralized), then synthesis and evaluation unless refused
+    (estimated peak over ``max_bytes``) or skipped (``quick`` and centralized N >= 3).
+    ``peak="process"`` runs the synthesis in a fresh process
+    (:data:`~twolink.studies.scaling.synthesis.PEAK_METHODS`)."""
+    links = check_links(links)
+    check_rules([rule])
+    if scheme not in SCHEMES:
+        raise ValueError(f"unknown scheme {scheme!r}; choose from {', '.join(SCHEMES)}")
+    max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
+    check_peak_method(peak)
+    row = Row(links, rule if links > 2 else "Table I", scheme, "run")
+    if scheme == "decentralized":
+        row.estimate = decentralized_estimate(links, rule)
+    else:
+        row.estimate = estimate(links)
+        refused = refusal(row.estimate, max_bytes)
+        if refused:
+            row.status, row.note = "refused", refused
+            return row
+        if quick and links > 2:
+            row.status = "not run (quick)"
+            row.note = (f"not run (quick): estimated {row.estimate['peak_bytes'] / _GIB:.1f} "
+                        f"GiB fits the {max_bytes / _GIB:.1f} GiB cap")
+            return row
+    args = (links, rule, scheme, poses, seed, max_bytes, peak, peak == "process")
+    try:
+        cell = in_fresh_process(_cell, args) if peak == "process" else _cell(*args)
+        row.synthesis, row.evaluation = cell
+    except (ProcessDied, MemoryError) as exc:
+        row.status = "failed"
+        row.note = f"failed: {type(exc).__name__.lstrip('_')}: {exc}"
+    return row
+
+
+def plan(links=tuple(range(MIN_LINKS, MAX_LINKS + 1)), rules=LINK_RULES, *,
+         quick: bool = False) -> list:
+    """The cells (links, rule, scheme) in table order. Two links are Table I whatever the
+    rule, so they are measured once."""
+    links, rules = check_link_list(links), check_rules(rules)
+    if quick and links[-1] > QUICK_MAX_LINKS:
+        raise ValueError(f"quick runs go up to {QUICK_MAX_LINKS} links, got "
+                         f"{links[-1]}; drop the quick option for more")
+    cells = [(2, rules[0], s) for s in SCHEMES] if 2 in links else []
+    return cells + [(n, r, s) for r in rules for n in links if n > 2 for s in SCHEMES]
+
+
+def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
+            poses: Optional[int] = None, seed: int = EVAL_SEED,
+            max_bytes: Optional[int] = None, peak: str = "process",
+            progress: bool = False) -> Scaling:
+    """Measure every cell of :func:`plan`: N = 2..6 (2..4 when ``quick``), ``rules``,
+    both schemes; ``poses`` evaluation poses per arm (default 64, 16 when ``quick``)."""
+    if links is None:
+        links = range(MIN_LINKS, (QUICK_MAX_LINKS if quick else MAX_LINKS) + 1)
+    cells = plan(links, rules, quick=quick)
+    poses = check_poses((QUICK_POSES if quick else DEFAULT_POSES) if poses is None else poses)
+    seed = check_seed(seed)
+    max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
+    check_peak_method(peak)
+    load_before = os.getloadavg()
+    rows = []
+    with tqdm(cells, desc="scaling", unit=" rows", disable=None if progress else True) as bar:
+        for n, rule, scheme in bar:
+            bar.set_postfix_str(f"N={n} {rule} {scheme}")
+            rows.append(measure(n, rule, scheme, poses=poses, seed=int(seed),
+                                max_bytes=max_bytes, peak=peak, quick=quick))
+    options = {"links": sorted({c[0] for c in cells}), "rules": list(check_rules(rules)),
+               "quick": quick, "poses": poses, "seed": int(seed), "max_bytes": max_bytes,
+               "machine_bytes": machine_bytes(), "peak_method": peak,
+               "horizon_short": HORIZON, "horizon_long": LONG_HORIZON,
+               "load_average": {"before": list(load_before), "after": list(os.getloadavg())}}
+    return Scaling(rows, options)
+
+
+#: The targets of issue 11 that the table measures: (what, rule, links, scheme, check).
+#: ``check`` is ("success", horizon s, least rate) or ("synthesis", most seconds, most
+#: bytes).
+TARGETS = (
+    ("decentralized N = 6 synthesis <= 60 s and <= 2 GiB (tapered)", "tapered", 6,
+     ("synthesis", 60.0, 2 * 2**30)),
+    ("decentralized N = 6 synthesis <= 60 s and <= 2 GiB (copied)", "copied", 6,
+     ("synthesis", 60.0, 2 * 2**30)),
+    ("tapered N = 3 >= 95 % at 8 s", "tapered", 3, ("success", LONG_HORIZON, 0.95)),
+    ("tapered N = 3 >= 90 % at 5 s", "tapered", 3, ("success", HORIZON, 0.90)),
+    ("tapered N = 4 >= 95 % at 8 s", "tapered", 4, ("success", LONG_HORIZON, 0.95)),
+    ("copied N = 3 >= 95 % at 8 s", "copied", 3, ("success", LONG_HORIZON, 0.95)),
+)
+
+
+def targets(report: dict) -> list:
+    """Each target of :data:`TARGETS` whose decentralized row the report holds: the
+    target, the measured value (a line, or the successes and poses at the horizon) and
+    whether it is met (on the point estimate,
+    from the evaluation seed nobody tuned on)."""
+    rows = {(r["rule"], r["links"]): r for r in report["rows"]
+            if r["scheme"] == "decentralized" and r["status"] == "run"}
+    out = []
+    for what, rule, links, check in TARGETS:
+        row = rows.get((rule, links))
+        if row is None:
+            continue
+        if check[0] == "synthesis":
+            s = row["synthesis"]
+            met = s["wall_seconds"] <= check[1] and s["peak_bytes"] <= check[2]
+            value = (f"{s['wall_seconds']:.1f} s wall ({s['cpu_seconds']:.1f} s CPU), peak "
+                     f"{s['peak_bytes'] / 2**20:.0f} MiB ({s['peak_method']})")
+        else:
+            h = row["evaluation"]["horizons"][f"{check[1]:g}"]
+            met = h["rate"] >= check[2]
+            value = {"successes": h["successes"], "n": h["n"], "horizon": check[1]}
+        out.append({"target": what, "rule": rule, "links": links, "met": bool(met),
+                    "value": value})
+    return out

@@ -1,0 +1,2 @@
+"""Presentation: headless rendering, videos, plots and number formatting.
+"""
