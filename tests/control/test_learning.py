@@ -14,6 +14,7 @@ from twolink.control.learning import (
 )
 from twolink.control.learning_setup import (
     LEARNERS,
+    LEGACY,
     MAX_ARMS,
     MAX_EVALUATIONS,
     LearnConfig,
@@ -94,8 +95,10 @@ def test_learner_converges_to_fuzzy_q_iteration_on_the_simplified_plant():
 
 
 def _short(**kw) -> LearnConfig:
+    """A short run of the plain learner: no theta average, no hysteresis, warm starts at
+    the given Q (LEGACY), unless ``kw`` asks for them."""
     base = dict(learner="decentralized", steps=8 * 12, arms=8, seed=5, eval_every=8 * 4,
-                episode=7)
+                episode=7, **LEGACY)
     base.update(kw)
     return LearnConfig(**base)
 
@@ -343,3 +346,19 @@ def test_the_largest_checkpoint_fits_a_policy_file(tmp_path):
         back = Learner.resume(Policy.load(tmp_path / "big.npz"), plant=plant)
         assert np.array_equal(back.x, learner.x) and len(back.curve) == MAX_EVALUATIONS
         assert all(np.array_equal(a.theta, b.theta) for a, b in zip(back.agents, learner.agents))
+
+
+def test_the_api_defaults_are_the_recommended_learner():
+    """LearnConfig() is what `twolink learn` runs: theta averaged over 200 k steps (none
+    for the centralized learner), hysteresis 0.1, warm starts at half the given Q; a
+    checkpoint without those settings resumes as it ran (LEGACY)."""
+    from twolink.commands import learn as learn_command
+
+    cfg = LearnConfig()
+    assert (cfg.average, cfg.hysteresis, cfg.init_scale) == (200_000.0, 0.1, 0.5)
+    assert LearnConfig(learner="centralized").average == 0.0
+    assert (learn_command.AVERAGE, learn_command.HYSTERESIS, learn_command.INIT_SCALE) == \
+        (cfg.average, cfg.hysteresis, cfg.init_scale)
+    old = {k: v for k, v in cfg.as_dict().items() if k not in LEGACY}
+    assert LearnConfig.from_dict(old).average == 0.0
+    assert LearnConfig.from_dict(old).hysteresis == 0.0
