@@ -108,10 +108,10 @@ if ! "$bin/python" -c 'import dm_control' 2>/dev/null; then
   "$bin/python" -m pip install -q --no-deps "$pin"
   took
 fi
-step "twolink.env: load, step, render"; t0=$SECONDS
+step "twolink.envs.dm: load, step, render"; t0=$SECONDS
 "$bin/python" - <<'EOF'
-import twolink.env
-env = twolink.env.load("centralized")
+import twolink.envs.dm
+env = twolink.envs.dm.load("centralized")
 env.reset()
 env.step([0.0, 0.0])
 assert env.physics.render(height=48, width=64, camera_id="top").std() > 10
@@ -122,8 +122,8 @@ step "Gymnasium and PettingZoo: make, step, render, checker"; t0=$SECONDS
 "$bin/python" - <<'EOF'
 import gymnasium
 from gymnasium.utils.env_checker import check_env
-import twolink.gym_env
-from twolink import pettingzoo as twolink_pz
+import twolink.envs.gym
+from twolink.envs import pettingzoo as twolink_pz
 env = gymnasium.make("twolink/TwoLink-v0", render_mode="rgb_array")
 check_env(env.unwrapped, skip_render_check=True)
 env.reset(seed=0)
