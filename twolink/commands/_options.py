@@ -26,11 +26,11 @@ from twolink.sim.plants import MAX_ANGLE, SPEED_BOUND, check_states
 from twolink.sim.rollout import steps_for
 
 X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
-            "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
-            "'random' (angles uniform in [-pi, pi), at rest, drawn with --seed); "
-            f"|angles| <= {MAX_ANGLE:g} rad, |speeds| <= {SPEED_BOUND:g} x the speed limit; "
-            "default: the paper's -1 -3 0 0. With --links N: 2N numbers (theta1..thetaN "
-            "dtheta1..dthetaN), default random")
+           "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
+           "'random' (angles uniform in [-pi, pi), at rest, drawn with --seed); "
+           f"|angles| <= {MAX_ANGLE:g} rad, |speeds| <= {SPEED_BOUND:g} x the speed limit; "
+           "default: the paper's -1 -3 0 0. With --links N: 2N numbers (theta1..thetaN "
+           "dtheta1..dthetaN), default random")
 #: The simplified model (11) and the challenges exist for the paper's two-link arm only.
 TWO_LINK_PLANTS = ("simplified",)
 

@@ -42,7 +42,7 @@ step (an exploring arm draws its action, or every active bin's action, at random
 ``fql`` draw per active bin), epsilon_t
 decaying linearly from ``epsilon`` to ``epsilon_final`` over the run.
 
-Against a noisy theta (issue 12): two read-outs and a warm-start scale, none of which
+Against a noisy theta: two read-outs and a warm-start scale, none of which
 changes the learning update itself. With a constant alpha the entries near
 the goal, which most arms visit, move by min(1, alpha W) ~ 1 in every batched step, so
 theta (and the one greedy action in a near-goal bin that decides every evaluation state)
@@ -58,9 +58,10 @@ makes the policy's greedy action of each bin sticky: after every update it chang
 when another action's value (theta_bar, or theta without an average) beats the kept one
 by more than m, so near-ties (measured: agent 1's bins flipping on differences of 0.02)
 stop flipping the policy; the saved Q is the read theta with the kept action raised just
-above its row's best where it trails by at most m. ``twolink learn`` uses average 200 k,
-hysteresis 0.1 and a warm-start scale of 0.5 by default; this class keeps 0, 0 and 1 (the
-first release's learner), so that older checkpoints resume as they ran.
+above its row's best where it trails by at most m. :class:`LearnConfig`'s defaults, which
+``twolink learn`` takes, are average 200 k (none for the centralized learner), hysteresis
+0.1 and a warm-start scale of 0.5; a checkpoint written without these settings resumes
+with none of them (:data:`twolink.control.learning_setup.LEGACY`).
 
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
 at rest), staggered so that resets spread over time. Every random draw comes from one

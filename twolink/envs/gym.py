@@ -16,7 +16,7 @@ bit for bit.
 default), each arm with its own generator, so it equals as many single environments bit
 for bit. Both share :class:`twolink.envs.gym_arms.Arms`, the batched episode logic.
 
-Arms of N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``; issue 11):
+Arms of N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``):
 observation [theta1 .. thetaN, dtheta1 .. dthetaN] or [cos theta1, sin theta1, ..,
 cos thetaN, sin thetaN, dtheta1 .. dthetaN], action [tau1 .. tauN] (a Box) or the index
 of one of the 3^N joint actions, reward (15) over all links; episodes last 8 s

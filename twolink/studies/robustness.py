@@ -10,7 +10,7 @@ deterministic, so it is run on one plant (repeating it would only inflate the co
 
 Returns data: a JSON-ready dict (success k/n with its 95 % Wilson interval, worst plant,
 worst-case and mean return, settle-time quantiles), the settle times for the figures,
-and :func:`targets`, the issue's acceptance checks, each with its measured number.
+and :func:`targets`, the acceptance checks of the robust policies, each with its measured number.
 
 For the commands ``rollout`` and ``render``: :func:`level` (the challenge a command line
 asks for) and :func:`challenged_rollouts` (single trajectories through the same closed
@@ -40,9 +40,9 @@ def modes_for(name: str) -> tuple[str, ...]:
     on the nominal MuJoCo arm already) only as they are; every other policy both ways."""
     entry = SHIPPED.get(name)
     return ("plain",) if entry is not None and entry.paper else MODES
-#: The level the issue's targets name ("medium": the combined challenge).
+#: The level the robustness targets name ("medium": the combined challenge).
 TARGET_LEVEL = "medium"
-#: The issue's targets: (policy, level, mode, measure, comparison, threshold, wording).
+#: Robustness targets: (policy, level, mode, measure, comparison, threshold, wording).
 TARGETS = (
     ("centralized_robust", "none", "compensated", "rate", ">=", 1.0,
      "centralized_robust, nominal plant: 100 % success"),
@@ -123,7 +123,7 @@ def study(policies: Iterable[str], *, plants: int, states: str, seed: int,
 
 
 def targets(section: dict) -> list[dict]:
-    """The issue's targets that ``section`` measured: each with its number and met/missed."""
+    """The targets that ``section`` measured: each with its number and met/missed."""
     rows = []
     for pol, level, mode, measure, cmp, threshold, text in TARGETS:
         res = section["results"].get(pol, {}).get(level, {}).get(mode)

@@ -119,7 +119,7 @@ def robust_tables(section: dict) -> str:
     checks = _table(("target", "measured", "success k/n [95 % Wilson]", "plants", "verdict"),
                     rows) if rows else "No target policy was measured."
     return "\n".join(["Challenge levels (twolink.sim.challenges.LEVELS):", "", levels, "",
-                      results, "", "Targets of the issue, measured here:", "", checks])
+                      results, "", "Targets, measured here:", "", checks])
 
 
 def markdown(report: dict, figures: dict, command: str) -> str:

@@ -344,7 +344,7 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
     return Scaling(rows, options)
 
 
-#: The targets of issue 11 that the table measures: (what, rule, links, scheme, check).
+#: The targets the table measures: (what, rule, links, scheme, check).
 #: ``check`` is ("success", horizon s, least rate) or ("synthesis", most seconds, most
 #: bytes).
 TARGETS = (
