@@ -45,7 +45,7 @@ def add_parser(sub):
     p.add_argument("--spread", type=_number(float, "must be a number"), default=0.2,
                    help="the hidden plant's physical parameters each change by a relative "
                         f"amount uniform in +-SPREAD (default 0.2; at most "
-                        f"{excitation.MAX_SPREAD:g})")
+                        f"{excitation.MAX_HIDDEN_SPREAD:g})")
     p.add_argument("--duration", type=_number(float, "must be a number of seconds"),
                    default=10.0, help=f"seconds of data (default 10; "
                                       f"{excitation.MIN_DURATION:g} to "

@@ -31,7 +31,6 @@ from twolink.control.problems import (
     CONTEXTS,
     IDENTIFIED_MODELS,
     KINDS,
-    MAX_SPREAD,
     SWEEPS,
     SYNTHESIS_MODELS,
     check_robust,
@@ -45,6 +44,7 @@ from twolink.policy.fuzzy_policy import (
 )
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
+from twolink.sim.perturbations import MAX_SPREAD
 
 #: Defaults of a robust synthesis (those of the shipped robust policies).
 DEFAULT_DRAWS = 8

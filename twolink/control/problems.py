@@ -51,15 +51,15 @@ from twolink.fqi.iteration import (
 )
 from twolink.fqi.tables import robust_table, transition_table
 from twolink.policy.fuzzy_policy import Agent
-from twolink.sim.perturbations import PHYSICAL, random_perturbation
+from twolink.sim.perturbations import MAX_SPREAD, PHYSICAL, random_perturbation
 
 SYNTHESIS_MODELS = ("simplified", "full")
 #: Models that take their parameters from a file (twolink.arm.parameter_file): the full
 #: model (6) with identified parameters, recorded as model "identified".
 IDENTIFIED_MODELS = {"identified": "full"}
-#: Robust synthesis: the largest relative spread of a draw, and the memory the K models'
-#: transitions may take (estimated by :func:`robust_bytes` before any work).
-MAX_SPREAD = 0.9
+#: Robust synthesis: the memory the K models' transitions may take (estimated by
+#: :func:`robust_bytes` before any work); a draw's spread is below
+#: :data:`twolink.sim.perturbations.MAX_SPREAD`.
 MAX_ROBUST_BYTES = 2 * 2**30
 #: How Alg. 1 sweeps (:func:`twolink.fqi.iteration.fuzzy_q_iteration`): ``synchronous`` as printed
 #: (Q_{l+1} from Q_l), or ``serial`` (each Q(m, j) overwritten at once, bins outer and

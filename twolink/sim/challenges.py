@@ -28,6 +28,7 @@ import numpy as np
 
 from twolink.arm.parameters import TABLE_I, TS, ArmParameters
 from twolink.sim.perturbations import (
+    MAX_SPREAD,
     PHYSICAL,
     SPEED_PER_DEG,
     STUCK_SAMPLES,
@@ -37,8 +38,6 @@ from twolink.sim.perturbations import (
     torque_limited,
 )
 
-#: Largest joint spread: a relative change of 90 % or more would leave a parameter near 0.
-MAX_SPREAD = 0.9
 #: Most samples a delay may be (50 s): beyond that it is a typing slip.
 MAX_DELAY = 1000
 #: Most plants one draw makes.

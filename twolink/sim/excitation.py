@@ -50,7 +50,9 @@ _COAST = 0.35
 #: Bounds on what a user may ask for.
 MIN_DURATION, MAX_DURATION = 1.0, 60.0
 MAX_NOISE_DEG = 10.0
-MAX_SPREAD = 0.5
+#: The hidden plant of an experiment lies within +-MAX_HIDDEN_SPREAD of Table I: the
+#: identification is checked over that range, narrower than a challenge's.
+MAX_HIDDEN_SPREAD = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,8 +112,8 @@ def check_experiment(*, duration: float, angle_noise_deg: float, seed: int,
     if not (isinstance(angle_noise_deg, (int, float)) and 0 <= angle_noise_deg <= MAX_NOISE_DEG):
         raise ValueError(f"angle noise must lie in [0, {MAX_NOISE_DEG:g}] deg, got "
                          f"{angle_noise_deg!r}")
-    if not (isinstance(spread, (int, float)) and 0 <= spread <= MAX_SPREAD):
-        raise ValueError(f"spread must lie in [0, {MAX_SPREAD:g}], got {spread!r}")
+    if not (isinstance(spread, (int, float)) and 0 <= spread <= MAX_HIDDEN_SPREAD):
+        raise ValueError(f"spread must lie in [0, {MAX_HIDDEN_SPREAD:g}], got {spread!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
     if excitation not in EXCITATIONS:

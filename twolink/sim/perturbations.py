@@ -24,6 +24,9 @@ PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max",
 #: challenge's joint plant perturbation and a robust synthesis's model draws change.
 #: l2 has no dynamic effect on the horizontal arm (only the drawn arm's length).
 PHYSICAL = ("l1", "l2", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2")
+#: Largest relative change of a physical parameter (a challenge's spread, a robust
+#: synthesis's draws): 90 % or more would leave a parameter near 0.
+MAX_SPREAD = 0.9
 #: Speed noise std (rad/s) per degree of angle noise where only an angle noise is given
 #: (sweeps, ``robustness.evaluate`` without a challenge): the goal band's ratio, 0.1 rad/s
 #: per 5 deg, so 1 deg goes with 0.02 rad/s, as in the ``medium`` challenge.
