@@ -38,8 +38,8 @@ from twolink.sim.perturbations import (
     ActuationDelay,
     keyed_generators,
 )
-from twolink.sim.plants import MujocoPlant, check_states, make_plant
-from twolink.sim.rollout import rollout, steps_for
+from twolink.sim.plants import MujocoPlant, check_states
+from twolink.sim.rollout import rollout, rollout_grid, steps_for
 
 #: Second word of the seeds of a run's reading faults (its noise: perturbations.NOISE_STREAM).
 FAULT_STREAM = 7927
@@ -302,14 +302,12 @@ def challenged_rollouts(policies: dict, plants, x0, ch: Challenge, *, seed: int,
     """
     steps = steps_for(duration)
     check_horizon(ch, steps, duration)
-    params = ch.plants(1, seed)[0]
-    runs = {}
-    for plant_name in dict.fromkeys(plants):
-        with make_plant(plant_name, params) as plant:
-            for label, policy in policies.items():
-                act, observe = closed_loop(policy, ch, keys=[(0, 0)], seed=seed, steps=steps,
-                                           compensate=compensate)
-                runs[(label, plant_name)] = rollout(
-                    act, plant, np.asarray(x0, dtype=float)[None], duration=duration,
-                    observe=observe, label=label)[0]
-    return {(label, p): runs[(label, p)] for label in policies for p in dict.fromkeys(plants)}
+    x0 = np.asarray(x0, dtype=float)[None]
+
+    def loop(policy):
+        return closed_loop(policy, ch, keys=[(0, 0)], seed=seed, steps=steps,
+                           compensate=compensate)
+
+    runs = rollout_grid(policies, plants, x0, duration=duration,
+                        params=ch.plants(1, seed)[0], loop=loop)
+    return {key: traj[0] for key, traj in runs.items()}

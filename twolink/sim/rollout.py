@@ -130,13 +130,18 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
 
 
 def rollout_grid(policies: dict, plants, x0, *, duration: float = HORIZON,
-                 params=None) -> dict:
+                 params=None, loop=None) -> dict:
     """Every policy (``{label: policy}``) on every plant (names) from x0:
-    ``{(label, plant): Trajectory}``, plant by plant, each plant made once and closed."""
+    ``{(label, plant): Trajectory}``, plant by plant, each plant made once and closed.
+
+    ``loop(policy) -> (act, observe)``, when given, builds each run's closed loop (the
+    controller the plant sees and the reading it gets, as :func:`rollout` takes them);
+    without it the policy reads the true state."""
     runs = {}
     for plant_name in dict.fromkeys(plants):
         with make_plant(plant_name, TABLE_I if params is None else params) as plant:
             for label, policy in policies.items():
-                runs[(label, plant_name)] = rollout(policy, plant, x0, duration=duration,
-                                                    label=label)
+                act, observe = (policy, None) if loop is None else loop(policy)
+                runs[(label, plant_name)] = rollout(act, plant, x0, duration=duration,
+                                                    observe=observe, label=label)
     return {(label, p): runs[(label, p)] for label in policies for p in dict.fromkeys(plants)}
