@@ -31,6 +31,9 @@ _API = {
     "Challenge": "twolink.sim.challenges",
     "challenge": "twolink.sim.challenges",
     "evaluate": "twolink.sim.evaluation",
+    "per_state": "twolink.sim.controller",
+    "ControllerError": "twolink.sim.controller",
+    "resolve_controller": "twolink.control.controllers",
     "evaluation_set": "twolink.sim.metrics",
 }
 __all__ = ["__version__", *_API]

@@ -1,0 +1,109 @@
+"""Every controller by one name: shipped fuzzy policies, classical baselines, policy files
+and a user's own ``module:callable`` or ``path/to/file.py:callable``.
+
+:func:`resolve_controller` turns such a name into a controller of the protocol of
+:mod:`twolink.sim.controller`, checked (:func:`twolink.sim.controller.checked`); the
+commands ``rollout``, ``render``, ``evaluate`` and ``leaderboard`` read their
+``--controller`` through it. A class named after the colon is instantiated with no
+arguments; anything else named there must be callable.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import sys
+from pathlib import Path
+
+from twolink.policy.fuzzy_policy import load_policy, shipped_policies
+from twolink.sim.controller import Checked, ControllerError, checked
+
+
+def baseline_names() -> tuple:
+    """The shipped classical baselines (empty when their package is absent)."""
+    try:
+        from twolink.control.baselines import BASELINES
+    except ImportError:
+        return ()
+    return tuple(BASELINES)
+
+
+def _baseline(name: str):
+    from twolink.control.baselines import load_baseline
+
+    return load_baseline(name)
+
+
+def _import_module(where: str):
+    if where.endswith(".py") or "/" in where or where.startswith("."):
+        path = Path(where)
+        if not path.is_file():
+            raise ControllerError(f"controller file {where} does not exist"
+                                  if not path.exists() else f"controller file {where} is not "
+                                  f"a file")
+        digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+        module_name = f"twolink_user_controller_{digest}"
+        spec = importlib.util.spec_from_file_location(module_name, path)
+        if spec is None or spec.loader is None:
+            raise ControllerError(f"cannot import controller file {where}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[module_name] = module
+        try:
+            spec.loader.exec_module(module)
+        except Exception as exc:
+            del sys.modules[module_name]
+            raise ControllerError(f"cannot import controller file {where}: "
+                                  f"{type(exc).__name__}: {exc}") from None
+        return module
+    try:
+        return importlib.import_module(where)
+    except Exception as exc:
+        raise ControllerError(f"cannot import controller module {where!r}: "
+                              f"{type(exc).__name__}: {exc}") from None
+
+
+def _from_spec(spec: str):
+    where, _, attr = spec.rpartition(":")
+    if not where or not attr:
+        raise ControllerError(f"controller {spec!r}: give module:callable or "
+                              f"path/to/file.py:callable")
+    module = _import_module(where)
+    obj = module
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise ControllerError(f"controller {spec!r}: {where} has no attribute "
+                                  f"{attr!r}") from None
+    if isinstance(obj, type):
+        try:
+            obj = obj()
+        except Exception as exc:
+            raise ControllerError(f"controller {spec!r}: {attr}() raised "
+                                  f"{type(exc).__name__}: {exc}") from None
+    if not callable(obj):
+        raise ControllerError(f"controller {spec!r} is not callable "
+                              f"({type(obj).__name__})")
+    return obj
+
+
+def resolve_controller(spec, *, links: int = 2) -> Checked:
+    """The controller ``spec`` names, checked: a shipped policy (:func:`shipped_policies`),
+    a baseline (:func:`baseline_names`), a policy ``.npz`` file, ``module:callable`` or
+    ``file.py:callable``; or a controller object itself. One-line ControllerError (a
+    ValueError) for anything else."""
+    if not isinstance(spec, str):
+        return checked(spec, links=links)
+    if not spec:
+        raise ControllerError("controller name is empty")
+    if spec in shipped_policies():
+        return checked(load_policy(spec), name=spec, links=links)
+    if spec in baseline_names():
+        return checked(_baseline(spec), name=spec, links=links)
+    if spec.endswith(".npz"):
+        return checked(load_policy(spec), name=Path(spec).stem, links=links)
+    if ":" in spec:
+        return checked(_from_spec(spec), name=spec.rpartition(":")[2], links=links)
+    known = ", ".join((*shipped_policies(), *baseline_names()))
+    raise ControllerError(f"unknown controller {spec!r}; give one of {known}, a policy .npz, "
+                          f"module:callable or path/to/file.py:callable")
