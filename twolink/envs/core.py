@@ -15,6 +15,7 @@ before; more links are :func:`twolink.arm.parameters.chain`. Episodes last
 from __future__ import annotations
 
 import functools
+import warnings
 
 import numpy as np
 
@@ -36,11 +37,14 @@ from twolink.sim.challenges import Challenge
 from twolink.sim.challenges import challenge as challenge_named
 from twolink.sim.perturbations import perturbed, random_perturbation
 from twolink.sim.plants import check_states
+from twolink.validate import is_real
 
 TASKS = ("centralized", "decentralized")
 #: Episode length (s) of arms of three links or more: their tapered outer motors (half
 #: the torque per link) need longer than the paper's 5 s to bring the chain to rest.
 INITIAL_STATES = ("paper", "random")
+#: The message of a bad episode length (a :func:`twolink.validate.real` template).
+BAD_TIME_LIMIT = "{what} must be a positive number of seconds, got {value!r}"
 
 
 def observation_names(links: int = 2) -> dict:
@@ -107,7 +111,7 @@ def check_two_link_options(links: int, **options) -> None:
     if links == 2:
         return
     given = [k for k, v in options.items() if v is not None and not
-             (isinstance(v, (int, float)) and not isinstance(v, bool) and v == 0)]
+             (is_real(v, numpy=False) and v == 0)]
     if given:
         what = "is a two-link option" if len(given) == 1 else "are two-link options"
         raise ValueError(f"{', '.join(given)} {what} (Table I's constants, the 4-component "
@@ -186,7 +190,7 @@ def perturbed_params(params: ArmParameters, perturbation, random) -> ArmParamete
         return params
     if isinstance(perturbation, dict):
         return perturbed(params, **perturbation)
-    if isinstance(perturbation, (int, float)) and not isinstance(perturbation, bool):
+    if is_real(perturbation, numpy=False):
         return random_perturbation(random, float(perturbation), base=params)
     raise ValueError(f"perturbation must be a dict of relative changes or a size in [0, 1), "
                      f"got {perturbation!r}")
@@ -228,14 +232,16 @@ def check_policy_links(policy, links: int) -> None:
 
 
 def check_reset_options(options, allowed) -> dict:
-    """The ``reset(options=...)`` of an environment: None or a dict whose keys are all in
-    ``allowed``; a ValueError naming the unknown keys otherwise."""
+    """The ``reset(options=...)`` of an environment: None or a dict; the keys in
+    ``allowed`` are returned, any other key is ignored with a ``UserWarning`` naming it (as
+    Gymnasium's own environments ignore options they do not know, and as the API checkers
+    of Gymnasium and PettingZoo expect when they probe ``reset(options=...)``)."""
     if options is None:
         return {}
     if not isinstance(options, dict):
         raise ValueError(f"options must be a dict, got {type(options).__name__}")
     unknown = sorted(set(options) - set(allowed), key=str)
     if unknown:
-        raise ValueError(f"unknown reset option(s) {', '.join(map(repr, unknown))}; "
-                         f"known: {', '.join(map(repr, allowed))}")
-    return options
+        warnings.warn(f"ignoring unknown reset option(s) {', '.join(map(repr, unknown))}; "
+                      f"known: {', '.join(map(repr, allowed))}", UserWarning, stacklevel=3)
+    return {k: v for k, v in options.items() if k in allowed}
