@@ -291,6 +291,10 @@ def test_close_frees_the_renderer_and_the_plant():
     env.close()                                        # twice is fine
     with pytest.raises(RuntimeError, match="closed"):
         inner.step(np.zeros(2))
+    obs, _ = env.reset(seed=3)                          # a closed env starts again
+    assert obs.shape == (4,) and env.step(np.zeros(2))[0].shape == (4,)
+    assert env.render().shape == (120, 160, 3)
+    env.close()
     vec = gym_env.TwoLinkVectorEnv(2)
     plant = vec.plant
     vec.close()

@@ -41,9 +41,10 @@ from gymnasium.vector.utils import batch_space
 
 from twolink.arm.parameters import TS
 from twolink.envs.core import check_policy_links, check_reset_options
-from twolink.envs.gym_arms import OBSERVATIONS, Arms, check_choice
+from twolink.envs.gym_arms import OBSERVATIONS, Arms
 from twolink.envs.registration import DISCRETE_ID, ENV_ID, register  # noqa: F401 (the ids)
 from twolink.sim.plants import MujocoPlant
+from twolink.validate import choice, is_whole, whole
 
 #: Most arms one vector environment steps (a batch of this size is a few hundred MB of
 #: states and observations at most; more would be a typing slip, not a learner's need).
@@ -104,12 +105,13 @@ class TwoLinkEnv(gymnasium.Env):
                  links: int | None = None, rule: str | None = None):
         _check_task(task)
         if render_mode is not None:
-            check_choice(render_mode, self.metadata["render_modes"], "render_mode")
+            choice(render_mode, "render_mode", self.metadata["render_modes"])
         self._render_size = _check_size(render_size)
-        self._arms = Arms(1, params=params, observation=observation, actions=actions, x0=x0,
-                          time_limit=time_limit, perturbation=perturbation,
-                          angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
-                          nthread=1, challenge=challenge, links=links, rule=rule)
+        self._options = dict(params=params, observation=observation, actions=actions, x0=x0,
+                             time_limit=time_limit, perturbation=perturbation,
+                             angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
+                             nthread=1, challenge=challenge, links=links, rule=rule)
+        self._arms = Arms(1, **self._options)
         self.links = self._arms.links
         self.render_mode = render_mode
         self.action_space = self._arms.action_space()
@@ -132,8 +134,10 @@ class TwoLinkEnv(gymnasium.Env):
         return self._arms
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        arms = self._live()
         options = check_reset_options(options, RESET_OPTIONS)
+        if self._arms is None:                 # closed: reset opens it again, as Gymnasium allows
+            self._arms = Arms(1, **self._options)
+        arms = self._arms
         x0 = arms.check_x0_option(options["x0"])[0] if "x0" in options else arms.x0
         super().reset(seed=seed)
         arms.reset_rows([0], [self.np_random], [x0])
@@ -170,7 +174,10 @@ class TwoLinkEnv(gymnasium.Env):
             self._renderer = None
 
     def close(self):
-        """Free the renderer and the plant; the environment cannot be used afterwards."""
+        """Free the renderer and the plant; ``step`` and ``render`` refuse until the next
+        ``reset``, which opens them again (Gymnasium allows an environment to be reset after
+        ``close``; Stable-Baselines3's ``check_env`` does so)."""
+        self._started = False
         self._close_renderer()
         if self._arms is not None:
             self._arms.close()
@@ -198,10 +205,7 @@ class TwoLinkVectorEnv(VectorEnv):
                  render_mode: str | None = None, links: int | None = None,
                  rule: str | None = None):
         _check_task(task)
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) \
-                or not 1 <= num_envs <= MAX_ENVS:
-            raise ValueError(f"num_envs must be a whole number from 1 to {MAX_ENVS}, "
-                             f"got {num_envs!r}")
+        whole(num_envs, "num_envs", 1, MAX_ENVS)
         if render_mode is not None:
             raise ValueError("the vector environment does not render; render single "
                              "TwoLinkEnv environments")
@@ -238,7 +242,7 @@ class TwoLinkVectorEnv(VectorEnv):
         n = self.num_envs
         if seed is None:
             return [None] * n
-        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        if is_whole(seed):
             return [int(seed) + i for i in range(n)]
         seeds = list(seed)
         if len(seeds) != n:
