@@ -58,3 +58,25 @@ def test_sigterm_handler_only_in_the_main_thread():
     t.start()
     t.join()
     assert seen == [before]
+
+
+def test_outputs_never_resolve_into_the_shipped_files(tmp_path):
+    """An output in policies/ or models/, directly or through a symlinked folder, is
+    refused before any work; --ship alone writes there."""
+    import subprocess
+    import sys
+
+    from twolink.resources import model_file, shipped_policy_dir
+
+    link = tmp_path / "dir"
+    link.symlink_to(shipped_policy_dir(), target_is_directory=True)
+    shipped = shipped_policy_dir() / "centralized.npz"
+    before = shipped.read_bytes()
+    for argv in (["synthesize", "centralized", "-o", str(link / "centralized.npz"), "--force"],
+                 ["mjcf", "-o", str(model_file())]):
+        res = subprocess.run([sys.executable, "-m", "twolink.cli", *argv], capture_output=True,
+                             text=True, timeout=120)
+        assert res.returncode == 2, res.stderr
+        assert "resolves into twolink's shipped files" in res.stderr
+        assert res.stderr.count("\n") == 1
+    assert shipped.read_bytes() == before

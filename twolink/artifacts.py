@@ -18,6 +18,8 @@ import threading
 from pathlib import Path
 from typing import Mapping
 
+from twolink.resources import protected_target
+
 #: The package version (pyproject.toml reads it from here).
 VERSION = "0.1.0"
 
@@ -61,9 +63,12 @@ def check_writable(path: os.PathLike) -> Path:
     return path
 
 
-def check_outputs(outputs: Mapping[str, os.PathLike | None], *, creatable=()) -> dict:
+def check_outputs(outputs: Mapping[str, os.PathLike | None], *, creatable=(),
+                  ship: bool = False) -> dict:
     """Check every output of a command before any work: each can be written
-    (:func:`check_writable`) and no two are the same file. ``outputs`` maps a name (the
+    (:func:`check_writable`), none resolves (through symlinks too) into the installed
+    package or a checkout's shipped ``policies/`` and ``models/`` unless ``ship``
+    (:func:`twolink.resources.protected_target`), and no two are the same file. ``outputs`` maps a name (the
     option, e.g. ``--csv``) to a path or None (not written); returns the given paths.
 
     A directory in ``creatable`` (the default output folder) may be missing if it can be
@@ -76,6 +81,10 @@ def check_outputs(outputs: Mapping[str, os.PathLike | None], *, creatable=()) ->
         if path is None:
             continue
         path = Path(path)
+        folder = None if ship else protected_target(path)
+        if folder is not None:
+            raise OSError(f"cannot write {path}: it resolves into twolink's shipped files "
+                          f"({folder}); write elsewhere (only --ship writes there)")
         if path.parent in creatable and not path.parent.exists():
             check_writable(path.parent)
         else:

@@ -47,3 +47,21 @@ def output_dir(*, create: bool = True) -> Path:
     if create and not path.is_dir():
         path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def protected_dirs() -> tuple[Path, ...]:
+    """Folders no ordinary output may resolve into: the installed package itself and its
+    shipped data (``policies/`` and ``models/`` of a source checkout); only the ``--ship``
+    options write there."""
+    package = Path(__file__).resolve().parent
+    return tuple(dict.fromkeys(p.resolve() for p in (package, shipped_policy_dir(),
+                                                     model_file().parent)))
+
+
+def protected_target(path: os.PathLike) -> Path | None:
+    """The protected folder ``path`` resolves into (symlinks followed), else None."""
+    real = Path(os.path.realpath(path))
+    for folder in protected_dirs():
+        if real == folder or folder in real.parents:
+            return folder
+    return None

@@ -30,6 +30,6 @@ def run(args) -> int:
         out = model_file()
     else:
         out = args.output or Path(MODEL_FILE)
-    check_outputs({"-o": out})
+    check_outputs({"-o": out}, ship=args.ship)
     print(f"wrote {mjcf.write_model(out)}")
     return 0
