@@ -196,6 +196,8 @@ def test_render_cli_gif_at_chosen_rate(tmp_path, capsys):
     (["-o", "{tmp}/v.avi"], "use .mp4 or .gif"),
     (["-o", "{tmp}/nodir/v.mp4"], "does not exist"),
     (["--fps", "0"], "frame rate"),
+    (["--fps", "1e-9"], "frame rate must be in [1, 240] frames per second, got 1e-09"),
+    (["--fps", "0.001", "-o", "{tmp}/v.gif"], "frame rate must be in [1, 240]"),
     (["--policy", "nope"], "unknown policy"),
     (["--policy", "centralized", "--policy", "decentralized", "--policy", "centralized"],
      "one or two --policy"),

@@ -39,9 +39,15 @@ def check_size(width: int, height: int, fmt: str = "mp4") -> None:
         raise ValueError(f"H.264 (yuv420p) needs an even frame size, got {width}x{height}")
 
 
+#: Frame rates a video may have: below one frame per second a player shows nothing (and
+#: a GIF's frame delay overflows), above 240 no display follows.
+MIN_FPS, MAX_FPS = 1.0, 240.0
+
+
 def check_fps(fps: float) -> None:
-    if not np.isfinite(fps) or fps <= 0 or fps > 240:
-        raise ValueError(f"frame rate must be in (0, 240] frames per second, got {fps}")
+    if not np.isfinite(fps) or not MIN_FPS <= fps <= MAX_FPS:
+        raise ValueError(f"frame rate must be in [{MIN_FPS:g}, {MAX_FPS:g}] frames per "
+                         f"second, got {fps:g}")
 
 
 def check_budget(frames: float, width: int, height: int) -> None:
