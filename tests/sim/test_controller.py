@@ -66,3 +66,28 @@ def test_reset_and_meta_pass_through():
     c = checked(inner)
     c.reset(7)
     assert inner.rows == 7 and c.meta == {"model": "full"} and c.name == "Stateful"
+
+
+def test_a_rollout_resets_a_stateful_controller_through_its_wrappers():
+    """reset(rows) reaches the controller inside a checked wrapper and a delay line."""
+    from twolink.sim.perturbations import ActuationDelay
+    from twolink.sim.plants import make_plant
+    from twolink.sim.rollout import rollout
+
+    class Integrating:
+        def __init__(self):
+            self.resets, self.acc = [], None
+
+        def reset(self, n):
+            self.resets.append(n)
+            self.acc = np.zeros((n, 2))
+
+        def __call__(self, x):
+            self.acc = self.acc + x[:, :2]
+            return np.clip(-2.0 * x[:, :2] - 0.5 * x[:, 2:] - 0.01 * self.acc, -0.1, 0.1)
+
+    inner = Integrating()
+    with make_plant("full") as plant:
+        rollout(ActuationDelay(checked(inner), 1), plant, X, duration=0.2)
+        rollout(checked(inner), plant, X[:2], duration=0.1)
+    assert inner.resets == [3, 2]

@@ -121,3 +121,18 @@ class PerState:
 def per_state(function, *, name: str | None = None, meta: dict | None = None) -> PerState:
     """Make a controller of ``function(state) -> torques`` (see :class:`PerState`)."""
     return PerState(function, name=name, meta=meta)
+
+
+def reset_controller(controller, rows: int) -> None:
+    """Call ``reset(rows)`` of ``controller`` before a rollout: its own, or that of the
+    controller it wraps (a delay line's ``policy``, a checked ``controller``), the first
+    one found going inwards."""
+    seen = set()
+    obj = controller
+    while obj is not None and id(obj) not in seen:
+        seen.add(id(obj))
+        reset = getattr(obj, "reset", None)
+        if callable(reset):
+            reset(rows)
+            return
+        obj = getattr(obj, "policy", None) or getattr(obj, "controller", None)

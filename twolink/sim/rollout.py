@@ -16,6 +16,7 @@ import numpy as np
 from twolink.arm.parameters import HORIZON, TABLE_I, TS, check_links
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.policy.fuzzy_policy import check_links_match
+from twolink.sim.controller import reset_controller
 from twolink.sim.plants import Plant, SimulationError, check_states, make_plant
 
 #: Longest horizon a rollout accepts: one hour, 72 000 sample periods.
@@ -93,7 +94,9 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
     """Run ``policy`` on ``plant`` from x0 (2N,) or a batch (B, 2N) for ``duration``
     seconds, N = ``plant.links`` (2 for a plant without it).
 
-    ``observe(k, x)`` may return the state the policy sees (for noise or delays); by
+    ``policy`` is a controller of :mod:`twolink.sim.controller`'s protocol; its
+    ``reset(rows)``, if it has one, is called first. ``observe(k, x)`` may return the
+    state the policy sees (for noise or delays); by
     default it sees the true state. ``label`` names the policy in the trajectory (default:
     its kind). A policy that knows its number of links (``policy.links``) must match the
     plant's (a ValueError otherwise). A plant that goes unstable raises
@@ -105,7 +108,9 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
     check = getattr(plant, "check_states", None)
     x0 = check(x0, what="x0") if check is not None else check_states(x0, what="x0",
                                                                         links=links)
-    n = steps_for(duration, rows=int(np.prod(x0.shape[:-1], dtype=int)), links=links)
+    rows = int(np.prod(x0.shape[:-1], dtype=int))
+    n = steps_for(duration, rows=rows, links=links)
+    reset_controller(policy, rows)
     xs = np.empty(x0.shape[:-1] + (n + 1, 2 * links))
     us = np.empty(x0.shape[:-1] + (n, links))
     x = x0
