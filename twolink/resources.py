@@ -65,3 +65,13 @@ def protected_target(path: os.PathLike) -> Path | None:
         if real == folder or folder in real.parents:
             return folder
     return None
+
+
+#: The shipped table of the time-optimal limits (``data/`` of the checkout).
+LIMITS_FILE = "limits.json"
+
+
+def limits_file() -> Path:
+    """The shipped limits table (``data/limits.json`` of the checkout), installed as the
+    package ``twolink._data``."""
+    return _package_dir("twolink._data") / LIMITS_FILE

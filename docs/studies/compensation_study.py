@@ -80,7 +80,7 @@ def measure(policy, params: list, *, delay: int, noise_deg: float, seed: int,
     ev = evaluate(controller, params=params, delay=delay, angle_noise_deg=noise_deg,
                   seed=seed, compensate=False)
     return {k: v for k, v in ev.as_dict(rows=False).items()
-            if k in ("successes", "runs", "rate", "wilson95", "worst_plant_rate",
+            if k in ("successes", "n", "rate", "wilson_95", "worst_plant_rate",
                      "median_settle")}
 
 
@@ -139,7 +139,7 @@ def level_study(policies, level: str, *, seed: int, plants: int) -> list:
             ev = evaluate(policy, challenge=ch, count=plants, seed=seed, compensate=False)
             out.append({"policy": name, "level": level, "mode": mode,
                         **{k: v for k, v in ev.as_dict(rows=False).items()
-                           if k in ("successes", "runs", "rate", "wilson95",
+                           if k in ("successes", "n", "rate", "wilson_95",
                                     "worst_plant_rate", "median_settle")}})
     return out
 
@@ -226,7 +226,7 @@ def main(argv=None) -> int:
         print("|---|---|---|---|---|")
         for r in rows:
             med = r["median_settle"]
-            print(f"| {r['policy']} | {r['mode']} | {format_rate(r['successes'], r['runs'])} "
+            print(f"| {r['policy']} | {r['mode']} | {format_rate(r['successes'], r['n'])} "
                   f"| {100 * r['worst_plant_rate']:.0f} % | "
                   f"{'-' if med is None else f'{med:.2f} s'} |")
         return 0
@@ -241,15 +241,15 @@ def main(argv=None) -> int:
         print("|---|---|---|---|---|")
         for r in rows:
             print(f"| {r['policy']} | {r['condition']} | {r['process_std']:g} | "
-                  f"{format_rate(r['successes'], r['runs'])} | {100 * r['worst_plant_rate']:.0f} % |")
+                  f"{format_rate(r['successes'], r['n'])} | {100 * r['worst_plant_rate']:.0f} % |")
         return 0
     print(f"seed {args.seed}; combined: {args.plants} plants, +-{100 * args.spread:g} % joint, "
           f"delay {args.delay}, noise {args.noise_deg:g} deg")
     print("| policy | condition | without compensation | with compensation |")
     print("|---|---|---|---|")
     for a, b in zip(rows[::2], rows[1::2]):
-        print(f"| {a['policy']} | {a['condition']} | {format_rate(a['successes'], a['runs'])} | "
-              f"{format_rate(b['successes'], b['runs'])} |")
+        print(f"| {a['policy']} | {a['condition']} | {format_rate(a['successes'], a['n'])} | "
+              f"{format_rate(b['successes'], b['n'])} |")
     return 0
 
 

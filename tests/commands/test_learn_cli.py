@@ -56,6 +56,24 @@ def test_resume_continues_to_the_new_total(tmp_path, capsys):
     assert load_policy(str(tmp_path / "run.npz")).meta["learning"]["steps"] == 48
 
 
+def test_resume_refuses_new_settings_and_a_forged_iteration_count(tmp_path, capsys):
+    assert _learn(tmp_path, "--json") == 0
+    capsys.readouterr()
+    ckpt = tmp_path / "run.npz"
+    assert main(["learn", "--resume", str(ckpt), "--arms", "4", "--alpha", "0.9",
+                 "--seed", "5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("twolink learn: error: --arms, --seed, "
+                                               "--alpha: a resumed run keeps the settings")
+    policy = load_policy(str(ckpt))
+    policy.meta["learning"]["iterations"] = -10**12
+    forged = tmp_path / "forged.npz"
+    policy.save(forged)
+    assert main(["learn", "--resume", str(forged), "--steps", "48"]) == 2
+    assert "malformed learning checkpoint (iterations -1000000000000)" in \
+        capsys.readouterr().err
+
+
 @pytest.mark.parametrize("args, message", [
     (["--steps", "0"], "steps must be a whole number in [1, 100,000,000], got 0"),
     (["--steps", "-10"], "steps must be a whole number"),

@@ -198,7 +198,7 @@ def test_mismatch_section_counts_are_the_plants(three_link, tmp_path, capsys):
     with make_plant("full", chain(3)) as plant:
         tr = rollout(Policy.load(three_link), plant, x0, duration=8.0)
     got = rep["results"]["hand3"]["full"]
-    assert (got["successes"], got["runs"]) == (int(success(tr).sum()), n)
+    assert (got["successes"], got["n"]) == (int(success(tr).sum()), n)
     assert rep["seed"] == CHAIN_SEED and rep["duration"] == 8.0
     md = (out / "report.md").read_text()
     assert "| hand3 |" in md and f"{got['successes']}/{n}" in md

@@ -22,6 +22,7 @@ from twolink.control.learning_setup import (
 )
 from twolink.control.problems import agent2_problem, solve
 from twolink.policy.fuzzy_policy import Policy, load_policy
+from twolink.sim.metrics import score
 from twolink.sim.plants import ModelPlant
 
 
@@ -184,7 +185,7 @@ def test_resume_refuses_a_policy_without_resume_state():
 
 def test_curve_summaries():
     from twolink.control.learning import Evaluation
-    curve = [Evaluation(s, k, 10, None, -20.0, 0.0) for s, k in
+    curve = [Evaluation(s, score(np.arange(10) < k, np.ones(10)), -20.0, 0.0) for s, k in
              [(0, 0), (100, 9), (200, 8), (300, 10)]]
     assert steps_to_reach(curve) == 100
     assert not stays_above(curve)
@@ -340,7 +341,8 @@ def test_the_largest_checkpoint_fits_a_policy_file(tmp_path):
                       update="discrete", average=1e5, hysteresis=0.1)
     with ModelPlant("full") as plant, Learner(cfg, plant=plant) as learner:
         learner.step()
-        learner.curve = [Evaluation(10**8, 65, 65, 12.345678901234567, -21.123456789012345,
+        full = score(np.ones(65, bool), np.full(65, 12.345678901234567))
+        learner.curve = [Evaluation(10**8, full, -21.123456789012345,
                                     123456.78901234567)] * MAX_EVALUATIONS
         learner.policy(resume=True).save(tmp_path / "big.npz")
         back = Learner.resume(Policy.load(tmp_path / "big.npz"), plant=plant)

@@ -246,7 +246,7 @@ def test_batch_size_is_fixed_after_the_first_reading(policy):
     comp(X0)
     with pytest.raises(ValueError, match="another batch"):
         comp(X0[:2])
-    with pytest.raises(ValueError, match="no synthesis model"):
+    with pytest.raises(ValueError, match="names no model for the compensator"):
         Compensator(lambda x: np.zeros(2), delay=1)
     est = StateEstimator(model="full")
     with pytest.raises(ValueError, match="before update"):

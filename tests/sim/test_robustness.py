@@ -136,7 +136,7 @@ def test_summary_statistics_and_json():
     assert lo == pytest.approx(0.3057, abs=1e-4) and hi == pytest.approx(0.8632, abs=1e-4)
     d = json.loads(json.dumps(ev.as_dict()))
     assert d["successes"] == 5 and d["plant_successes"] == [3, 2]
-    assert d["settle"][0][2] is None and d["wilson95"] == [lo, hi]
+    assert d["settle"][0][2] is None and d["wilson_95"] == [lo, hi]
     assert _synthetic([[False] * 3], [[np.inf] * 3], [[-1] * 3]).as_dict()["median_settle"] is None
 
 

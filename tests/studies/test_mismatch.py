@@ -162,7 +162,7 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
                       count=quick.robust_plants, challenge="medium", compensate=True)
     mine = rs["results"]["centralized_full"]["medium"]["compensated"]
     assert mine == json.loads(json.dumps(summarize(direct)))
-    assert (mine["successes"], mine["runs"]) == (direct.count, 4 * 5)
+    assert (mine["successes"], mine["n"]) == (direct.count, 4 * 5)
     assert printed["robust"]["centralized_full"]["medium"]["compensated"] == [direct.count, 20]
     plain = evaluate("centralized_full", x0=states_of("quick"), seed=quick.robust_seed,
                      count=quick.robust_plants, challenge="medium", compensate=False)
@@ -239,13 +239,29 @@ def test_a_second_run_on_one_folder_is_refused_at_once(tmp_path, capsys):
     (["--workers", "0"], "workers"),
     (["--address", "ray://x:1"], "--executor ray"),
     (["--challenge", "easy", "nosuch"], "unknown challenge 'nosuch'; choose one of none, easy"),
-    (["--no-robust", "--seed", "3"], "drop --no-robust or them")])
+    (["--no-robust", "--seed", "3"], "drop --no-robust or them"),
+    (["--seed", "-1"], "--seed must be a whole number from 0")])
 def test_bad_input_is_one_error_line_and_writes_nothing(tmp_path, capsys, argv, match):
     out = tmp_path / "r"
     assert main(["mismatch", "--quick", "--out", str(out)] + argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and match in err[0]
     assert not out.exists()
+
+
+def test_a_users_report_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "r"
+    out.mkdir()
+    (out / "report.md").write_text("my notes\n")
+    assert main(["mismatch", "--quick", "--out", str(out), "--executor", "serial"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "already holds a report.md" in err[0] and "--force" in err[0]
+    assert (out / "report.md").read_text() == "my notes\n"
+    assert sorted(p.name for p in out.iterdir()) == ["report.md"]
+    file = tmp_path / "f"
+    file.write_text("x")
+    assert main(["mismatch", "--quick", "--out", str(file)]) == 2
+    assert "is a file; give a folder" in capsys.readouterr().err
 
 
 def test_a_policy_keeps_its_colour_whatever_the_order(monkeypatch, tmp_path):

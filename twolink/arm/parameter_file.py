@@ -24,6 +24,7 @@ from pathlib import Path
 from twolink.arm.parameters import ArmParameters
 from twolink.artifacts import VERSION as __version__
 from twolink.artifacts import write_text
+from twolink.validate import is_real
 
 FORMAT = "twolink-parameters"
 FORMAT_VERSION = 1
@@ -136,7 +137,7 @@ def read(path: os.PathLike) -> ParameterFile:
     if not isinstance(values, dict) or sorted(values) != sorted(names):
         raise bad(f"'parameters' must name exactly {', '.join(names)}")
     for name, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not is_real(value, numpy=False):
             raise bad(f"parameter {name} must be a number, got {value!r}")
     try:
         params = ArmParameters(**{k: float(v) for k, v in values.items()})
@@ -161,8 +162,8 @@ def load(path: os.PathLike) -> ArmParameters:
 
 
 def _close(recorded, value: float) -> bool:
-    return (not isinstance(recorded, bool) and isinstance(recorded, (int, float))
-            and math.isfinite(recorded) and abs(recorded - value) <= _RTOL * abs(value))
+    return (is_real(recorded, numpy=False) and math.isfinite(recorded)
+            and abs(recorded - value) <= _RTOL * abs(value))
 
 
 def _check_identified(record: dict, path: Path) -> None:
@@ -179,7 +180,6 @@ def _check_identified(record: dict, path: Path) -> None:
                 f"{path}: identified {name} does not match the parameters' {name} = "
                 f"{record['dynamic'][name]!r}")
         err = entry.get("std_error")
-        if isinstance(err, bool) or not isinstance(err, (int, float)) or not \
-                math.isfinite(err) or err < 0:
+        if not is_real(err, numpy=False) or not math.isfinite(err) or err < 0:
             raise ParameterFileError(f"{path}: identified {name}: std_error must be a finite "
                                      f"non-negative number, got {err!r}")

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from twolink.validate import whole
+
 #: Sample time Ts of the discrete-time system (Section IV-B).
 TS = 0.05
 #: Discount factor gamma of Alg. 1.
@@ -45,11 +47,7 @@ TAPER = 0.5
 def check_links(links) -> int:
     """``links`` as an int if it is a whole number in [MIN_LINKS, MAX_LINKS], else a
     ValueError naming the supported range."""
-    if isinstance(links, bool) or not isinstance(links, (int, np.integer)) \
-            or not MIN_LINKS <= links <= MAX_LINKS:
-        raise ValueError(f"links must be a whole number from {MIN_LINKS} to {MAX_LINKS}, "
-                         f"got {links!r}")
-    return int(links)
+    return whole(links, "links", MIN_LINKS, MAX_LINKS)
 
 
 def state_names(links: int = 2) -> tuple:

@@ -124,7 +124,24 @@ def add_parser(sub):
     p.add_argument("--threads", default="1", metavar="T",
                    help="MuJoCo threads stepping the arms (default 1)")
     p.add_argument("--json", action="store_true", help="print the run's summary as JSON")
+    p.set_defaults(_defaults={a.dest: a.default for a in p._actions})
     return p
+
+
+#: Options that define a run: a resumed run keeps its checkpoint's, so they are refused.
+RUN_SETTINGS = ("task", "independent", "arms", "seed", "update", "alpha", "alpha_halflife",
+                "epsilon", "epsilon_final", "episode", "eval_every", "average", "init",
+                "init_scale", "hysteresis")
+
+
+def check_resume_options(args) -> None:
+    """With --resume, a one-line ValueError naming every run setting also given."""
+    given = [f"--{d.replace('_', '-')}" for d in RUN_SETTINGS
+             if getattr(args, d) != args._defaults.get(d)]
+    if given:
+        raise ValueError(f"{', '.join(given)}: a resumed run keeps the settings of its "
+                         f"checkpoint ({args.resume}); drop {'it' if len(given) == 1 else 'them'}"
+                         f" (--steps may raise the total)")
 
 
 def _config(args) -> LearnConfig:
@@ -152,6 +169,7 @@ def run(args) -> int:
     if not 1 <= threads <= 64:
         raise ValueError(f"--threads must be in [1, 64], got {threads}")
     if args.resume is not None:
+        check_resume_options(args)
         checkpoint = Policy.load(args.resume)
         output = args.output or args.resume
         learner = Learner.resume(checkpoint, steps=_count(args.steps) if args.steps else None,
@@ -191,7 +209,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
-    settle = "never" if final.median_settle is None else f"{final.median_settle:.2f} s"
+    settle = f"{final.median_settle:.2f} s" if math.isfinite(final.median_settle) else "never"
     reach = steps_to_reach(curve)
     print(f"{label}: {final.steps} steps in {learner.learn_seconds:.1f} s "
           f"({summary['steps_per_second']:.0f} steps/s)")

@@ -71,6 +71,9 @@ def add_parser(sub):
     p.add_argument("--robust", action=argparse.BooleanOptionalAction, default=True,
                    help="measure the robust section (default on)")
     add_arm_options(p)
+    p.add_argument("--force", action="store_true",
+                   help="write into a --out folder that holds a report.md of its own (one "
+                        "without the sweep.jsonl of an earlier run)")
     p.add_argument("--json", action="store_true",
                    help="print success rates, open-loop errors and margins as JSON")
     return p
@@ -115,8 +118,8 @@ def _chain_section(args, links: int, params) -> int:
     suffix = "" if args.rule == "tapered" else f"-{args.rule}"
     suffix += "" if chosen.name == "full" else f"-{chosen.name}"
     out = args.out or output_dir(create=False) / f"mismatch-{links}link{suffix}"
-    if not out.parent.is_dir() and out.parent != output_dir(create=False):
-        raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
+    if out.parent != output_dir(create=False) or out.parent.is_dir():
+        check_report_folder(out, force=args.force)
     section = measure(policies, params, poses=chosen.chain_poses, seed=seed,
                       duration=horizon(links))
     command = (f"twolink mismatch --links {links}"
@@ -132,11 +135,36 @@ def _chain_section(args, links: int, params) -> int:
         return 0
     for label, by in section["results"].items():
         print(f"{label:26s} " + "  ".join(
-            f"{pl} {format_rate(r['successes'], r['runs']):<24s} median settle "
+            f"{pl} {format_rate(r['successes'], r['n']):<24s} median settle "
             + ("never" if r["median_settle"] is None else f"{r['median_settle']:.2f} s")
             for pl, r in by.items()))
     print(f"wrote {out / 'report.md'}")
     return 0
+
+
+def _written_by_mismatch(out: Path) -> bool:
+    """Whether ``out`` holds an earlier run's report (its sweep file, or a report.json
+    whose command is twolink mismatch)."""
+    if (out / "sweep.jsonl").exists():
+        return True
+    try:
+        command = json.loads((out / "report.json").read_text()).get("command", "")
+    except (OSError, ValueError, AttributeError):
+        return False
+    return isinstance(command, str) and command.startswith("twolink mismatch")
+
+
+def check_report_folder(out: Path, *, force: bool) -> None:
+    """A folder the report may be written into: its parent exists, it is not a file, and a
+    report.md in it was written by an earlier run (:func:`_written_by_mismatch`) unless
+    ``force``; a one-line OSError otherwise, before anything is written."""
+    if out.exists() and not out.is_dir():
+        raise OSError(f"--out {out} is a file; give a folder")
+    if not out.parent.is_dir():
+        raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
+    if (out / "report.md").exists() and not force and not _written_by_mismatch(out):
+        raise OSError(f"{out} already holds a report.md that no twolink mismatch run wrote; "
+                      f"give --force to replace it, or --out another folder")
 
 
 def run(args) -> int:
@@ -156,9 +184,10 @@ def run(args) -> int:
     if not args.robust and (args.challenge is not None or args.seed is not None):
         raise ValueError("--challenge and --seed choose what the robust section measures; "
                          "drop --no-robust or them")
+    if args.seed is not None and (args.seed < 0 or args.seed >= 2**63):
+        raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {args.seed}")
     out = args.out or output_dir() / chosen.folder
-    if not out.parent.is_dir():
-        raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
+    check_report_folder(out, force=args.force)
     out.mkdir(exist_ok=True)
     progress = not args.json and sys.stderr.isatty()
     with SweepFile(out / "sweep.jsonl") as store:    # a second run on `out` stops here

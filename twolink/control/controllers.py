@@ -20,18 +20,16 @@ from twolink.sim.controller import Checked, ControllerError, checked
 
 
 def baseline_names() -> tuple:
-    """The shipped classical baselines (empty when their package is absent)."""
-    try:
-        from twolink.control.baselines import BASELINES
-    except ImportError:
-        return ()
+    """The shipped classical baselines (:data:`twolink.control.baselines.BASELINES`)."""
+    from twolink.control.baselines import BASELINES
+
     return tuple(BASELINES)
 
 
 def _baseline(name: str):
-    from twolink.control.baselines import load_baseline
+    from twolink.control.baselines import baseline
 
-    return load_baseline(name)
+    return baseline(name)
 
 
 def _import_module(where: str):

@@ -89,7 +89,14 @@ from twolink.control.learning_setup import (
     warm_start,
 )
 from twolink.policy.fuzzy_policy import TIE_TOLERANCE, Agent, Policy
-from twolink.sim.metrics import discounted_return, evaluation_set, settle_time, success
+from twolink.sim.metrics import (
+    Score,
+    discounted_return,
+    evaluation_set,
+    score,
+    settle_time,
+    success,
+)
 from twolink.sim.plants import MujocoPlant
 from twolink.sim.rollout import rollout
 
@@ -102,21 +109,41 @@ META_KEY = "learning"
 # --------------------------------------------------------------------------- curve
 @dataclasses.dataclass(frozen=True)
 class Evaluation:
-    """Greedy policy (14) of the current theta on the evaluation set, on MuJoCo."""
+    """Greedy policy (14) of the current theta on the evaluation set, on MuJoCo: the
+    shared :class:`twolink.sim.metrics.Score` of its runs and when it was taken."""
 
     steps: int                 # control steps learned so far (all arms)
-    successes: int
-    n: int
-    median_settle: Optional[float]   # seconds, over all states (None: more than half fail)
+    score: Score               # successes, n, Wilson interval, median settle (one plant)
     mean_return: float         # discounted return of (15), mean over the states
     seconds: float             # wall time of learning so far (evaluations excluded)
 
     @property
+    def successes(self) -> int:
+        return self.score.successes
+
+    @property
+    def n(self) -> int:
+        return self.score.n
+
+    @property
     def rate(self) -> float:
-        return self.successes / self.n
+        return self.score.rate
+
+    @property
+    def median_settle(self) -> float:        # seconds; inf when half or more fail
+        return self.score.median_settle
 
     def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """``steps``, the keys of :meth:`Score.as_dict`, ``mean_return``, ``seconds``."""
+        return {"steps": self.steps, **self.score.as_dict(), "mean_return": self.mean_return,
+                "seconds": self.seconds}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Evaluation:
+        """A curve point of :meth:`as_dict` or of an older checkpoint (no interval, no
+        worst plant: :meth:`twolink.sim.metrics.Score.from_dict`)."""
+        return cls(int(d["steps"]), Score.from_dict(d), float(d["mean_return"]),
+                   float(d["seconds"]))
 
 
 def evaluate(policy: Policy, plant, x0: Optional[np.ndarray] = None, *, steps: int = 0,
@@ -125,10 +152,7 @@ def evaluate(policy: Policy, plant, x0: Optional[np.ndarray] = None, *, steps: i
     65-state evaluation set) over the metrics' horizon."""
     x0 = evaluation_set() if x0 is None else x0
     traj = rollout(policy, plant, x0, duration=HORIZON)
-    ok = success(traj)
-    st = np.median(settle_time(traj))
-    return Evaluation(int(steps), int(ok.sum()), int(len(ok)),
-                      float(st) if math.isfinite(st) else None,
+    return Evaluation(int(steps), score(success(traj), settle_time(traj)),
                       float(np.mean(discounted_return(traj))), float(seconds))
 
 
@@ -398,9 +422,11 @@ class Learner:
             self.iteration = int(info["iterations"])
             self.learn_seconds = float(info["learn_seconds"])
             self.init_label = info.get("init")
-            self.curve = [Evaluation(**e) for e in info["curve"]]
+            self.curve = [Evaluation.from_dict(e) for e in info["curve"]]
         except (KeyError, TypeError) as exc:
             raise ValueError(f"malformed learning checkpoint ({exc})") from None
+        if self.iteration < 0:
+            raise ValueError(f"malformed learning checkpoint (iterations {self.iteration})")
         if self.iteration * config.arms > config.steps:
             raise ValueError(f"the checkpoint is at {self.steps_done} steps, beyond the "
                              f"{config.steps} asked for")

@@ -17,6 +17,10 @@ from twolink.arm.task import agent_reward, centralized_reward
 from twolink.control.problems import centralized_actions
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy
+from twolink.validate import real, whole
+
+#: The message of a bad whole-number setting (a :func:`twolink.validate.whole` template).
+_RANGE = "{what} must be a whole number in [{low}, {high:,}], got {value!r}"
 
 LEARNERS = ("centralized", "decentralized", "independent")
 UPDATES = ("fuzzy", "discrete", "rule", "fql")
@@ -71,29 +75,29 @@ class LearnConfig:
                              f"{', '.join(LEARNERS)}")
         if self.update not in UPDATES:
             raise ValueError(f"unknown update {self.update!r}; choose one of {', '.join(UPDATES)}")
-        _whole(self.arms, "arms", 1, MAX_ARMS)
-        _whole(self.steps, "steps", 1, MAX_STEPS)
+        whole(self.arms, "arms", 1, MAX_ARMS, message=_RANGE)
+        whole(self.steps, "steps", 1, MAX_STEPS, message=_RANGE)
         if self.steps < self.arms:
             raise ValueError(f"steps ({self.steps}) must be at least the number of arms "
                              f"({self.arms}): every arm takes one step per iteration")
-        _whole(self.seed, "seed", 0, 2**63 - 1)
-        _whole(self.episode, "episode", 1, 100_000)
-        _whole(self.eval_every, "eval every", 0, MAX_STEPS)
+        whole(self.seed, "seed", 0, 2**63 - 1, message=_RANGE)
+        whole(self.episode, "episode", 1, 100_000, message=_RANGE)
+        whole(self.eval_every, "eval every", 0, MAX_STEPS, message=_RANGE)
         if self.eval_every and math.ceil(self.steps / self.eval_every) > MAX_EVALUATIONS:
             raise ValueError(f"{self.steps} steps evaluated every {self.eval_every} would "
                              f"take more than {MAX_EVALUATIONS} evaluations")
-        _real(self.alpha, "learning rate alpha", 0.0, 1.0, open_low=True)
-        _real(self.alpha_halflife, "alpha half-life", 0.0, float(MAX_STEPS) * 100)
-        _real(self.epsilon, "epsilon", 0.0, 1.0)
-        _real(self.epsilon_final, "final epsilon", 0.0, 1.0)
-        _real(self.gamma, "gamma", 0.0, 1.0, open_high=True)
-        _real(self.average, "theta average (control steps)", 0.0, float(MAX_STEPS))
+        real(self.alpha, "learning rate alpha", 0.0, 1.0, open_low=True, numpy=False)
+        real(self.alpha_halflife, "alpha half-life", 0.0, float(MAX_STEPS) * 100, numpy=False)
+        real(self.epsilon, "epsilon", 0.0, 1.0, numpy=False)
+        real(self.epsilon_final, "final epsilon", 0.0, 1.0, numpy=False)
+        real(self.gamma, "gamma", 0.0, 1.0, open_high=True, numpy=False)
+        real(self.average, "theta average (control steps)", 0.0, float(MAX_STEPS), numpy=False)
         if self.average and self.learner == "centralized":
             raise ValueError("a theta average is not available to the centralized learner: "
                              "its checkpoint would carry a second 63 504-entry theta, more "
                              "than a policy file's header holds")
-        _real(self.init_scale, "warm-start scale", 0.0, 1.0, open_low=True)
-        _real(self.hysteresis, "hysteresis margin", 0.0, 100.0)
+        real(self.init_scale, "warm-start scale", 0.0, 1.0, open_low=True, numpy=False)
+        real(self.hysteresis, "hysteresis margin", 0.0, 100.0, numpy=False)
         return self
 
     @property
@@ -117,19 +121,6 @@ class LearnConfig:
         if unknown:
             raise ValueError(f"unknown learning setting(s) {unknown}")
         return cls(**{**LEGACY, **data}).check()
-
-
-def _whole(v, what: str, lo: int, hi: int) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-        raise ValueError(f"{what} must be a whole number in [{lo}, {hi:,}], got {v!r}")
-
-
-def _real(v, what: str, lo: float, hi: float, *, open_low=False, open_high=False) -> None:
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-    ok = ok and (lo < v if open_low else lo <= v) and (v < hi if open_high else v <= hi)
-    if not ok:
-        raise ValueError(f"{what} must be a number in {'(' if open_low else '['}{lo:g}, "
-                         f"{hi:g}{')' if open_high else ']'}, got {v!r}")
 
 
 @dataclasses.dataclass

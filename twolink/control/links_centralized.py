@@ -45,6 +45,7 @@ from twolink.artifacts import VERSION as __version__
 from twolink.fqi import fuzzy
 from twolink.fqi.factored import FactoredBuilder, default_threads, factored_q_iteration
 from twolink.policy.fuzzy_policy import Agent, Policy
+from twolink.validate import whole
 
 
 def _physical_memory() -> int:
@@ -103,17 +104,11 @@ class Estimate:
         return dataclasses.asdict(self)
 
 
-def _check_refine(refine) -> int:
-    if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or refine < 1:
-        raise ValueError(f"refine must be a positive whole number, got {refine!r}")
-    return int(refine)
-
-
 def grid(links: int, refine: int = 1) -> fuzzy.Grid:
     """The grid of (16) for ``links`` links: an angle axis per theta_k, then a speed axis
     per dtheta_k, the paper's bins each subdivided ``refine`` times."""
     n = check_links(links)
-    refine = _check_refine(refine)
+    refine = whole(refine, "refine", 1)
     names = state_names(n)
     axes = [fuzzy.angle_axis(a) for a in names[:n]] + [fuzzy.speed_axis(s) for s in names[n:]]
     return fuzzy.Grid(tuple(a.refined(refine) for a in axes))
@@ -131,7 +126,7 @@ def estimate(links: int, refine: int = 1, *, gamma: float = GAMMA,
     """The :class:`Estimate` of a centralized synthesis for ``links`` links on the paper's
     grid refined ``refine`` times (pure arithmetic, no allocation)."""
     n = check_links(links)
-    refine = _check_refine(refine)
+    refine = whole(refine, "refine", 1)
     _check_gamma_delta(gamma, delta)
     angles = len(fuzzy.ANGLE_BINS_DEG) * refine
     speeds = (len(fuzzy.SPEED_BINS_DEG) - 1) * refine + 1
@@ -179,8 +174,7 @@ def check_size(links: int, refine: int = 1, max_bytes: Optional[int] = None, *,
     """:func:`estimate`, or a ValueError with it when its peak exceeds ``max_bytes``
     (default :data:`MAX_BYTES`)."""
     cap = MAX_BYTES if max_bytes is None else max_bytes
-    if isinstance(cap, bool) or not isinstance(cap, (int, np.integer)) or cap <= 0:
-        raise ValueError(f"max_bytes must be a positive whole number, got {max_bytes!r}")
+    whole(cap, "max_bytes", 1)
     est = estimate(links, refine, gamma=gamma, delta=delta)
     if est.peak_bytes > cap:
         raise ValueError(
@@ -260,8 +254,7 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
         raise ValueError(f"p must be ArmParameters or ChainParameters, got {type(p).__name__}")
     est = check_size(p.links, refine, max_bytes, gamma=gamma, delta=delta)
     threads = default_threads() if threads is None else threads
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
+    whole(threads, "threads", 1)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     g = grid(p.links, refine)
     table, rewards, clocks = factored_problem(p, g, progress=progress)

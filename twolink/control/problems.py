@@ -52,6 +52,7 @@ from twolink.fqi.iteration import (
 from twolink.fqi.tables import robust_table, transition_table
 from twolink.policy.fuzzy_policy import Agent
 from twolink.sim.perturbations import MAX_SPREAD, PHYSICAL, random_perturbation
+from twolink.validate import real, whole
 
 SYNTHESIS_MODELS = ("simplified", "full")
 #: Models that take their parameters from a file (twolink.arm.parameter_file): the full
@@ -247,9 +248,7 @@ def check_sweeps(sweeps: str) -> str:
 
 def check_refine(refine: int) -> int:
     """``refine`` if it is a positive whole number, else a ValueError."""
-    if isinstance(refine, bool) or not isinstance(refine, (int, np.integer)) or refine < 1:
-        raise ValueError(f"refine must be a positive whole number, got {refine!r}")
-    return int(refine)
+    return whole(refine, "refine", 1)
 
 
 def table_sizes(kind: str, refine: int = 1) -> dict:
@@ -268,14 +267,10 @@ def check_robust(robust: str, draws: int, spread: float, seed: int) -> tuple:
     """(mode, K, spread, seed) of a robust synthesis, or a ValueError saying what is wrong."""
     if robust not in ROBUST_MODES:
         raise ValueError(f"unknown robust mode {robust!r}; choose one of {', '.join(ROBUST_MODES)}")
-    if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
-        raise ValueError(f"draws must be a positive whole number, got {draws!r}")
-    if isinstance(spread, bool) or not isinstance(spread, (int, float, np.floating)) \
-            or not 0.0 <= spread < MAX_SPREAD:
-        raise ValueError(f"spread must lie in [0, {MAX_SPREAD}), got {spread!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
-    return robust, int(draws), float(spread), int(seed)
+    draws = whole(draws, "draws", 1)
+    spread = real(spread, "spread", 0.0, MAX_SPREAD, open_high=True,
+                  message="{what} must lie in [0, {high}), got {value!r}")
+    return robust, draws, spread, whole(seed, "seed", 0)
 
 
 def parameter_draws(p: ArmParameters, draws: int, spread: float, seed: int

@@ -60,6 +60,7 @@ from twolink.arm.parameters import REWARD_GOAL, REWARD_OTHER, TS, state_names
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.envs.core import (  # noqa: F401
     OBSERVATION_NAMES,
+    BAD_TIME_LIMIT,
     TASKS,
     arm,
     check_action,
@@ -76,6 +77,7 @@ from twolink.envs.core import (  # noqa: F401
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import finish_data, set_data
+from twolink.validate import real
 
 
 def _hold(u):
@@ -247,9 +249,7 @@ def load(task_name: str, *, seed=None, time_limit: float | None = None, params=N
     challenge = check_challenge(challenge, perturbation=perturbation,
                                 angle_noise=angle_noise, speed_noise=speed_noise)
     time_limit = horizon(n) if time_limit is None else time_limit
-    if isinstance(time_limit, bool) or not (isinstance(time_limit, (int, float))
-                                            and np.isfinite(time_limit) and time_limit > 0):
-        raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+    real(time_limit, "time_limit", 0, open_low=True, numpy=False, message=BAD_TIME_LIMIT)
     x0 = check_x0(default_x0(n) if x0 is None else x0, n)
     random = np.random.RandomState(seed)
     p = (challenge.plant(random, params) if challenge is not None

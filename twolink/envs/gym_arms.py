@@ -16,6 +16,7 @@ from twolink.arm.parameters import TS, ArmParameters, ChainParameters
 from twolink.arm.task import action_levels, centralized_reward
 from twolink.control.problems import centralized_actions
 from twolink.envs.core import (
+    BAD_TIME_LIMIT,
     arm,
     check_action,
     check_challenge,
@@ -29,22 +30,16 @@ from twolink.envs.core import (
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
+from twolink.validate import choice, is_real, real, real_array
 
 OBSERVATIONS = ("state", "cos_sin")
 ACTIONS = ("box", "discrete")
 
 
-def check_choice(value, choices, what: str):
-    if value not in choices:
-        raise ValueError(f"{what} must be one of {', '.join(map(repr, choices))}, got {value!r}")
-    return value
-
-
 def _check_steps(time_limit) -> int:
-    if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)) \
-            or not np.isfinite(time_limit) or time_limit <= 0:
-        raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
-    return max(1, int(round(time_limit / TS)))
+    seconds = real(time_limit, "time_limit", 0, open_low=True, numpy=False,
+                   message=BAD_TIME_LIMIT)
+    return max(1, int(round(seconds / TS)))
 
 
 
@@ -63,13 +58,6 @@ def joint_actions(params) -> np.ndarray:
     if params.links == 2:
         return centralized_actions(params)
     return np.array(list(itertools.product(*(action_levels(t) for t in params.tau_max))))
-
-
-def _real(action, what: str = "action") -> np.ndarray:
-    a = np.asarray(action)
-    if a.dtype.kind not in "iuf":
-        raise ValueError(f"{what} must hold real numbers, got dtype {a.dtype}")
-    return a
 
 
 def _hold(u):
@@ -111,8 +99,8 @@ class Arms:
         self.links = n = params.links
         check_two_link_options(n, perturbation=perturbation, challenge=challenge,
                                angle_noise=angle_noise, speed_noise=speed_noise)
-        self.observation = check_choice(observation, OBSERVATIONS, "observation")
-        self.actions = check_choice(actions, ACTIONS, "actions")
+        self.observation = choice(observation, "observation", OBSERVATIONS)
+        self.actions = choice(actions, "actions", ACTIONS)
         self.x0 = _check_x0(default_x0(n) if x0 is None else x0, params.speed_max, n)
         self.steps = _check_steps(horizon(n) if time_limit is None else time_limit)
         size = perturbation is not None and not isinstance(perturbation, dict)
@@ -120,7 +108,7 @@ class Arms:
         fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
         for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
                             ("delay", delay)):
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+            if not is_real(value):
                 raise ValueError(f"{name} must be one number, got {value!r}")
         self.challenge = check_challenge(challenge, perturbation=perturbation,
                                           angle_noise=angle_noise, speed_noise=speed_noise,
@@ -169,7 +157,7 @@ class Arms:
     def torques(self, action, *, single: bool = False) -> np.ndarray:
         """Checked torques (rows, N) for the actions of all arms (``single``: the one
         action of a one-arm environment); a ValueError otherwise."""
-        a = _real(action)
+        a = real_array(action, "action", dtype=None, finite=False)
         if self.actions == "box":
             if single:
                 return check_action(a, self.params.tau_max)[None]

@@ -62,6 +62,7 @@ from twolink.arm import mjcf
 from twolink.arm.parameters import TS, ArmParameters, ChainParameters, check_links
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.envs.core import (
+    BAD_TIME_LIMIT,
     arm,
     check_action,
     check_challenge,
@@ -79,6 +80,7 @@ from twolink.envs.core import (
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MujocoPlant, check_states
 from twolink.sim.rollout import steps_for
+from twolink.validate import choice, is_real, real, whole
 
 
 def agents(links: int = 2) -> tuple:
@@ -100,18 +102,6 @@ RESET_OPTIONS = ("x0",)
 def _task_keys(names) -> dict:
     """Agent ``linkI`` -> its observation ``agentI`` of :func:`twolink.envs.core.observation_names`."""
     return {agent: f"agent{i}" for i, agent in enumerate(names, 1)}
-
-
-def _check_choice(name: str, value, choices) -> str:
-    if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
-    return value
-
-
-def _check_number(name: str, value, what: str) -> None:
-    """One real number (not a bool, not an array), or a ValueError."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be {what}, got {value!r}")
 
 
 def _check_agent_action(agent: str, action) -> np.ndarray:
@@ -156,17 +146,17 @@ class ParallelArm(pettingzoo.ParallelEnv):
                              "agents act at once, so link2's torque of this step does not "
                              "exist when link1 observes; use 'previous', or the AEC form "
                              "env(link1_tau2='current') for the paper's ordering (18)")
-        self._link1_tau2 = _check_choice("link1_tau2", link1_tau2, LINK1_TAU2)
-        self._reward = _check_choice("reward", reward, REWARDS)
+        self._link1_tau2 = choice(link1_tau2, "link1_tau2", LINK1_TAU2)
+        self._reward = choice(reward, "reward", REWARDS)
         if render_mode is not None:
-            _check_choice("render_mode", render_mode, self.metadata["render_modes"])
-        _check_number("time_limit", time_limit, "a positive number of seconds")
-        if not (np.isfinite(time_limit) and time_limit > 0):
-            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
-        self._steps = steps_for(float(time_limit))
-        _check_number("angle_noise", angle_noise, "one standard deviation (rad)")
-        _check_number("speed_noise", speed_noise, "one standard deviation (rad/s)")
-        _check_number("delay", delay, "a whole number of sample periods")
+            choice(render_mode, "render_mode", self.metadata["render_modes"])
+        self._steps = steps_for(real(time_limit, "time_limit", 0, open_low=True,
+                                     message=BAD_TIME_LIMIT))
+        for name, value, what in (("angle_noise", angle_noise, "one standard deviation (rad)"),
+                                  ("speed_noise", speed_noise, "one standard deviation (rad/s)"),
+                                  ("delay", delay, "a whole number of sample periods")):
+            if not is_real(value):      # one real number (not a bool, not an array)
+                raise ValueError(f"{name} must be {what}, got {value!r}")
         self._x0 = self._check_x0(x0, params)
         # Check the remaining options now (with a throw-away generator), not at reset.
         perturbed_params(params, perturbation, np.random.default_rng(0))
@@ -223,9 +213,9 @@ class ParallelArm(pettingzoo.ParallelEnv):
         """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
         options = check_reset_options(options, RESET_OPTIONS)
         x0 = self._check_x0(options["x0"], self._base) if "x0" in options else self._x0
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
-                                 or seed < 0):
-            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        if seed is not None:
+            whole(seed, "seed", 0, message="{what} must be a non-negative integer or None, "
+                                           "got {value!r}")
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)
         ch = self._challenge

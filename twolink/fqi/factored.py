@@ -27,6 +27,7 @@ from twolink.arm.parameters import DELTA, GAMMA
 from twolink.fqi import _factored_kernel as fqi_factored_kernel
 from twolink.fqi.fuzzy import Grid
 from twolink.fqi.iteration import ROBUST_MODES, QIterationResult, iterate
+from twolink.validate import whole
 
 #: :meth:`FactoredTable.tocsr` refuses to expand a table past this many non-zeros.
 MAX_CSR_NNZ = 50_000_000
@@ -55,8 +56,7 @@ class FactoredTable:
         index1 = np.ascontiguousarray(self.index1, dtype=np.int32)
         weight1 = np.ascontiguousarray(self.weight1, dtype=float)
         n_u = self.n_actions
-        if isinstance(n_u, bool) or not isinstance(n_u, (int, np.integer)) or n_u < 1:
-            raise ValueError(f"n_actions must be a positive whole number, got {n_u!r}")
+        whole(n_u, "n_actions", 1)
         if index.ndim != 2 or index.shape != weight.shape or index.shape[0] % n_u:
             raise ValueError(f"index {index.shape} and weight {weight.shape} must be one "
                              f"(S * {n_u}, width) shape")
@@ -217,9 +217,7 @@ def sweep_work(table: FactoredTable) -> int:
 
 def _check_threads(threads, work: int) -> int:
     threads = default_threads(work) if threads is None else threads
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads must be a positive whole number, got {threads!r}")
-    return int(threads)
+    return whole(threads, "threads", 1)
 
 
 def _check_rewards(table: FactoredTable, rewards, gamma: float, delta: float) -> np.ndarray:

@@ -35,6 +35,7 @@ from twolink.fqi.tables import (
     fixed_width,
     weights_as,
 )
+from twolink.validate import whole
 
 SWEEPS = ("synchronous", "serial")
 ROBUST_MODES = ("worst", "mean")
@@ -110,11 +111,8 @@ def fuzzy_q_iteration(transitions: Union[sp.spmatrix, TransitionTable], rewards:
 def check_threads(threads) -> int:
     """``threads`` as an int in [1, this machine's cores], or a ValueError."""
     cores = max(1, os.cpu_count() or 1)
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) \
-            or not 1 <= threads <= cores:
-        raise ValueError(f"threads must be a whole number in [1, {cores}] (this machine's "
-                         f"cores), got {threads!r}")
-    return int(threads)
+    return whole(threads, "threads", 1, cores, message="{what} must be a whole number in "
+                 "[{low}, {high}] (this machine's cores), got {value!r}")
 
 
 def _pool(threads: int):

@@ -33,6 +33,7 @@ from twolink.arm.parameters import check_links, state_names
 from twolink.artifacts import atomic_path
 from twolink.fqi.fuzzy import Grid
 from twolink.policy.registry import SHIPPED
+from twolink.validate import real, real_array
 
 FORMAT = "twolink-policy"
 #: Version 2 added the content sha256 and the per-agent tie tolerance.
@@ -80,14 +81,11 @@ class Agent:
     tie_tolerance: float = TIE_TOLERANCE
 
     def __post_init__(self):
-        self.actions = _real(self.actions, f"agent {self.name}: actions")
-        self.q = _real(self.q, f"agent {self.name}: Q")
+        self.actions = real_array(self.actions, f"agent {self.name}: actions")
+        self.q = real_array(self.q, f"agent {self.name}: Q")
         self.outputs = tuple(self.outputs)
-        tol = self.tie_tolerance
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 <= tol < 1:
-            raise ValueError(f"agent {self.name}: tie tolerance must be a number in [0, 1), "
-                             f"got {tol!r}")
-        self.tie_tolerance = float(tol)
+        self.tie_tolerance = real(self.tie_tolerance, f"agent {self.name}: tie tolerance",
+                                  0, 1, open_high=True, numpy=False)
         if self.actions.ndim != 2 or self.actions.shape[1] != len(self.outputs):
             raise ValueError(f"agent {self.name}: actions must have shape (N_U, "
                              f"{len(self.outputs)}), got {self.actions.shape}")
@@ -120,17 +118,6 @@ def greedy_indices(q: np.ndarray, tolerance: float = TIE_TOLERANCE) -> np.ndarra
     lies within ``tolerance`` of the row's best (``tolerance=0``: plain ``argmax``)."""
     q = np.asarray(q, dtype=float)
     return np.argmax(q >= q.max(axis=1, keepdims=True) - tolerance, axis=1)
-
-
-def _real(value, what: str) -> np.ndarray:
-    """``value`` as a float array; a ValueError unless it holds finite real numbers."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "iuf":
-        raise ValueError(f"{what} must hold real numbers, got dtype {arr.dtype}")
-    arr = arr.astype(float)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{what} contains NaN or infinite values")
-    return arr
 
 
 def _content_hash(header: dict, q_tables: dict) -> str:
@@ -257,7 +244,7 @@ class Policy:
                                   f"header or a Q-table was edited or corrupted)")
         try:
             agents = [Agent(e["name"], Grid.from_dict(e["grid"]),
-                            _real(e["actions"], f"agent {e['name']}: actions"),
+                            real_array(e["actions"], f"agent {e['name']}: actions"),
                             q_tables[e["name"]], tuple(e["outputs"]), e.get("info", {}),
                             e["tie_tolerance"])
                       for e in header["agents"]]

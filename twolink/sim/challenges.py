@@ -37,11 +37,14 @@ from twolink.sim.perturbations import (
     random_perturbation,
     torque_limited,
 )
+from twolink.validate import real, whole
 
 #: Most samples a delay may be (50 s): beyond that it is a typing slip.
 MAX_DELAY = 1000
 #: Most plants one draw makes.
 MAX_PLANTS = 10_000
+#: The message of a bad plant count (a :func:`twolink.validate.whole` template).
+PLANT_COUNT = "{what} must be a whole number of plants from {low} to {high}, got {value!r}"
 #: Second word of the plant draws' seed: plant i of ``draw_plants(..., seed)`` draws from
 #: ``SeedSequence([seed, PLANT_STREAM], spawn_key=(i,))``.
 PLANT_STREAM = 104_729
@@ -67,11 +70,8 @@ class Challenge:
             raise ValueError(f"challenge name must be a non-empty string, got {self.name!r}")
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if f.name not in ("name", "description") and (
-                    isinstance(v, bool) or not isinstance(v, (int, float, np.integer,
-                                                              np.floating))
-                    or not math.isfinite(v)):
-                raise ValueError(f"challenge {f.name} must be a finite number, got {v!r}")
+            if f.name not in ("name", "description"):
+                real(v, f"challenge {f.name}")
         _check_spread(self.spread)
         if not -MAX_SPREAD < self.torque_limit <= 1.0:
             raise ValueError(f"torque_limit must be a relative change in (-{MAX_SPREAD}, 1], "
@@ -129,10 +129,8 @@ class Challenge:
 
 
 def _check_spread(spread) -> float:
-    if isinstance(spread, bool) or not isinstance(spread, (int, float, np.integer, np.floating)) \
-            or not 0.0 <= spread < MAX_SPREAD:
-        raise ValueError(f"spread must be a relative change in [0, {MAX_SPREAD}), got {spread!r}")
-    return float(spread)
+    return real(spread, "spread", 0.0, MAX_SPREAD, open_high=True,
+                message="{what} must be a relative change in [0, {high}), got {value!r}")
 
 
 #: The named levels, mildest first; ``medium`` combines every kind of challenge.
@@ -170,10 +168,7 @@ def draw_plants(spread: float, count: int, seed, base: ArmParameters = TABLE_I
     (``SeedSequence([seed, PLANT_STREAM], spawn_key=(i,))``), so the first k plants are
     the same whatever ``count``."""
     _check_spread(spread)
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
-            or not 1 <= count <= MAX_PLANTS:
-        raise ValueError(f"count must be a whole number of plants from 1 to {MAX_PLANTS}, "
-                         f"got {count!r}")
+    whole(count, "count", 1, MAX_PLANTS, message=PLANT_COUNT)
     if spread == 0:
         return [base] * int(count)
     return [random_perturbation(rng, float(spread), base, PHYSICAL)
@@ -181,9 +176,7 @@ def draw_plants(spread: float, count: int, seed, base: ArmParameters = TABLE_I
 
 
 def _entropy(seed) -> list[int]:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
-    return [int(seed), PLANT_STREAM]
+    return [whole(seed, "seed", 0), PLANT_STREAM]
 
 
 #: Columns of :func:`table`, with their headings.

@@ -36,6 +36,7 @@ from twolink.arm.dynamics import MODELS
 from twolink.arm.integrate import sample_step, wrap_angle
 from twolink.arm.parameters import TABLE_I, TS, ArmParameters
 from twolink.sim.challenges import LEVELS
+from twolink.validate import is_whole
 
 #: Synthesis models a compensator can predict with: ``identified`` is the full model (6)
 #: with the parameters identified on the plant (carried in the policy's meta).
@@ -85,7 +86,7 @@ def observer_gain(angle_std: float, speed_std: float,
 
 
 def _check_samples(value, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+    if not is_whole(value):
         raise ValueError(f"{what} must be a whole number of samples, got {value!r}")
     if value < 0:
         raise ValueError(f"{what} must be a non-negative whole number of samples, got {value}")
@@ -101,8 +102,10 @@ def _synthesis_model(policy, model, params) -> tuple[str, ArmParameters]:
     meta = getattr(policy, "meta", {}) or {}
     name = meta.get("model") if model is None else model
     if name is None:
-        raise ValueError("the policy names no synthesis model in its meta; give model= "
-                         f"(one of {', '.join(PREDICTION_MODELS)})")
+        who = getattr(policy, "name", None) or type(policy).__name__
+        raise ValueError(f"controller {who} names no model for the compensator to predict "
+                         f"with: give it meta = {{'model': ...}} (one of "
+                         f"{', '.join(PREDICTION_MODELS)}), or run it without compensation")
     if name not in PREDICTION_MODELS:
         raise ValueError(f"unknown prediction model {name!r}; choose one of "
                          f"{', '.join(PREDICTION_MODELS)}")

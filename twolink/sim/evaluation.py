@@ -17,20 +17,22 @@ on which plants and states share its batch.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
 from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
-from twolink.sim.challenges import MAX_PLANTS, Challenge, check_horizon
+from twolink.sim.challenges import MAX_PLANTS, PLANT_COUNT, Challenge, check_horizon
 from twolink.sim.challenges import challenge as challenge_named
 from twolink.sim.metrics import (
+    Score,
     discounted_return,
     evaluation_set,
+    score,
     settle_time,
     success,
-    wilson_interval,
 )
 from twolink.sim.perturbations import (
     NOISE_STREAM,
@@ -40,6 +42,7 @@ from twolink.sim.perturbations import (
 )
 from twolink.sim.plants import MujocoPlant, check_states
 from twolink.sim.rollout import rollout, rollout_grid, steps_for
+from twolink.validate import real, whole
 
 #: Second word of the seeds of a run's reading faults (its noise: perturbations.NOISE_STREAM).
 FAULT_STREAM = 7927
@@ -68,23 +71,30 @@ class Evaluation:
     compensated: bool
     label: str = ""
 
+    @functools.cached_property
+    def score(self) -> Score:
+        """The shared summary of every run (:class:`twolink.sim.metrics.Score`: successes,
+        Wilson interval, worst plant, median settle), row p of the arrays being plant p."""
+        plant = np.repeat(np.arange(self.success.shape[0]), self.success.shape[1])
+        return score(self.success, self.settle, plant)
+
     @property
     def count(self) -> int:
         """Successful runs."""
-        return int(self.success.sum())
+        return self.score.successes
 
     @property
     def runs(self) -> int:
-        return int(self.success.size)
+        return self.score.n
 
     @property
     def rate(self) -> float:
-        return self.count / self.runs
+        return self.score.rate
 
     @property
     def interval(self) -> tuple[float, float]:
         """95 % Wilson interval of :attr:`rate`."""
-        return wilson_interval(self.count, self.runs)
+        return self.score.wilson_95
 
     @property
     def plant_counts(self) -> np.ndarray:
@@ -92,12 +102,13 @@ class Evaluation:
         return self.success.sum(axis=1)
 
     @property
-    def worst_plant(self) -> int:
-        """Index of the plant with the fewest successes (the first such)."""
-        return int(np.argmin(self.plant_counts))
+    def worst_plant(self) -> int | None:
+        """Index of the plant with the fewest successes (the first such); None for one plant."""
+        return self.score.worst_plant
 
     @property
     def worst_plant_rate(self) -> float:
+        """Success rate of the worst plant (the rate itself for one plant)."""
         return int(self.plant_counts.min()) / self.success.shape[1]
 
     @property
@@ -111,23 +122,21 @@ class Evaluation:
 
     @property
     def median_settle(self) -> float:
-        """Median settle time over all runs (failures count as inf, so it is inf when
-        half or more of the runs fail)."""
-        return float(np.median(self.settle))
+        """Median settle time over all runs (failures count as never settled, inf, so it is
+        inf when half or more of the runs fail)."""
+        return self.score.median_settle
 
     def as_dict(self, *, rows: bool = True) -> dict:
-        """JSON-ready summary; with ``rows`` also the per-plant, per-state outcomes."""
-        lo, hi = self.interval
-        med = self.median_settle
+        """JSON-ready summary: the run's setting, the keys of
+        :meth:`twolink.sim.metrics.Score.as_dict`, the per-plant successes, the worst
+        plant's rate and the returns; with ``rows`` also the per-plant, per-state outcomes."""
         out = {"label": self.label, "challenge": self.challenge.as_dict(), "seed": self.seed,
                "horizon": self.horizon, "compensated": self.compensated,
                "plants": len(self.params), "states": int(self.success.shape[1]),
-               "successes": self.count, "runs": self.runs, "rate": self.rate,
-               "wilson95": [lo, hi],
+               **self.score.as_dict(),
                "plant_successes": [int(v) for v in self.plant_counts],
-               "worst_plant": self.worst_plant, "worst_plant_rate": self.worst_plant_rate,
-               "worst_return": self.worst_return, "mean_return": self.mean_return,
-               "median_settle": med if math.isfinite(med) else None}
+               "worst_plant_rate": self.worst_plant_rate,
+               "worst_return": self.worst_return, "mean_return": self.mean_return}
         if rows:
             out.update(
                 params=[p.as_dict() for p in self.params], x0=self.x0.tolist(),
@@ -137,17 +146,10 @@ class Evaluation:
         return out
 
 
-def _check_number(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
 def _challenge(challenge, delay, angle_noise_deg) -> Challenge:
     """The challenge in force: the one given, or one made of ``delay`` and ``angle_noise_deg``."""
-    delay = _check_number("delay", delay)
-    angle = _check_number("angle_noise_deg", angle_noise_deg)
+    delay = real(delay, "delay")
+    angle = real(angle_noise_deg, "angle_noise_deg")
     if challenge is not None:
         if delay or angle:
             raise ValueError("give either a challenge or delay/angle_noise_deg, not both "
@@ -166,10 +168,7 @@ def _plants(params, ch: Challenge, count, seed) -> list[ArmParameters]:
             count = DEFAULT_PLANTS if ch.spread > 0 else 1
         if ch.spread > 0:
             return ch.plants(count, seed)
-        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
-                or not 1 <= count <= MAX_PLANTS:
-            raise ValueError(f"count must be a whole number of plants from 1 to {MAX_PLANTS}, "
-                             f"got {count!r}")
+        whole(count, "count", 1, MAX_PLANTS, message=PLANT_COUNT)
         return [ch.plant(None, TABLE_I)] * int(count)
     if isinstance(params, ArmParameters):
         params = [params]
@@ -248,9 +247,8 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     ``compensate``: drive the policy through :func:`twolink.sim.estimation.compensated`.
     """
     ch = _challenge(challenge, delay, angle_noise_deg)
-    horizon = _check_number("horizon", horizon)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
+    horizon = real(horizon, "horizon")
+    whole(seed, "seed", 0)
     plants = _plants(params, ch, count, seed)
     x0 = _states(x0)
     runs = len(plants) * len(x0)

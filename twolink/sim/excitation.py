@@ -28,6 +28,7 @@ from twolink.sim.plants import (
     set_data,
     substeps_per_sample,
 )
+from twolink.validate import whole
 
 #: Excitation signals by name.
 EXCITATIONS = {
@@ -114,8 +115,7 @@ def check_experiment(*, duration: float, angle_noise_deg: float, seed: int,
                          f"{angle_noise_deg!r}")
     if not (isinstance(spread, (int, float)) and 0 <= spread <= MAX_HIDDEN_SPREAD):
         raise ValueError(f"spread must lie in [0, {MAX_HIDDEN_SPREAD:g}], got {spread!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative whole number, got {seed!r}")
+    whole(seed, "seed", 0)
     if excitation not in EXCITATIONS:
         raise ValueError(f"unknown excitation {excitation!r}; choose one of "
                          f"{', '.join(EXCITATIONS)}")

@@ -43,6 +43,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from twolink.arm.parameter_file import DYNAMIC
 from twolink.arm.parameters import TABLE_I, ArmParameters
 from twolink.sim.excitation import MIN_DURATION, Log, seed_streams
+from twolink.validate import whole
 
 #: The parameters the fit determines, in the order of theta.
 IDENTIFIABLE = DYNAMIC
@@ -289,10 +290,8 @@ def least_squares(Y: np.ndarray, tau: np.ndarray) -> np.ndarray:
 
 def check_bootstrap(bootstrap: int) -> None:
     """A ValueError unless ``bootstrap`` is a whole number in [2, MAX_BOOTSTRAP]."""
-    if isinstance(bootstrap, bool) or not isinstance(bootstrap, (int, np.integer)) or \
-            not 2 <= bootstrap <= MAX_BOOTSTRAP:
-        raise ValueError(f"bootstrap must be a whole number in [2, {MAX_BOOTSTRAP}], "
-                         f"got {bootstrap!r}")
+    whole(bootstrap, "bootstrap", 2, MAX_BOOTSTRAP,
+          message="{what} must be a whole number in [{low}, {high}], got {value!r}")
 
 
 def fit(log: Log, *, bootstrap: int = 20, passes: int = REFINE_PASSES) -> Fit:

@@ -6,6 +6,7 @@ links are evaluated on :func:`random_poses` instead. The metrics hold for any N
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -21,6 +22,7 @@ from twolink.arm.parameters import (
 )
 from twolink.arm.task import in_goal_band
 from twolink.sim.rollout import Trajectory
+from twolink.validate import is_whole, whole
 
 #: Angles (degrees) of the evaluation grid: every pair (theta1, theta2), both at rest.
 EVAL_ANGLES_DEG = (-150.0, -90.0, -45.0, -10.0, 10.0, 45.0, 90.0, 150.0)
@@ -43,11 +45,8 @@ def random_poses(links: int, count: int, seed) -> np.ndarray:
     uniform in [-pi, pi), drawn row by row from ``np.random.default_rng(seed)`` (``seed``
     an int or a Generator), speeds zero. The evaluation sets of N-link arms."""
     n = check_links(links)
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
-            or not 1 <= count <= MAX_POSES:
-        raise ValueError(f"count must be a whole number from 1 to {MAX_POSES}, got {count!r}")
-    if seed is None or isinstance(seed, bool) or not isinstance(
-            seed, (int, np.integer, np.random.Generator)):
+    whole(count, "count", 1, MAX_POSES)
+    if not (is_whole(seed) or isinstance(seed, np.random.Generator)):
         raise ValueError(f"seed must be an int or a numpy Generator, got {seed!r}")
     rng = np.random.default_rng(seed)
     poses = np.zeros((int(count), 2 * n))
@@ -115,6 +114,111 @@ def wilson_interval(successes: int, n: int, *, z: float = _Z95) -> tuple[float, 
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+@dataclasses.dataclass(frozen=True)
+class Score:
+    """The one evaluation result: successes of ``n`` runs, their 95 % Wilson interval, the
+    worst plant and the median settle time; :meth:`as_dict` is its JSON, one spelling of
+    every key (:data:`SCORE_KEYS`). Build it with :func:`score` from per-run arrays.
+
+    Why ``Score``, here: three classes named ``Evaluation`` already hold the runs that a
+    score sums up, and each composes this one - :class:`twolink.sim.evaluation.Evaluation`
+    (per-plant, per-state outcomes), :class:`twolink.control.learning.Evaluation` (a
+    learning-curve point: a score plus steps, return and time) and
+    :class:`twolink.studies.scaling.measure.Evaluation` (a score per horizon). A fourth
+    ``Evaluation`` would tell none of them apart. It lives beside :func:`success`,
+    :func:`settle_time` and :func:`wilson_interval`, which it is made of, and needs neither
+    MuJoCo nor a policy, so every layer above sim scores its own runs with it.
+
+    ``wilson_95``: (low, high) of :func:`wilson_interval`. ``median_settle``: seconds, a
+    failed run counting as never settled (inf), so inf when half or more of the runs fail
+    (more than half for an odd ``n``). ``worst_plant``, ``worst_plant_successes``: the
+    plant with the lowest success rate (the first such) and its successes, None unless the
+    runs span several plants.
+    """
+
+    successes: int
+    n: int
+    wilson_95: tuple
+    median_settle: float
+    worst_plant: int | None = None
+    worst_plant_successes: int | None = None
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.n
+
+    def as_dict(self) -> dict:
+        """JSON-ready, keys :data:`SCORE_KEYS` (``median_settle`` None when inf)."""
+        med = self.median_settle
+        return {"successes": self.successes, "n": self.n, "rate": self.rate,
+                "wilson_95": [float(v) for v in self.wilson_95],
+                "worst_plant": self.worst_plant,
+                "worst_plant_successes": self.worst_plant_successes,
+                "median_settle": float(med) if math.isfinite(med) else None}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Score:
+        """The score of a stored :meth:`as_dict`, or of an older spelling
+        (:func:`score_keys`); the interval is recomputed from the counts (stored learning
+        curves have none), a missing worst plant is None and a None median is inf."""
+        d = score_keys(d)
+        k, n = int(d["successes"]), int(d["n"])
+        med = d.get("median_settle")
+        worst, worst_k = d.get("worst_plant"), d.get("worst_plant_successes")
+        return cls(k, n, wilson_interval(k, n), math.inf if med is None else float(med),
+                   None if worst is None else int(worst),
+                   None if worst_k is None else int(worst_k))
+
+
+#: The keys of :meth:`Score.as_dict`, in order.
+SCORE_KEYS = ("successes", "n", "rate", "wilson_95", "worst_plant", "worst_plant_successes",
+              "median_settle")
+#: Older spellings of score keys in committed files, and the key each now is:
+#: ``runs`` and ``wilson95`` (twolink.sim.evaluation, e.g. renders/mismatch/report.json),
+#: ``interval`` (the N-link mismatch section).
+OLD_SCORE_KEYS = {"runs": "n", "wilson95": "wilson_95", "interval": "wilson_95"}
+
+
+def score_keys(d: dict) -> dict:
+    """A copy of ``d`` (a stored score, or a record holding a score's keys) with the keys
+    of :meth:`Score.as_dict`: every old spelling of :data:`OLD_SCORE_KEYS` is renamed,
+    unless ``d`` also holds the new key (which then wins); other keys pass unchanged.
+    What formatters call on dicts that may come from files written before the one
+    spelling, so that those files still read."""
+    out = dict(d)
+    for old, new in OLD_SCORE_KEYS.items():
+        if old in out:
+            value = out.pop(old)
+            out.setdefault(new, value)
+    return out
+
+
+def score(success, settle, plant=None) -> Score:
+    """The :class:`Score` of runs given as per-run arrays (any shape, raveled alike):
+    ``success`` bools, ``settle`` seconds (inf: never settled; a failed run counts as
+    never settled whatever its time) and optionally ``plant``, each run's plant index (the
+    worst plant is reported when there are several)."""
+    ok = np.asarray(success, dtype=bool).ravel()
+    st = np.asarray(settle, dtype=float).ravel()
+    if not ok.size or st.shape != ok.shape:
+        raise ValueError(f"need as many settle times as successes, at least one run; got "
+                         f"{st.size} and {ok.size}")
+    k, n = int(ok.sum()), int(ok.size)
+    med = float(np.median(np.where(ok, st, np.inf)))
+    worst = worst_k = None
+    if plant is not None:
+        idx = np.asarray(plant).ravel()
+        if idx.shape != ok.shape or not np.issubdtype(idx.dtype, np.integer) \
+                or (idx < 0).any():
+            raise ValueError("plant must hold a non-negative whole plant index per run")
+        plants, runs = np.unique(idx, return_counts=True)
+        if len(plants) > 1:
+            wins = np.bincount(idx, weights=ok, minlength=plants.max() + 1)[plants]
+            w = int(np.argmin(wins / runs))
+            worst, worst_k = int(plants[w]), int(wins[w])
+    return Score(k, n, wilson_interval(k, n), med, worst, worst_k)
 
 
 def final_offsets_deg(traj: Trajectory) -> np.ndarray:

@@ -17,6 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, ArmParameters
+from twolink.validate import whole_array
 
 #: Table I parameters a sweep may perturb (the plant's physical constants).
 PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max", "tau2_max")
@@ -138,6 +139,10 @@ def _row_indices(rows, n: int, size: int, block: int) -> np.ndarray:
     return rows
 
 
+#: The message of a bad delay (a :func:`twolink.validate.whole_array` template).
+_SAMPLES = "{what} must be a non-negative whole number of samples, got {value}"
+
+
 class ActuationDelay:
     """A batched policy whose torque reaches the plant late, row by row.
 
@@ -147,11 +152,8 @@ class ActuationDelay:
     """
 
     def __init__(self, policy, samples=1):
-        d = np.asarray(samples, dtype=float)
-        if not np.all(np.isfinite(d)) or np.any(d < 0) or np.any(d != np.round(d)):
-            raise ValueError(f"delay must be a non-negative whole number of samples, got {samples}")
+        self.samples = whole_array(samples, "delay", message=_SAMPLES)
         self.policy = policy
-        self.samples = d.astype(int)
         self.kind = getattr(policy, "kind", "")
         self._history: list = []
 
@@ -188,13 +190,6 @@ def keyed_generators(entropy, keys) -> list[np.random.Generator]:
         for key in keys]
 
 
-def _whole(samples, what: str) -> np.ndarray:
-    d = np.asarray(samples, dtype=float)
-    if not np.all(np.isfinite(d)) or np.any(d < 0) or np.any(d != np.round(d)):
-        raise ValueError(f"{what} must be a non-negative whole number of samples, got {samples}")
-    return d.astype(int)
-
-
 class ObservationDelay:
     """Readings that reach the controller late, row by row.
 
@@ -206,7 +201,7 @@ class ObservationDelay:
     """
 
     def __init__(self, samples=1, *, size: int | None = None):
-        self.samples = _whole(samples, "observation delay")
+        self.samples = whole_array(samples, "observation delay", message=_SAMPLES)
         self.size = size                  # rows of the batch (default: the first call's)
         self._buffer = None               # (batch, D + 1, d): row i's reading k at k % (D + 1)
         self._age = None                  # readings each row has had since its restart

@@ -133,6 +133,6 @@ def targets(section: dict) -> list[dict]:
         met = value is not None and (value >= threshold if cmp == ">=" else value <= threshold)
         rows.append({"target": text, "policy": pol, "level": level, "mode": mode,
                      "measure": measure, "threshold": threshold, "value": value,
-                     "successes": res["successes"], "runs": res["runs"],
+                     "successes": res["successes"], "n": res["n"],
                      "plants": res["plants"], "met": bool(met)})
     return rows

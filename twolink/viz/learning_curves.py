@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from twolink.artifacts import atomic_path  # noqa: E402
-from twolink.sim.metrics import wilson_interval  # noqa: E402
+from twolink.sim.metrics import Score  # noqa: E402
 
 _STYLES = ("-", "--", ":", "-.")
 
@@ -21,8 +21,10 @@ def learning_curves(panels: dict, path: os.PathLike, *, baselines: dict | None =
     """Write a PNG of learning curves.
 
     ``panels`` maps a panel title to ``{label: curve}``, a curve being a list of
-    :class:`twolink.control.learning.Evaluation` (or dicts with ``steps``, ``successes``, ``n``);
-    success is drawn with its 95 % Wilson band. ``baselines`` maps a label to a success
+    :class:`twolink.control.learning.Evaluation` (or their dicts: ``steps`` and a score's
+    keys, read by :meth:`twolink.sim.metrics.Score.from_dict`, so curves stored before the
+    one spelling, with ``successes`` and ``n`` only, still draw); success is drawn with its
+    95 % Wilson band. ``baselines`` maps a label to a success
     rate in [0, 1] drawn as a horizontal line in every panel; ``target`` a dotted line.
     """
     if not panels or not any(panels.values()):
@@ -39,8 +41,9 @@ def learning_curves(panels: dict, path: os.PathLike, *, baselines: dict | None =
             if not pts:
                 raise ValueError(f"{label}: empty learning curve")
             steps = [p["steps"] for p in pts]
-            rate = [p["successes"] / p["n"] for p in pts]
-            band = [wilson_interval(p["successes"], p["n"]) for p in pts]
+            scores = [Score.from_dict(p) for p in pts]
+            rate = [s.rate for s in scores]
+            band = [s.wilson_95 for s in scores]
             color = colors[c % len(colors)]
             ax.plot(steps, [100 * r for r in rate], color=color, lw=1.6, label=label,
                     ls=_STYLES[(c // len(colors)) % len(_STYLES)], marker=".")

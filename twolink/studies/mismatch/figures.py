@@ -18,6 +18,7 @@ from twolink.arm.parameters import HORIZON  # noqa: E402
 from twolink.artifacts import atomic_path  # noqa: E402
 from twolink.fqi import fuzzy  # noqa: E402
 from twolink.policy.registry import TWO_LINK  # noqa: E402
+from twolink.sim.metrics import score_keys  # noqa: E402
 from twolink.studies.mismatch.model_error import PREDICTIONS  # noqa: E402
 from twolink.studies.mismatch.plan import UNITS  # noqa: E402
 
@@ -133,11 +134,11 @@ def robust_figure(section: dict, settle: dict, path: Path) -> str:
         a, b = axes[0, col], axes[1, col]
         for j, mode in enumerate(modes):
             at = [i for i, p in enumerate(pols) if mode in res[p][level]]
-            got = [res[pols[i]][level][mode] for i in at]
+            got = [score_keys(res[pols[i]][level][mode]) for i in at]
             rates = [r["rate"] for r in got]
             # error bars from the interval; max(0, .) absorbs round-off at k = 0 or k = n
-            lo = [max(0.0, r["rate"] - r["wilson95"][0]) for r in got]
-            hi = [max(0.0, r["wilson95"][1] - r["rate"]) for r in got]
+            lo = [max(0.0, r["rate"] - r["wilson_95"][0]) for r in got]
+            hi = [max(0.0, r["wilson_95"][1] - r["rate"]) for r in got]
             a.bar(np.array(at) + (j - (len(modes) - 1) / 2) * w, rates, w,
                   yerr=[lo, hi], capsize=2, color=[policy_color(pols[i]) for i in at],
                   alpha=1.0 if mode == "compensated" else 0.45,
@@ -187,7 +188,8 @@ def chain_markdown(section: dict, command: str) -> str:
              "|---" * (2 * len(plants) + 3) + "|"]
     for label, by in section["results"].items():
         gap = section["gap"][label]
-        rates = [format_rate(by[p]["successes"], by[p]["runs"]) for p in plants]
+        by = {p: score_keys(by[p]) for p in plants}        # also a section of older keys
+        rates = [format_rate(by[p]["successes"], by[p]["n"]) for p in plants]
         settle = ["never" if by[p]["median_settle"] is None else f"{by[p]['median_settle']:.2f}"
                   for p in plants]
         lines.append(f"| {label} | " + " | ".join(rates) + " | " + " | ".join(settle)

@@ -1,13 +1,17 @@
 """The model-mismatch report as files: Markdown, JSON and figures, and the CLI's summary.
 
 Presentation only: every number comes from the report that
-:func:`twolink.studies.mismatch.measure.build` returns, in the order it holds them.
+:func:`twolink.studies.mismatch.measure.build` returns, in the order it holds them. Scores
+are read through :func:`twolink.sim.metrics.score_keys`, so a report written before the one
+spelling of their keys (``runs``, ``wilson95``: the committed renders/mismatch/report.json)
+still reads.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 from twolink.artifacts import write_json, write_text
+from twolink.sim.metrics import score_keys
 from twolink.sim.perturbations import PERTURBABLE
 from twolink.studies.mismatch.figures import (
     closed_loop_figure,
@@ -29,7 +33,8 @@ def summary(report: dict) -> dict:
             "integration_error_full": report["open_loop"]["integration_error_full"],
             "gap_closure": report["gap_closure"],
             "margins": report["robustness"]["margins"],
-            "robust": ({p: {lv: {m: [r["successes"], r["runs"]] for m, r in d.items()}
+            "robust": ({p: {lv: {m: [r["successes"], score_keys(r)["n"]]
+                                 for m, r in d.items()}
                             for lv, d in by.items()}
                         for p, by in report["robust"]["results"].items()}
                        if "robust" in report else None),
@@ -104,8 +109,9 @@ def robust_tables(section: dict) -> str:
     for p, by_level in section["results"].items():
         for level, by_mode in by_level.items():
             for mode, r in by_mode.items():
+                r = score_keys(r)
                 worst = min(r["plant_successes"])
-                rows.append([p, level, mode, format_rate(r["successes"], r["runs"]),
+                rows.append([p, level, mode, format_rate(r["successes"], r["n"]),
                              r["plants"], format_rate(worst, r["states"]),
                              f"{r['mean_return']:.2f}", f"{r['worst_return']:.2f}",
                              _num(r["median_settle"], "{:.2f}"),
@@ -114,7 +120,7 @@ def robust_tables(section: dict) -> str:
                       "worst plant [95 % Wilson]", "mean return", "worst-case return",
                       "median settle [s]", "p90 settle [s]"), rows)
     rows = [[t["target"], _num(t["value"], "{:.3f}", none="never"),
-             format_rate(t["successes"], t["runs"]), t["plants"],
+             format_rate(t["successes"], score_keys(t)["n"]), t["plants"],
              "met" if t["met"] else "**missed**"] for t in section["targets"]]
     checks = _table(("target", "measured", "success k/n [95 % Wilson]", "plants", "verdict"),
                     rows) if rows else "No target policy was measured."

@@ -45,7 +45,7 @@ from twolink.arm.parameters import (
     horizon,
 )
 from twolink.artifacts import provenance
-from twolink.sim.metrics import random_poses, settle_time, success, wilson_interval
+from twolink.sim.metrics import Score, random_poses, score, settle_time, success
 from twolink.sim.plants import make_plant
 from twolink.sim.rollout import Trajectory, rollout
 from twolink.studies.scaling.synthesis import (
@@ -147,12 +147,19 @@ def check_seed(seed) -> int:
 @dataclasses.dataclass
 class Evaluation:
     """Closed-loop success on MuJoCo from ``poses`` random poses at rest (seed ``seed``):
-    per horizon (seconds, as a string key) the successes, the 95 % Wilson interval and the
-    median settle time over all poses (None when more than half never settle)."""
+    per horizon (seconds, as a string key) the shared score of the poses,
+    :meth:`twolink.sim.metrics.Score.as_dict` (successes, 95 % Wilson interval, median
+    settle time, None when half or more never settle). Held as that JSON, the form a row
+    takes (:meth:`Row.as_dict`) and crosses the fresh process in; :meth:`scores` reads
+    it back."""
 
     poses: int
     seed: int
     horizons: dict
+
+    def scores(self) -> dict:
+        """``{horizon: Score}``."""
+        return {h: Score.from_dict(d) for h, d in self.horizons.items()}
 
 
 @dataclasses.dataclass
@@ -249,12 +256,7 @@ def evaluate(policy, links: int, rule: str, *, poses: int = DEFAULT_POSES,
     out = {}
     for h in horizons(links):
         part = truncated(traj, h)
-        ok = success(part)
-        settle = np.median(settle_time(part))
-        k = int(ok.sum())
-        out[f"{h:g}"] = {"successes": k, "n": poses, "rate": k / poses,
-                         "wilson_95": list(wilson_interval(k, poses)),
-                         "median_settle": float(settle) if np.isfinite(settle) else None}
+        out[f"{h:g}"] = score(success(part), settle_time(part)).as_dict()
     return Evaluation(poses, seed + links, out)
 
 
