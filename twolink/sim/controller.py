@@ -44,12 +44,18 @@ class Checked:
         if isinstance(controller, Checked):
             controller = controller.controller
         if not callable(controller):
-            raise ControllerError(f"controller {name or controller!r} is not callable: a "
+            raise ControllerError(f"controller {controller!r:.60} is not callable: a "
                                   f"controller maps states (n, {2 * links}) to torques "
                                   f"(n, {links})")
         self.controller = controller
         self.name = name or controller_name(controller)
         self.links = int(links)
+
+    def __getattr__(self, name):
+        """Other attributes (a policy's ``kind``, ``agents``, ...) are the controller's."""
+        if name == "controller":
+            raise AttributeError(name)
+        return getattr(self.controller, name)
 
     @property
     def meta(self) -> dict:

@@ -26,6 +26,7 @@ from tqdm import tqdm
 from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
 from twolink.sim.challenges import MAX_PLANTS, PLANT_COUNT, Challenge, check_horizon
 from twolink.sim.challenges import challenge as challenge_named
+from twolink.sim.controller import checked, controller_name
 from twolink.sim.metrics import (
     Score,
     discounted_return,
@@ -229,12 +230,14 @@ def closed_loop(policy, ch: Challenge, *, keys, seed: int, steps: int,
 
 
 def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
-             horizon: float = HORIZON, compensate: bool = True, challenge=None, *,
+             horizon: float = HORIZON, compensate: bool = False, challenge=None, *,
              count: int | None = None, nthread: int | None = None, label: str | None = None,
              progress: bool = False) -> Evaluation:
     """Run ``policy`` from every state of ``x0`` on every plant of ``params`` on MuJoCo.
 
-    ``policy``: a :class:`twolink.policy.fuzzy_policy.Policy` or a shipped name / file path.
+    ``policy``: any controller of :mod:`twolink.sim.controller`'s protocol (a shipped
+    policy's name or a policy file's path loads it); it is held to the protocol, so a wrong
+    shape, NaN or an exception ends in one line naming it.
     ``params``: the plants (a list of ArmParameters; default: drawn by the challenge,
     ``count`` of them (32 when the challenge perturbs the plant), else Table I).
     Given ``params`` are the plants as they are (e.g. ``challenge.plants(count, seed)``);
@@ -244,7 +247,10 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     ``delay`` (samples of actuation delay) and ``angle_noise_deg`` (deg, with speed noise
     :data:`SPEED_PER_DEG` rad/s per deg) apply. ``seed``: drawn plants, noise and faults.
     ``horizon``: seconds per run (success = settled 1 s before its end).
-    ``compensate``: drive the policy through :func:`twolink.sim.estimation.compensated`.
+    ``compensate``: drive the policy through :func:`twolink.sim.estimation.compensated`
+    (it predicts with the model the controller names in ``meta["model"]``). Off by
+    default: a comparison of controllers scores each as it is; the result records the
+    choice (``compensated``).
     """
     ch = _challenge(challenge, delay, angle_noise_deg)
     horizon = real(horizon, "horizon")
@@ -262,7 +268,9 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
         label = policy if label is None else label
         policy = load_policy(policy)
     if label is None:
-        label = str(getattr(policy, "meta", {}).get("name", getattr(policy, "kind", "")))
+        label = (str(getattr(policy, "meta", {}).get("name", "")) or getattr(policy, "kind", "")
+                 or controller_name(policy))
+    policy = checked(policy, name=label)
 
     keys = [(p, s) for p in range(len(plants)) for s in range(len(x0))]
     act, sensed = closed_loop(policy, ch, keys=keys, seed=seed, steps=steps,
