@@ -91,3 +91,23 @@ def test_a_rollout_resets_a_stateful_controller_through_its_wrappers():
         rollout(ActuationDelay(checked(inner), 1), plant, X, duration=0.2)
         rollout(checked(inner), plant, X[:2], duration=0.1)
     assert inner.resets == [3, 2]
+
+
+def test_evaluate_takes_any_controller_and_names_a_broken_one():
+    from twolink.sim.evaluation import evaluate
+
+    x0 = np.array([[-1.0, -3.0, 0.0, 0.0]])
+    ev = evaluate(pd, x0=x0, horizon=2.0)
+    assert ev.label == "pd" and not ev.compensated and ev.success.shape == (1, 1)
+
+    def one(x):
+        t1, t2, w1, w2 = x
+        return np.zeros(2)
+
+    with pytest.raises(ControllerError, match="controller one raised ValueError.*per_state"):
+        evaluate(one, challenge="medium", count=2, x0=x0)
+    with pytest.raises(ValueError, match="controller pd names no model for the compensator"):
+        evaluate(pd, challenge="medium", count=2, x0=x0, compensate=True)
+    for bad in (3, None):
+        with pytest.raises(ControllerError, match=f"controller {bad} is not callable"):
+            evaluate(bad, x0=x0)
