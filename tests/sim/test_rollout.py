@@ -157,3 +157,12 @@ def test_wilson_interval_matches_published_values(k, n, lo, hi):
     assert format_rate(k, n).startswith(f"{k}/{n} = ")
     with pytest.raises(ValueError, match="successes <= n"):
         wilson_interval(11, 10)
+
+
+def test_a_duration_under_one_sample_period_is_refused():
+    from twolink.sim.rollout import steps_for
+
+    with pytest.raises(ValueError, match=r"duration must be at least one sample period "
+                                         r"\(0.05 s\), got 1e-09"):
+        steps_for(1e-9)
+    assert steps_for(0.05) == 1 and steps_for(0.026) == 1 and steps_for(5.0) == 100

@@ -68,15 +68,18 @@ class Trajectory:
 
 
 def steps_for(duration: float, *, rows: int = 1, links: int = 2) -> int:
-    """Number of sample periods in ``duration`` seconds, for a batch of ``rows`` states of
-    an arm of ``links`` links; a ValueError beyond :data:`MAX_DURATION` or
-    :data:`MAX_TRAJECTORY_BYTES`."""
+    """Number of sample periods in ``duration`` seconds (rounded to the nearest whole
+    number), for a batch of ``rows`` states of an arm of ``links`` links; a ValueError
+    below one sample period, beyond :data:`MAX_DURATION` or :data:`MAX_TRAJECTORY_BYTES`."""
     if not np.isfinite(duration) or duration <= 0:
         raise ValueError(f"duration must be a positive number of seconds, got {duration}")
     if duration > MAX_DURATION:
         raise ValueError(f"duration must be at most {MAX_DURATION:g} s "
                          f"({round(MAX_DURATION / TS)} sample periods), got {duration:g}")
-    n = max(1, int(round(duration / TS)))
+    n = int(round(duration / TS))
+    if n < 1:
+        raise ValueError(f"duration must be at least one sample period ({TS:g} s), got "
+                         f"{duration:g}")
     need = rows * (n + 1) * _bytes_per_sample(check_links(links))
     if need > MAX_TRAJECTORY_BYTES:
         raise ValueError(f"{rows} states x {n} sample periods need {need / 2**30:.1f} GiB of "
