@@ -163,3 +163,15 @@ def test_the_313_dependencies_are_dm_controls_less_labmaze():
     plain = {d.name.lower() for d in deps if not d.marker}
     assert ours == {k: v for k, v in theirs.items()
                     if k not in plain | {"labmaze", "setuptools"}}
+
+
+def test_an_unknown_option_is_named_by_its_subcommand(capsys):
+    import pytest
+
+    from twolink.cli import main
+    with pytest.raises(SystemExit) as exc:
+        main(["mjcf", "--nosuch"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith("usage: twolink mjcf")
+    assert err[-1] == "twolink mjcf: error: unrecognized arguments: --nosuch"

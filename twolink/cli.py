@@ -31,7 +31,7 @@ def build_parser(only: str | None = "all") -> argparse.ArgumentParser:
         if only in ("all", name):
             module = importlib.import_module(f"twolink.commands.{name}")
             p = module.add_parser(sub)
-            p.set_defaults(_run=module.run)
+            p.set_defaults(_run=module.run, _parser=p)
         else:
             sub.add_parser(name, help=SUMMARIES[name])
     return parser
@@ -52,7 +52,9 @@ def main(argv=None) -> int:
     except ImportError as exc:   # a broken installation: one line, not a traceback
         print(f"twolink: error: cannot load the commands ({exc})", file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:                  # named by the subcommand's parser, with its own usage
+        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
     from twolink.artifacts import Terminated, sigterm_raises
 
     try:
