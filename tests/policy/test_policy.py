@@ -1,6 +1,7 @@
 """Policies (14), (16), (18): synthesis, files, provenance, ties, and bad files."""
 import json
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -301,3 +302,13 @@ def test_save_refuses_what_load_would_refuse(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="agent agent1: a Q-table of 72576 bytes is larger"):
         policy.save(tmp_path / "p.npz")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("where, what", [("dir", "is a directory"),
+                                         ("/dev/zero", "is not a regular file"),
+                                         ("missing.npz", "does not exist")])
+def test_a_policy_path_says_what_it_is(tmp_path, where, what):
+    path = tmp_path if where == "dir" else (Path(where) if where.startswith("/")
+                                            else tmp_path / where)
+    with pytest.raises(PolicyFileError, match=f"policy file {path} {what}"):
+        Policy.load(path)

@@ -226,7 +226,9 @@ class Policy:
         """
         path = Path(path)
         if not path.is_file():
-            raise PolicyFileError(f"policy file {path} does not exist")
+            what = ("is a directory" if path.is_dir() else "is not a regular file"
+                    if path.exists() else "does not exist")
+            raise PolicyFileError(f"policy file {path} {what}")
         try:
             with zipfile.ZipFile(path) as zf:
                 header, q_tables = _read_policy_archive(zf, path)
