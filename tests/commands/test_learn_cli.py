@@ -56,6 +56,11 @@ def test_resume_continues_to_the_new_total(tmp_path, capsys):
     assert load_policy(str(tmp_path / "run.npz")).meta["learning"]["steps"] == 48
 
 
+def test_an_output_that_is_a_directory_is_named(tmp_path, capsys):
+    assert main(["learn", "--task", "decentralized", "-o", str(tmp_path)]) == 2
+    assert f"-o {tmp_path} is a directory" in capsys.readouterr().err
+
+
 def test_resume_refuses_new_settings_and_a_forged_iteration_count(tmp_path, capsys):
     assert _learn(tmp_path, "--json") == 0
     capsys.readouterr()

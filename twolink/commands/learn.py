@@ -178,6 +178,8 @@ def run(args) -> int:
         config = _config(args)
         init = load_policy(args.init) if args.init else None
         output = args.output or Path(f"learned_{config.learner}.npz")
+        if output.is_dir():
+            raise ValueError(f"-o {output} is a directory; give a policy file name")
         if output.exists() and not args.force:
             raise ValueError(f"{output} exists; give --force to overwrite it or --resume it")
         learner = Learner(config, init=init, nthread=threads)
