@@ -151,6 +151,8 @@ def test_reproduce_table_is_printed(tmp_path, capsys):
     assert main(["reproduce", "--duration", "2", "--figure", str(tmp_path / "f.png")]) == 0
     out = capsys.readouterr().out
     assert "Q-table size, centralized" in out and "63504" in out and "~18300" in out
+    assert ("fresh synthesis equals the shipped policy bit for bit: centralized yes, "
+            "decentralized yes, decentralized_propagated yes") in out
     assert out.rstrip().endswith(f"wrote {tmp_path / 'f.png'}")
 
 

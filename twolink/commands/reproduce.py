@@ -20,7 +20,7 @@ from twolink.studies.reproduce.measure import (
     check_duration,
     reproduce,
 )
-from twolink.studies.reproduce.table import table
+from twolink.studies.reproduce.table import table, verdict
 from twolink.viz.plots import paper_fig3
 
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -60,5 +60,6 @@ def run(args) -> int:
         print(json.dumps(report, indent=2))
     else:
         print(table(report))
+        print(verdict(report))
         print(f"\nwrote {figure}")
     return 0

@@ -77,3 +77,12 @@ def table(report: dict) -> str:
     lines.append("* Table II's CPU times of agent 1 and agent 2 are almost certainly swapped: "
                  "agent 2's Q-table is 36x smaller.")
     return "\n".join(lines)
+
+
+def verdict(report: dict) -> str:
+    """One line: whether each fresh synthesis has the shipped file's Q-tables bit for bit."""
+    parts = []
+    for name, s in report["synthesis"].items():
+        match = s.get("matches_shipped_policy")
+        parts.append(f"{name} {'yes' if match else 'no' if match is False else 'not shipped'}")
+    return "fresh synthesis equals the shipped policy bit for bit: " + ", ".join(parts)
