@@ -127,3 +127,22 @@ def test_agent2_sees_link2_alone():
         t2, v2 = _link2_from_rest(0.0, tau2)
         np.testing.assert_allclose(problem.next_points[m, j], [t2, v2], rtol=0, atol=1e-10)
     assert problem.rewards[m].tolist() == [-0.5, 0.0, -0.5]
+
+
+def test_an_absurd_refinement_is_refused_before_any_allocation():
+    import subprocess
+    import sys
+
+    from twolink.control.problems import table_sizes
+    from twolink.control.synthesis import synthesize
+
+    with pytest.raises(ValueError, match="refine must be a whole number from 1 to 16"):
+        synthesize("centralized", refine=10**9)
+    res = subprocess.run([sys.executable, "-m", "twolink.cli", "synthesize", "centralized",
+                          "--refine", "1000000000", "-o", "x.npz"], capture_output=True,
+                         text=True, timeout=60)
+    assert res.returncode == 2 and res.stderr.count("\n") == 1
+    assert "refine must be a whole number from 1 to 16" in res.stderr or \
+        "is over the 64 MiB" in res.stderr
+    assert table_sizes("decentralized", 2) == {"agent2": 24 * 13 * 3,
+                                              "agent1": 24 * 13 * 24 * 9}

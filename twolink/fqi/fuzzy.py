@@ -91,6 +91,11 @@ class Axis:
             pts.append(c[-1])
         return Axis(self.name, tuple(pts), self.circular)
 
+    def refined_size(self, k: int) -> int:
+        """The number of centres of :meth:`refined` ``(k)``, computed without building it."""
+        n = len(self.centers)
+        return n * k if self.circular else (n - 1) * k + 1
+
     def as_dict(self) -> dict:
         return {"name": self.name, "centers": list(self.centers), "circular": self.circular}
 
