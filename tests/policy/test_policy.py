@@ -312,3 +312,25 @@ def test_a_policy_path_says_what_it_is(tmp_path, where, what):
                                             else tmp_path / where)
     with pytest.raises(PolicyFileError, match=f"policy file {path} {what}"):
         Policy.load(path)
+
+
+def test_a_member_declaring_a_huge_array_is_refused_before_allocating(tmp_path):
+    """A Q member whose own .npy header claims 10^12 values (8 TB) is refused from its
+    header; numpy never allocates it."""
+    import io
+    import zipfile
+
+    src = SHIPPED["decentralized"].file
+    forged = tmp_path / "huge.npz"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(forged, "w") as zout:
+        for info in zin.infolist():
+            data = zin.read(info.filename)
+            if info.filename == "q_agent2.npy":
+                buf = io.BytesIO()
+                np.lib.format.write_array_header_1_0(
+                    buf, {"descr": "<f8", "fortran_order": False, "shape": (84, 10**12)})
+                data = buf.getvalue() + b"\0" * 64
+            zout.writestr(info.filename, data)
+    with pytest.raises(PolicyFileError, match=r"q_agent2.npy declares an array of shape "
+                                              r"\(84, 1000000000000\)"):
+        Policy.load(forged)

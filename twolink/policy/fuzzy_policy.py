@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import zipfile
 from pathlib import Path
@@ -265,9 +266,30 @@ def _member_size(zf: zipfile.ZipFile, name: str, limit: int, path: Path, what: s
                               f"than the {limit} {needs}; refused before decompressing")
 
 
-def _read_member(zf: zipfile.ZipFile, name: str) -> np.ndarray:
+def _read_member(zf: zipfile.ZipFile, name: str, max_bytes: int, path: Path) -> np.ndarray:
+    """The array of the .npy member ``name``, its own header's shape and dtype checked
+    against ``max_bytes`` before anything is allocated."""
+    fmt = np.lib.format
     with zf.open(name) as fh:
-        return np.lib.format.read_array(fh, allow_pickle=False)
+        try:
+            version = fmt.read_magic(fh)
+            read_header = (fmt.read_array_header_1_0 if version == (1, 0)
+                           else fmt.read_array_header_2_0)
+            shape, fortran, dtype = read_header(fh)
+        except ValueError as exc:
+            raise PolicyFileError(f"{path}: member {name} is not a .npy array ({exc})") \
+                from None
+        if dtype.hasobject:
+            raise PolicyFileError(f"{path}: member {name} holds Python objects")
+        nbytes = math.prod(shape) * dtype.itemsize
+        if nbytes > max_bytes:
+            raise PolicyFileError(f"{path}: member {name} declares an array of shape {shape} "
+                                  f"({nbytes:,} bytes), more than the {max_bytes:,} it may "
+                                  f"hold")
+        data = fh.read(nbytes)
+    if len(data) != nbytes:
+        raise PolicyFileError(f"{path}: member {name} is truncated")
+    return np.frombuffer(data, dtype).reshape(shape, order="F" if fortran else "C").copy()
 
 
 def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
@@ -276,7 +298,7 @@ def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
     if "header.npy" not in names:
         raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)")
     _member_size(zf, "header.npy", _MAX_HEADER_BYTES, path, "the header")
-    raw = _read_member(zf, "header.npy")
+    raw = _read_member(zf, "header.npy", _MAX_HEADER_BYTES, path)
     if raw.dtype.kind != "U" or raw.ndim != 0:
         raise PolicyFileError(f"{path} is not a twolink policy file (no policy header)")
     try:
@@ -318,7 +340,7 @@ def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
                                   f"larger than the {MAX_Q_BYTES} bytes a policy may hold")
         _member_size(zf, member, nbytes + _NPY_HEADER_BYTES, path, f"agent {name}'s Q-table",
                      f"a float64 table of shape {shape} needs")
-        q = _read_member(zf, member)
+        q = _read_member(zf, member, nbytes, path)
         if q.dtype != np.dtype("<f8"):
             raise PolicyFileError(f"{path}: agent {name}: Q must hold float64 numbers, got "
                                   f"dtype {q.dtype}")
