@@ -334,3 +334,29 @@ def test_a_member_declaring_a_huge_array_is_refused_before_allocating(tmp_path):
     with pytest.raises(PolicyFileError, match=r"q_agent2.npy declares an array of shape "
                                               r"\(84, 1000000000000\)"):
         Policy.load(forged)
+
+
+def test_a_policy_whose_grid_would_weigh_millions_of_bins_per_state_is_refused(tmp_path):
+    """22 two-bin inputs: 4 M bins, a table a file may hold, but 2**22 memberships per
+    state; refused from the header, before any Q-table is read."""
+    import io
+    import json
+    import zipfile
+
+    src = SHIPPED["decentralized"].file
+    forged = tmp_path / "wide.npz"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(forged, "w") as zout:
+        for info in zin.infolist():
+            data = zin.read(info.filename)
+            if info.filename == "header.npy":
+                header = json.loads(str(np.load(io.BytesIO(data))))
+                agent = header["agents"][0]
+                agent["grid"]["axes"] = [{"name": f"a{i}", "centers": [-1.0, 1.0],
+                                          "circular": False} for i in range(22)]
+                agent["q_shape"] = [2**22, 1]
+                buf = io.BytesIO()
+                np.save(buf, np.array(json.dumps(header)))
+                data = buf.getvalue()
+            zout.writestr(info.filename, data)
+    with pytest.raises(PolicyFileError, match="reads 22 inputs, more than the 12"):
+        Policy.load(forged)

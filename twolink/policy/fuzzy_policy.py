@@ -57,6 +57,9 @@ _MAX_HEADER_BYTES = 1 << 20
 #: The largest Q-table a policy file may hold (bytes, uncompressed): 64 MiB, some 130 times
 #: the centralized table of the paper.
 MAX_Q_BYTES = 64 << 20
+#: Most inputs an agent may read: a state weighs up to 2**d bins of a d-input grid (12: the
+#: centralized policy of a six-link arm).
+MAX_AXES = 12
 #: Room for the .npy header in front of a Q-table's data.
 _NPY_HEADER_BYTES = 4096
 
@@ -319,9 +322,15 @@ def _read_policy_archive(zf: zipfile.ZipFile, path: Path) -> tuple[dict, dict]:
     try:
         agents = header["agents"]
         shapes = {e["name"]: tuple(int(n) for n in e["q_shape"]) for e in agents}
-        grid_sizes = {e["name"]: Grid.from_dict(e["grid"]).size for e in agents}
+        grids = {e["name"]: Grid.from_dict(e["grid"]) for e in agents}
     except (KeyError, TypeError, ValueError) as exc:
         raise PolicyFileError(f"{path}: malformed twolink policy ({exc})") from None
+    for name, grid in grids.items():
+        if len(grid.axes) > MAX_AXES:
+            raise PolicyFileError(f"{path}: agent {name} reads {len(grid.axes)} inputs, more "
+                                  f"than the {MAX_AXES} a policy may have (each state would "
+                                  f"weigh 2**{len(grid.axes)} bins)")
+    grid_sizes = {name: grid.size for name, grid in grids.items()}
     expected = {f"q_{n}.npy" for n in shapes} | {"header.npy"}
     if names - expected:
         raise PolicyFileError(f"{path}: unexpected members {sorted(names - expected)} in a "
