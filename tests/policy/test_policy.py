@@ -29,7 +29,11 @@ def test_resynthesis_reproduces_shipped_policy_exactly(name):
     fresh = synthesize(entry.kind, TABLE_I, **entry.synthesis_options())
     assert [a.name for a in fresh.agents] == [a.name for a in shipped.agents]
     for a, b in zip(fresh.agents, shipped.agents):
-        np.testing.assert_array_equal(a.q, b.q)
+        if entry.links == 2:
+            np.testing.assert_array_equal(a.q, b.q)
+        else:       # N-link agents: Q within 1e-12 (re-synthesis moved it by up to 1.1e-14
+            #         on some machines; on the one that shipped it, bit for bit)
+            np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(a.greedy_actions, b.greedy_actions)
         assert a.info["iterations"] == b.info["iterations"]
         assert b.tie_tolerance == TIE_TOLERANCE
