@@ -1,0 +1,99 @@
+"""The leaderboard and twolink evaluate: every controller x level x mode through the one
+evaluate, against the shipped time-optimal limit; files, JSON and one-line errors."""
+import json
+
+import numpy as np
+import pytest
+
+from twolink.cli import main
+from twolink.sim.metrics import evaluation_set
+from twolink.studies.leaderboard.limits import state_limits
+from twolink.studies.leaderboard.measure import modes_for, run, settle_ratios
+
+X0 = evaluation_set()[::13]
+
+
+def pd(x):
+    return np.clip(-np.array([1.0, 2.0]) * x[:, :2] - np.array([0.15, 0.05]) * x[:, 2:],
+                   [-1.5, -0.1], [1.5, 0.1])
+
+
+def test_the_limits_of_the_evaluation_set_are_shipped():
+    limits, source = state_limits(evaluation_set())
+    assert limits.shape == (65,) and np.all(limits > 0) and "time-optimal" in source
+    none, why = state_limits(np.array([[0.3, 0.3, 0.0, 0.0]]))
+    assert none is None and "has no shipped limit" in why
+
+
+def test_settle_ratios_count_failures_as_never():
+    r = settle_ratios(np.array([[1.0, 2.0]]), np.array([[True, False]]), np.array([0.5, 1.0]))
+    assert r[0, 0] == 2.0 and np.isinf(r[0, 1])
+
+
+def test_a_controller_without_a_model_has_no_compensated_row():
+    from twolink.control.controllers import resolve_controller
+
+    assert modes_for(pd, "medium") == ("plain",)
+    assert modes_for(resolve_controller("lqr"), "medium") == ("plain", "compensated")
+    assert modes_for(resolve_controller("lqr"), "none") == ("plain",)
+
+
+def test_rows_are_the_evaluations_of_each_controller():
+    from twolink.sim.evaluation import evaluate
+
+    limits, _ = state_limits(X0)
+    rows = run({"pd": pd}, X0, limits, levels=("none", "medium"), plants=2, seed=5)
+    assert [(r.controller, r.level, r.mode) for r in rows] == [("pd", "none", "plain"),
+                                                              ("pd", "medium", "plain")]
+    direct = evaluate(pd, x0=X0, challenge="medium", count=2, seed=5)
+    assert rows[1].score == direct.score
+    assert rows[0].mean_abs_torque > 0 and rows[0].settle_ratio_median >= 1.0
+    d = rows[1].as_dict()
+    assert (d["n"], d["worst_plant"] is not None) == (10, True)
+
+
+def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
+    mine = tmp_path / "mine.py"
+    mine.write_text("import numpy as np\n"
+                    "def pd(x):\n"
+                    "    return np.clip(-np.array([1.0, 2.0]) * x[:, :2]"
+                    " - np.array([0.15, 0.05]) * x[:, 2:], [-1.5, -0.1], [1.5, 0.1])\n")
+    out = tmp_path / "lb"
+    assert main(["leaderboard", "--quick", "--controllers", "lqr", "--controller",
+                 f"{mine}:pd", "--levels", "none", "medium", "--plants", "2",
+                 "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "| lqr | compensated |" in text and "| pd | plain |" in text
+    report = json.loads((out / "leaderboard.json").read_text())
+    assert {(r["controller"], r["level"], r["mode"]) for r in report["rows"]} == {
+        ("lqr", "none", "plain"), ("lqr", "medium", "plain"), ("lqr", "medium", "compensated"),
+        ("pd", "none", "plain"), ("pd", "medium", "plain")}
+    assert (out / "leaderboard.png").read_bytes()[:4] == b"\x89PNG"
+    assert "## medium" in (out / "leaderboard.md").read_text()
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--controllers", "nosuch"], "unknown controller 'nosuch'"),
+    (["--levels", "wild"], "unknown challenge 'wild'"),
+    (["--plants", "0"], "--plants must be from 1 to 10000"),
+    (["--controller", "no_module_xyz:f"], "cannot import controller module"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, match):
+    out = tmp_path / "lb"
+    assert main(["leaderboard", "--quick", "--out", str(out), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0]
+    assert not out.exists()
+
+
+def test_evaluate_prints_the_score_against_the_limit(capsys):
+    assert main(["evaluate", "lqr", "--states", "quick", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert (r["controller"], r["challenge"], r["mode"], r["n"]) == ("lqr", "none", "plain", 5)
+    assert r["successes"] == 5 and r["settle_ratio_median"] >= 1.0
+    assert main(["evaluate", "pd_deadzone", "--challenge", "medium", "--plants", "2",
+                 "--states", "quick"]) == 0
+    line = capsys.readouterr().out.strip()
+    assert line.startswith("pd_deadzone under medium (plain): ") and "settle / T*" in line
+    assert main(["evaluate", "nosuch"]) == 2
+    assert "unknown controller 'nosuch'" in capsys.readouterr().err

@@ -1,0 +1,112 @@
+"""``twolink leaderboard``: every controller under every challenge level, in one table.
+
+The shipped fuzzy policies, the classical baselines and any --controller of yours
+(module:callable or path/to/file.py:callable), under the levels none, easy, medium and
+hard, plain and (for controllers that name their model) compensated, on MuJoCo from the
+65 states of the evaluation set: k/n with the 95 % Wilson interval, the worst plant, the
+median settle time, settle / T* (median and worst, failures as never settled) and the
+mean torque. Writes Markdown, JSON and a figure (success against settle / T*).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from twolink.commands import SUMMARIES
+from twolink.sim.challenges import LEVELS
+
+#: --quick: every 13th state of the evaluation set, 4 plants, levels none and medium.
+QUICK = {"states": "quick", "plants": 4, "levels": ("none", "medium")}
+
+
+def add_parser(sub):
+    p = sub.add_parser("leaderboard", help=SUMMARIES["leaderboard"],
+                       description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
+    p.add_argument("--controllers", nargs="+", default=None, metavar="NAME",
+                   help="which controllers (default: every shipped two-link policy and "
+                        "every baseline)")
+    p.add_argument("--controller", action="append", default=[], metavar="SPEC",
+                   help="add a controller: module:callable, path/to/file.py:callable or a "
+                        "policy .npz (repeatable)")
+    p.add_argument("--levels", nargs="+", default=None, metavar="LEVEL",
+                   help=f"challenge levels (default: {' '.join(LEVELS)})")
+    p.add_argument("--plants", type=int, default=None, metavar="K",
+                   help="plants per level that perturbs the plant (default 32; 4 with "
+                        "--quick)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="seed of the plants, noise and faults (default: the leaderboard's, "
+                        "never tuned on)")
+    p.add_argument("--quick", action="store_true",
+                   help="5 states, 4 plants, levels none and medium: about a minute")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="folder of leaderboard.md, .json and .png (default "
+                        "renders/leaderboard, or renders/leaderboard-quick)")
+    p.add_argument("--no-save", action="store_true", help="only print the table")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    return p
+
+
+def controllers_of(names, specs) -> dict:
+    """``{label: checked controller}`` of the chosen names and the extra specs."""
+    from twolink.control.controllers import baseline_names, resolve_controller
+    from twolink.policy.registry import TWO_LINK
+
+    chosen = list(names) if names is not None else [*TWO_LINK, *baseline_names()]
+    out = {}
+    for spec in [*chosen, *specs]:
+        c = resolve_controller(spec)
+        if c.name in out:
+            raise ValueError(f"two controllers are labelled {c.name!r}; give each once")
+        out[c.name] = c
+    if not out:
+        raise ValueError("no controllers to run")
+    return out
+
+
+def run(args) -> int:
+    from twolink.artifacts import check_outputs
+    from twolink.resources import output_dir
+    from twolink.sim.cells import states_of
+    from twolink.sim.challenges import challenge
+    from twolink.studies.leaderboard.limits import state_limits
+    from twolink.studies.leaderboard.measure import SEED
+    from twolink.studies.leaderboard.measure import run as measure
+    from twolink.studies.leaderboard.report import FILES, markdown, write
+
+    states = QUICK["states"] if args.quick else "full"
+    plants = args.plants if args.plants is not None else (QUICK["plants"] if args.quick else 32)
+    if not 1 <= plants <= 10_000:
+        raise ValueError(f"--plants must be from 1 to 10000, got {plants}")
+    seed = SEED if args.seed is None else args.seed
+    if not 0 <= seed < 2**63:
+        raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {seed}")
+    levels = args.levels or (QUICK["levels"] if args.quick else tuple(LEVELS))
+    levels = [challenge(n).name for n in levels]
+    controllers = controllers_of(args.controllers, args.controller)
+    x0 = states_of(states)
+    limits, source = state_limits(x0)
+    if limits is None:
+        raise ValueError(f"no time-optimal limit for these states ({source})")
+    out = None
+    if not args.no_save:
+        out = args.out or output_dir() / ("leaderboard-quick" if args.quick else "leaderboard")
+        if out.exists() and not out.is_dir():
+            raise OSError(f"--out {out} is a file; give a folder")
+        check_outputs({name: out / f for name, f in FILES.items()}, creatable=[out])
+    command = "twolink leaderboard" + (" --quick" if args.quick else "")
+    log = None if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
+    rows = measure(controllers, x0, limits, levels=levels, plants=plants, seed=seed, log=log)
+    report = {"command": command, "states": len(x0), "plants": plants, "seed": seed,
+              "horizon": 5.0, "limits": source, "levels": levels,
+              "rows": [r.as_dict() for r in rows]}
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        paths = write(report, out)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        print(markdown(report))
+        if out is not None:
+            print(f"wrote {paths['markdown']}, {paths['json'].name}, {paths['figure'].name}")
+    return 0

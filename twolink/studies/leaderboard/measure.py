@@ -1,0 +1,137 @@
+"""The leaderboard's measurement: one :func:`twolink.sim.evaluation.evaluate` per
+controller x level x mode, summed up as a :class:`twolink.sim.metrics.Score` plus the
+settle time relative to the time-optimal limit T*(x0) and the mean torque.
+
+A mode is ``plain`` (the controller reads the challenge's readings as they are) or
+``compensated`` (through :func:`twolink.sim.evaluation.controller`'s delay predictor and
+observer, which needs the model the controller names in ``meta["model"]``; a controller
+without one has no compensated row). Level ``none`` has nothing to compensate, so it has
+one row per controller. ``settle / T*`` divides each run's settle time by the limit of
+its initial state (a failed run counts as never settled, inf); the median and the worst
+run are reported. ``mean |tau|`` is the mean absolute torque the controller commanded,
+over every sample, row and joint.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from twolink.sim.challenges import LEVELS, challenge
+from twolink.sim.controller import checked
+from twolink.sim.evaluation import evaluate
+from twolink.sim.metrics import Score
+
+#: The plain and the compensated mode.
+MODES = ("plain", "compensated")
+#: Seed of the leaderboard's plants, noise and faults: fixed before any controller was
+#: tuned, and never used to tune one.
+SEED = 2026
+#: Most controllers x levels x modes one leaderboard runs.
+MAX_CELLS = 2000
+
+
+class TorqueMeter:
+    """A controller that passes ``controller``'s torques on and sums their magnitudes."""
+
+    def __init__(self, controller):
+        self.controller = controller
+        self.name = getattr(controller, "name", "controller")
+        self.total, self.count = 0.0, 0
+
+    @property
+    def meta(self) -> dict:
+        return getattr(self.controller, "meta", {})
+
+    def reset(self, n: int) -> None:
+        reset = getattr(self.controller, "reset", None)
+        if callable(reset):
+            reset(n)
+
+    def __call__(self, x):
+        u = self.controller(x)
+        self.total += float(np.abs(u).sum())
+        self.count += int(np.size(u))
+        return u
+
+    @property
+    def mean(self) -> float:
+        return self.total / self.count if self.count else 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Entry:
+    """One row: ``controller`` under ``level`` in ``mode``."""
+
+    controller: str
+    level: str
+    mode: str
+    score: Score
+    settle_ratio_median: float      # settle / T*, failures as inf
+    settle_ratio_worst: float
+    mean_abs_torque: float
+    seconds: float
+
+    def as_dict(self) -> dict:
+        def finite(v):
+            return float(v) if math.isfinite(v) else None
+        return {"controller": self.controller, "level": self.level, "mode": self.mode,
+                **self.score.as_dict(),
+                "settle_ratio_median": finite(self.settle_ratio_median),
+                "settle_ratio_worst": finite(self.settle_ratio_worst),
+                "mean_abs_torque": self.mean_abs_torque, "seconds": self.seconds}
+
+
+def has_model(controller) -> bool:
+    """Whether a compensator can predict for ``controller`` (it names its model)."""
+    meta = getattr(controller, "meta", None)
+    return isinstance(meta, dict) and meta.get("model") is not None
+
+
+def modes_for(controller, level: str) -> tuple:
+    """The modes a controller runs under ``level``: plain always; compensated where the
+    level has something to compensate and the controller names a model."""
+    ch = LEVELS[level]
+    something = ch.action_delay or ch.observation_delay or ch.observes_imperfectly()
+    return MODES if something and has_model(controller) else MODES[:1]
+
+
+def settle_ratios(settle: np.ndarray, success: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """settle / T*(x0) per run (P, n): failures inf; ``limits`` (n,) seconds per state."""
+    limits = np.asarray(limits, dtype=float)
+    if limits.shape != settle.shape[-1:] or not np.all(limits > 0):
+        raise ValueError(f"need a positive limit per initial state ({settle.shape[-1]}), got "
+                         f"shape {limits.shape}")
+    return np.where(success, settle, np.inf) / limits
+
+
+def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(LEVELS),
+        plants: int = 32, seed: int = SEED, log=None) -> list[Entry]:
+    """Every controller (``{name: controller}``) x level x mode (:func:`modes_for`) from
+    the states ``x0`` (n, 4) whose limits are ``limits`` (n,) seconds; ``plants`` plants
+    per level that perturbs the plant. ``log(line)`` hears of every finished row."""
+    levels = [challenge(name).name for name in levels]
+    cells = [(name, level, mode) for name, c in controllers.items() for level in levels
+             for mode in modes_for(c, level)]
+    if len(cells) > MAX_CELLS:
+        raise ValueError(f"{len(cells)} leaderboard rows are more than {MAX_CELLS}; name "
+                         f"fewer controllers or levels")
+    rows = []
+    for i, (name, level, mode) in enumerate(cells, 1):
+        meter = TorqueMeter(checked(controllers[name], name=name))
+        ch = LEVELS[level]
+        t0 = time.perf_counter()
+        ev = evaluate(meter, x0=x0, challenge=ch, seed=seed,
+                      count=plants if ch.perturbs_plant() else 1,
+                      compensate=mode == "compensated", label=name)
+        ratio = settle_ratios(ev.settle, ev.success, limits)
+        entry = Entry(name, level, mode, ev.score, float(np.median(ratio)),
+                      float(ratio.max()), meter.mean, time.perf_counter() - t0)
+        rows.append(entry)
+        if log is not None:
+            s = entry.score
+            log(f"[{i}/{len(cells)}] {name} {level} {mode}: {s.successes}/{s.n} "
+                f"({entry.seconds:.1f} s)")
+    return rows
