@@ -98,3 +98,15 @@ def test_the_package_is_shallow_and_its_modules_small():
     long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py") if p not in kernels
             for n in [len(p.read_text().splitlines())] if n > 500}
     assert long == {}
+
+
+def test_every_subpackage_is_installed():
+    """pyproject.toml lists its packages explicitly: a new subpackage must be listed, or a
+    wheel would lack it."""
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())
+                 ["tool"]["setuptools"]["packages"])
+    found = {".".join(p.parent.relative_to(PACKAGE.parent).parts)
+             for p in PACKAGE.rglob("__init__.py")}
+    assert found - listed == set()
