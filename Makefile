@@ -29,7 +29,7 @@ demo: venv system-deps
 	$(VENV)/bin/twolink reproduce
 
 test: venv-test system-deps
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2
 
 # Benchmarks (benchmarks/run.py): full mode writes the README's figures to
 # benchmarks/results.json; quick mode is the CI form (well under two minutes).

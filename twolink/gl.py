@@ -10,12 +10,15 @@ dm_control render context. The user's MUJOCO_GL is kept for it.
 """
 from __future__ import annotations
 
+import atexit
 import contextlib
 import ctypes
 import glob
 import importlib
 import os
 import sys
+import threading
+import weakref
 
 from twolink._imports import around_import
 
@@ -89,6 +92,59 @@ def dm_control_context(*args, **kwargs):
         return context(*args, **kwargs)
     except Exception as exc:
         raise unavailable_error(exc) from None
+
+
+# --------------------------------------------------------------------------- context lifetime
+def release_current(context) -> None:
+    """Make no GL context current on this thread if mujoco's GLContext ``context`` is.
+
+    mujoco's ``Renderer.render`` makes its context current and leaves it so; a context
+    left current on a thread is still current at interpreter exit, after mujoco's EGL
+    module has terminated the display (its ``atexit`` handler), and freeing it then fails
+    (an ``EGLError`` printed at exit) or crashes. Every render makes it current again.
+    EGL and GLFW contexts are released; others (OSMesa) are left as they are."""
+    handle = getattr(context, "_context", None)
+    module = sys.modules.get(type(context).__module__)
+    if not handle or module is None:
+        return
+    if module.__name__ == "mujoco.egl":
+        egl = module.EGL
+        current = egl.eglGetCurrentContext()
+        if current and getattr(current, "address", None) == handle.address:
+            egl.eglMakeCurrent(module.EGL_DISPLAY, egl.EGL_NO_SURFACE, egl.EGL_NO_SURFACE,
+                               egl.EGL_NO_CONTEXT)
+    elif module.__name__ == "mujoco.glfw":
+        glfw = module.glfw
+        if glfw.get_current_context() == handle:
+            glfw.make_context_current(None)
+
+
+_open_at_exit: weakref.WeakSet = weakref.WeakSet()
+_exit_lock = threading.Lock()
+_exit_registered = False
+
+
+def close_at_exit(resource) -> None:
+    """Call ``resource.close()`` at interpreter exit unless it is gone by then (a weak
+    reference). Call it once the resource's GL context exists: ``atexit`` runs handlers
+    last in, first out, so these closes run before mujoco's ``eglTerminate``, registered
+    when the first EGL context was made."""
+    global _exit_registered
+    with _exit_lock:
+        _open_at_exit.add(resource)
+        if not _exit_registered:
+            atexit.register(close_all_at_exit)
+            _exit_registered = True
+
+
+def close_all_at_exit() -> None:
+    """Close every resource :func:`close_at_exit` holds (the ``atexit`` handler)."""
+    for resource in list(_open_at_exit):
+        try:
+            resource.close()
+        except Exception:       # at exit: nothing left to report to
+            pass
+    _open_at_exit.clear()
 
 
 # --------------------------------------------------------------------------- diagnosis

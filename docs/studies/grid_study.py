@@ -23,7 +23,7 @@ synchronous). Nothing is tuned: every configuration runs the same sets. Runs in 
 Run: .venv/bin/python docs/studies/grid_study.py [--refine 1 2 3] [--states 200] [--seed 7]
      [--noise-deg 1] [--models simplified full] [--sweeps synchronous|serial]
      [--json] [--report FILE]
-Used in the README, section "Finer grids".
+Used in docs/findings/finer-grids.md.
 """
 from __future__ import annotations
 

@@ -3,7 +3,8 @@ with synchronous sweeps (as printed), and with serial sweeps (each Q(m, u) overw
 once, bins in Matlab's order, as ApproxRL's fuzzyqi.m; infinity norm) in the last column.
 
 Run: .venv/bin/python docs/studies/iteration_norms.py
-Used in the README to show which reading of the paper's norm its iteration counts fit.
+Used in docs/findings/reproduction.md to show which reading of the paper's norm its
+iteration counts fit.
 """
 import numpy as np
 

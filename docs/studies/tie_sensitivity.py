@@ -11,7 +11,7 @@ success k/n with a 95 % Wilson interval, and how many failures are arms parked a
 within 1e-5 deg of the 5 deg band edge.
 
 Run: .venv/bin/python docs/studies/tie_sensitivity.py [--states 100] [--seed 0] [--json]
-Used in the README, section "Reproducing the paper".
+Used in docs/findings/round-off.md and docs/concepts/agents.md.
 """
 from __future__ import annotations
 

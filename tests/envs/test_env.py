@@ -3,8 +3,6 @@ environment trajectory against the rollout code."""
 from __future__ import annotations
 
 import dataclasses
-import re
-from pathlib import Path
 
 import dm_env
 import numpy as np
@@ -28,7 +26,6 @@ from twolink.sim.plants import MujocoPlant
 from twolink.sim.rollout import rollout
 from twolink.sim.trajectory_file import load_npz
 
-README = Path(__file__).resolve().parents[2] / "README.md"
 TASKS = twolink_env.TASKS
 
 
@@ -301,19 +298,6 @@ def test_render_headless(task):
     expected = [TABLE_I.l1 * np.cos(theta1) + TABLE_I.l2 * np.cos(theta1 + theta2),
                 TABLE_I.l1 * np.sin(theta1) + TABLE_I.l2 * np.sin(theta1 + theta2)]
     np.testing.assert_allclose(tip, expected, atol=1e-12)
-
-
-def test_readme_example_runs():
-    text = README.read_text()
-    section = text.split("## The arm as a dm_env environment", 1)
-    assert len(section) == 2, "README has no dm_env section"
-    body = re.split(r"\n## ", section[1], maxsplit=1)[0]
-    blocks = re.findall(r"```python\n(.*?)```", body, flags=re.S)
-    assert blocks, "the README's dm_env section has no python example"
-    namespace = {}
-    exec(compile(blocks[0], "README.md (dm_env example)", "exec"), namespace)
-    assert namespace["frame"].shape[-1] == 3
-    assert namespace["timestep"].last()
 
 
 class _DmEnvContract:

@@ -3,7 +3,6 @@ tests, and the trajectory held bit for bit against ``rollout`` and the dm_env ta
 from __future__ import annotations
 
 import gc
-import re
 import weakref
 from pathlib import Path
 
@@ -25,7 +24,6 @@ from twolink.sim.plants import MujocoPlant
 from twolink.sim.rollout import rollout
 from twolink.viz.render import Renderer
 
-README = Path(__file__).resolve().parents[2] / "README.md"
 X0 = [0.5, -2.0, 1.0, 0.0]
 
 
@@ -409,18 +407,6 @@ def test_render_and_close_free_resources():
     env.reset()                                             # a closed env can start again
     with pytest.warns(UserWarning, match="without a render_mode"):
         assert tpz.parallel_env().render() is None          # no render_mode: no frame
-
-
-def test_readme_example_runs():
-    text = README.read_text()
-    section = text.split("### PettingZoo", 1)
-    assert len(section) == 2, "README has no PettingZoo subsection"
-    body = re.split(r"\n##+ ", section[1], maxsplit=1)[0]
-    blocks = re.findall(r"```python\n(.*?)```", body, flags=re.S)
-    assert blocks, "the README's PettingZoo subsection has no python example"
-    namespace = {}
-    exec(compile(blocks[0], "README.md (PettingZoo example)", "exec"), namespace)
-    assert all(namespace["truncations"].values())           # the episode ran to its end
 
 
 # --------------------------------------------------------------------------- challenges

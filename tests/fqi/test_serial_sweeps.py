@@ -101,5 +101,5 @@ def test_bad_sweeps_are_refused_before_any_work(tmp_path, monkeypatch, capsys, a
 def test_bad_sweeps_in_the_library_name_the_choices():
     with pytest.raises(ValueError, match="unknown sweeps 'bogus'; choose one of synchronous, serial"):
         synthesize("centralized", sweeps="bogus")
-    with pytest.raises(ValueError, match="refine must be a positive whole number"):
+    with pytest.raises(ValueError, match="refine must be a whole number from 1 to 16, got 0"):
         synthesize("centralized", refine=0)

@@ -11,5 +11,8 @@ SUMMARIES = {
     "mismatch": "model mismatch, its closure and robustness sweeps",
     "learn": "online fuzzy Q-learning on the MuJoCo arm (many arms, one theta)",
     "identify": "identify P1, P2, P3, b1, b2 from a logged MuJoCo experiment",
+    "evaluate": "score one controller (yours too) under a challenge level on MuJoCo",
+    "leaderboard": "every controller under every challenge level, against the time-optimal limit",
     "scaling": "Table II extended to N links: memory, time and success of both schemes",
+    "limits": "the time-optimal limit T*(x) of the arm (CasADi/IPOPT; shipped table)",
 }

@@ -15,6 +15,7 @@ before; more links are :func:`twolink.arm.parameters.chain`. Episodes last
 from __future__ import annotations
 
 import functools
+import math
 import warnings
 
 import numpy as np
@@ -32,12 +33,15 @@ from twolink.arm.parameters import (  # noqa: F401
     horizon,
     state_names,
 )
+from twolink.arm.integrate import wrap_angle
+from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
+from twolink.arm.task import centralized_reward, in_goal_band
 from twolink.policy.fuzzy_policy import check_links_match
 from twolink.sim.challenges import Challenge
 from twolink.sim.challenges import challenge as challenge_named
 from twolink.sim.perturbations import perturbed, random_perturbation
 from twolink.sim.plants import check_states
-from twolink.validate import is_real
+from twolink.validate import choice, is_real
 
 TASKS = ("centralized", "decentralized")
 #: Episode length (s) of arms of three links or more: their tapered outer motors (half
@@ -140,7 +144,113 @@ def check_x0(x0, links: int = 2):
     x0 = check_states(x0, what="x0", links=n)
     if x0.shape != (2 * n,):
         raise ValueError(f"x0 must be one state of shape ({2 * n},), got shape {x0.shape}")
-    return x0.copy()
+    return wrap_angles(x0)
+
+
+def wrap_angles(x: np.ndarray) -> np.ndarray:
+    """A copy of states x (..., 2N) with every angle outside [-pi, pi) wrapped into it, as
+    the arm wraps its angles at the end of every sample period; angles already inside are
+    kept bit for bit (so the paper's x0 starts exactly as ``rollout`` starts it)."""
+    x = np.array(x, dtype=float)
+    n = x.shape[-1] // 2
+    a = x[..., :n]
+    outside = (a < -math.pi) | (a >= math.pi)
+    x[..., :n] = np.where(outside, wrap_angle(a), a)
+    return x
+
+
+def check_x0_speeds(x0, speed_max) -> np.ndarray:
+    """``x0`` (one state (2N,) or many (..., 2N)) unless a speed exceeds the arm's speed
+    limit ``speed_max`` (one per link), where the arm saturates its speeds at the end of
+    every sample period: a first observation beyond it would lie outside the declared
+    observation space. A one-line ValueError naming the worst speed otherwise."""
+    x0 = np.asarray(x0, dtype=float)
+    n = x0.shape[-1] // 2
+    speeds = np.abs(x0[..., n:]).reshape(-1, n)
+    limit = np.broadcast_to(np.asarray(speed_max, dtype=float), speeds.shape)
+    over = speeds > limit
+    if np.any(over):
+        worst = int(np.argmax(np.where(over, speeds, -1.0)))
+        raise ValueError(f"x0 has a speed of magnitude {speeds.flat[worst]:.4g} rad/s, beyond "
+                         f"the arm's speed limit {limit.flat[worst]:.4g} rad/s (the arm "
+                         f"saturates its speeds there)")
+    return x0
+
+
+def state_bounds(speed_max) -> np.ndarray:
+    """The upper bounds [pi .. pi, speed_max_1 .. speed_max_N] of the true state (the
+    lower ones are their negatives): the arm wraps its angles to [-pi, pi) and saturates
+    its speeds at +-speed_max at the end of every sample period, and a first state is held
+    to the same bounds (:func:`wrap_angles`, :func:`check_x0_speeds`)."""
+    v = np.asarray(speed_max, dtype=float)
+    return np.concatenate([np.full(len(v), math.pi), v])
+
+
+# --------------------------------------------------------------------------- rewards
+#: Reward options of the Gymnasium and Stable-Baselines3 environments: ``'paper'`` is
+#: (15), ``'shaped'`` the dense :func:`shaped_reward`.
+REWARD_OPTIONS = ("paper", "shaped")
+#: The tolerances of :func:`shaped_reward`: dm_control's ``rewards.tolerance`` with this
+#: sigmoid, its value at the margin, and the margins on |theta_i| (rad) and |dtheta_i|
+#: (rad/s).
+SHAPED_SIGMOID = "reciprocal"
+SHAPED_VALUE_AT_MARGIN = 0.1
+SHAPED_ANGLE_MARGIN = math.pi
+SHAPED_SPEED_MARGIN = 2.0 * math.pi
+#: Largest value of :func:`shaped_reward` outside the goal band.
+SHAPED_OUTSIDE_MAX = -1e-12
+#: The lowest values of the two rewards: what the vector environment's autoreset steps
+#: return (:class:`twolink.envs.gym.TwoLinkVectorEnv`), never a goal reward.
+REWARD_FLOOR = {"paper": -0.5, "shaped": -1.0}
+
+
+def shaped_reward(x) -> np.ndarray:
+    """A dense reward for deep RL, in the style of dm_control's ``rewards.tolerance``:
+    0 exactly in the goal band of (15), negative elsewhere, within [-1, 0].
+
+    For states x (..., 2N) with angles wrapped::
+
+        r(x) = (1/N) sum_i tol(|theta_i|, 5 deg, pi) * tol(|dtheta_i|, 0.1 rad/s, 2 pi) - 1
+
+    where ``tol(v, b, m) = dm_control.utils.rewards.tolerance(v, bounds=(0, b), margin=m,
+    sigmoid='reciprocal', value_at_margin=0.1)``: 1 for v <= b, else 1 / (1 + 9 (v - b) / m)
+    (0.1 at a distance m beyond the band). The reciprocal sigmoid keeps a slope at the
+    band's edge (a Gaussian would be flat there, and the band is narrow). Outside the band
+    the value is at most -1e-12 (:data:`SHAPED_OUTSIDE_MAX`; the clamp acts only a few
+    ulps from the band's edge, where the tolerance rounds to 1). (15),
+    :func:`twolink.arm.task.centralized_reward`, stays the evaluation metric.
+    """
+    from dm_control.utils.rewards import tolerance
+
+    x = np.asarray(x, dtype=float)
+    n = x.shape[-1] // 2
+    kw = dict(sigmoid=SHAPED_SIGMOID, value_at_margin=SHAPED_VALUE_AT_MARGIN)
+    per_link = [tolerance(np.abs(x[..., i]), bounds=(0.0, GOAL_ANGLE),
+                          margin=SHAPED_ANGLE_MARGIN, **kw)
+                * tolerance(np.abs(x[..., n + i]), bounds=(0.0, GOAL_SPEED),
+                            margin=SHAPED_SPEED_MARGIN, **kw) for i in range(n)]
+    r = np.mean(per_link, axis=0) - 1.0
+    return np.where(in_goal_band(x), 0.0, np.minimum(r, SHAPED_OUTSIDE_MAX))
+
+
+def check_reward(reward) -> str:
+    """``reward`` if it is one of :data:`REWARD_OPTIONS`, else a ValueError; for
+    ``'shaped'`` an ImportError now, not at the first step, where dm-control is missing."""
+    choice(reward, "reward", REWARD_OPTIONS)
+    if reward == "shaped":
+        try:
+            from dm_control.utils import rewards  # noqa: F401
+        except ImportError:
+            raise ImportError("reward='shaped' uses dm-control's rewards.tolerance; on "
+                              "Python 3.13: pip install --no-deps dm-control==1.0.50") from None
+    return reward
+
+
+def reward_of(x, reward: str) -> np.ndarray:
+    """Reward ``reward`` (one of :data:`REWARD_OPTIONS`) of states x (..., 2N), float64."""
+    if reward == "shaped":
+        return shaped_reward(x)
+    return centralized_reward(x).astype(np.float64)
 
 
 def default_x0(links: int = 2) -> str:

@@ -36,6 +36,15 @@ for two links).
 Actions outside the spec are clipped to +-tau_max (as the plants and MuJoCo's ctrlrange
 do); actions of the wrong shape, NaN or infinite actions are refused with a ValueError.
 Observation noise corrupts the observations only; rewards read the true state.
+
+Observation specs are ``BoundedArray``s of the true bounds: every sample period ends with
+the angles wrapped to [-pi, pi) and the speeds saturated at +-speed_max, so angles lie in
+[-pi, pi] and speeds in +-speed_max (the plant's, ``speed_max`` included); an x0 given
+is wrapped the same way and refused (ValueError) with a speed beyond speed_max, so the
+first observation is inside too. With observation noise (``angle_noise``,
+``speed_noise`` or a noisy ``challenge``) the specs are unbounded ``Array``s: Gaussian
+noise can carry a reading past any bound. The same bounds as the Gymnasium and
+PettingZoo environments declare.
 """
 from __future__ import annotations
 
@@ -69,11 +78,13 @@ from twolink.envs.core import (  # noqa: F401
     check_task,
     check_two_link_options,
     check_x0,
+    check_x0_speeds,
     default_x0,
     horizon,
     initial_state,
     observation_names,
     perturbed_params,
+    state_bounds,
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import finish_data, set_data
@@ -120,6 +131,10 @@ class ArmTask(base.Task):
         # challenge, whose changed limits only the plant (MuJoCo's ctrlrange) applies.
         self._tau_max = (params if nominal is None else nominal).tau_max
         self._x0 = check_x0(x0, self.links)
+        if not isinstance(self._x0, str):
+            check_x0_speeds(self._x0, params.speed_max)
+        # The true state's bounds (its angles and speeds), or unbounded under noise.
+        self._bound = state_bounds(params.speed_max)
         # One row of the perturbations of twolink.sim.perturbations, drawing from the task's
         # random state: a challenge's noise, faults and delays, or the noise given.
         if challenge is not None:
@@ -128,6 +143,16 @@ class ArmTask(base.Task):
         else:
             self._sensors = Sensors(angle_noise, speed_noise, rngs=[self.random])
             self._delay = ActuationDelay(_hold, 0)
+        if self._sensors.noisy:
+            self._bound = None
+
+    def _spec(self, components, name: str):
+        """The spec of an observation of the state's ``components`` (indices)."""
+        shape = (len(components),)
+        if self._bound is None:
+            return specs.Array(shape, np.float64, name=name)
+        high = self._bound[list(components)]
+        return specs.BoundedArray(shape, np.float64, -high, high, name=name)
 
     def initialize_episode(self, physics):
         """Set x0: the paper's, random angles at rest, or the given one; the delays and
@@ -166,8 +191,7 @@ class Centralized(ArmTask):
         return collections.OrderedDict(state=self._measured(physics))
 
     def observation_spec(self, physics):
-        return collections.OrderedDict(
-            state=specs.Array((2 * self.links,), np.float64, name="state"))
+        return collections.OrderedDict(state=self._spec(range(2 * self.links), "state"))
 
     def get_reward(self, physics):
         return float(centralized_reward(physics.state()))
@@ -193,7 +217,7 @@ class Decentralized(ArmTask):
 
     def observation_spec(self, physics):
         return collections.OrderedDict(
-            (key, specs.Array((len(names),), np.float64, name=key))
+            (key, self._spec([self._state_names.index(n) for n in names], key))
             for key, names in self._agents.items())
 
     def get_reward(self, physics):

@@ -1,20 +1,35 @@
 """The arm as a Gymnasium environment: one arm, and many arms in one batched MuJoCo call.
 
 ``TwoLinkEnv`` is the ``centralized`` task of :mod:`twolink.envs.core` under Gymnasium's
-API: observation the state [theta1, theta2, dtheta1, dtheta2] (angles as given) or, with
+API: observation the state [theta1, theta2, dtheta1, dtheta2] or, with
 ``observation="cos_sin"``, [cos theta1, sin theta1, cos theta2, sin theta2, dtheta1,
-dtheta2]; action the torques [tau1, tau2] in a Box of +-tau_max, or with
-``actions="discrete"`` the index of one of the 9 joint actions of (16); reward (15) on
-the state reached. Episodes never terminate; they are truncated at the time limit
-(default 5 s = 100 steps of Ts = 0.05 s). Every step is one sample period of the
-``mujoco`` plant (:class:`twolink.sim.plants.MujocoPlant`), so a policy driven through the
-environment retraces ``rollout(policy, MujocoPlant(), x0)`` and the dm_env environment
-bit for bit.
+dtheta2]; action the torques [tau1, tau2] in a Box of +-tau_max, with
+``actions="normalized"`` a float32 Box [-1, 1]^2 scaled to +-tau_max (for deep RL), or
+with ``actions="discrete"`` the index of one of the 9 joint actions of (16); reward (15)
+on the state reached, or with ``reward="shaped"`` the dense
+:func:`twolink.envs.core.shaped_reward` (0 in the goal band, in [-1, 0) outside; (15)
+stays the evaluation metric). Episodes never terminate; they are truncated at the time
+limit (default 5 s = 100 steps of Ts = 0.05 s), and the truncation step's info holds
+``is_success``: whether the arm settled by :func:`twolink.sim.metrics.success` (inside
+the goal band at every sample from 1 s before the end on). Every step is one sample
+period of the ``mujoco`` plant (:class:`twolink.sim.plants.MujocoPlant`), so a policy
+driven through the environment retraces ``rollout(policy, MujocoPlant(), x0)`` and the
+dm_env environment bit for bit.
+
+Observation bounds are true: the plant wraps angles to [-pi, pi) and saturates speeds at
++-speed_max at the end of every sample period, so the Box declares angles [-pi, pi],
+speeds +-speed_max and cos/sin [-1, 1]; an x0 given is wrapped the same way and refused
+(ValueError) with a speed beyond speed_max, so the first observation lies inside too.
+With observation noise (``angle_noise``, ``speed_noise`` or a noisy ``challenge``) the
+noisy components are declared unbounded: Gaussian noise can carry a reading past any
+bound.
 
 ``TwoLinkVectorEnv`` is a ``gymnasium.vector.VectorEnv`` over many such arms: one
 ``mujoco.rollout`` call per Ts for all of them, next-step autoreset (Gymnasium's
 default), each arm with its own generator, so it equals as many single environments bit
-for bit. Both share :class:`twolink.envs.gym_arms.Arms`, the batched episode logic.
+for bit. Both share :class:`twolink.envs.gym_arms.Arms`, the batched episode logic. For
+Stable-Baselines3, :mod:`twolink.envs.sb3` has a ``VecEnv`` over the same batched core
+with SB3's same-step autoreset.
 
 Arms of N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``):
 observation [theta1 .. thetaN, dtheta1 .. dthetaN] or [cos theta1, sin theta1, ..,
@@ -81,9 +96,11 @@ class TwoLinkEnv(gymnasium.Env):
     Table I by default, whose torque limits bound the actions; an
     :class:`~twolink.arm.parameters.ArmParameters` or a
     :class:`~twolink.arm.parameters.ChainParameters`); ``observation`` ``'state'`` |
-    ``'cos_sin'``; ``actions`` ``'box'`` | ``'discrete'``; ``x0`` ``'paper'`` (two links; the
+    ``'cos_sin'``; ``actions`` ``'box'`` | ``'normalized'`` | ``'discrete'``; ``reward``
+    ``'paper'`` ((15), the default) | ``'shaped'``; ``x0`` ``'paper'`` (two links; the
     default there) | ``'random'`` (the default for N >= 3) | a state (2N,), the default
-    of every episode (``reset(options={'x0': ...})`` overrides it once); ``time_limit``
+    of every episode (``reset(options={'x0': ...})`` overrides it once; angles wrapped to
+    [-pi, pi), speeds at most the arm's limit); ``time_limit``
     (s; default :func:`twolink.envs.core.horizon`, 5 s for two links, 8 s beyond);
     ``perturbation`` a dict of relative changes (``{'m2': 0.2}``) or a size s for a new
     random joint change of every Table I constant within +-s each episode;
@@ -92,7 +109,13 @@ class TwoLinkEnv(gymnasium.Env):
     until then); ``challenge`` a level of :data:`twolink.sim.challenges.LEVELS` (``'easy'``,
     ``'medium'``, ``'hard'``) or a :class:`twolink.sim.challenges.Challenge`: a new plant
     every episode, its delays, noise and dropped/stuck readings, instead of
-    ``perturbation``, the noise and ``delay``; ``render_mode`` ``'rgb_array'`` (frames of :class:`twolink.viz.render.Renderer`).
+    ``perturbation``, the noise and ``delay``; ``render_mode`` ``'rgb_array'`` (frames of
+    :class:`twolink.viz.render.Renderer`, whose GL context is released after every frame
+    and freed at ``close`` or at the latest at interpreter exit).
+
+    The truncation step's info is ``{'is_success': bool}`` (settled by the success rule);
+    other steps' infos are empty. Observation bounds: see the module docstring (unbounded
+    angles and speeds with observation noise).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": round(1 / TS)}
@@ -102,7 +125,8 @@ class TwoLinkEnv(gymnasium.Env):
                  params=None, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
                  challenge=None, render_mode: str | None = None, render_size=(320, 240),
-                 links: int | None = None, rule: str | None = None):
+                 links: int | None = None, rule: str | None = None,
+                 reward: str = "paper"):
         _check_task(task)
         if render_mode is not None:
             choice(render_mode, "render_mode", self.metadata["render_modes"])
@@ -110,7 +134,8 @@ class TwoLinkEnv(gymnasium.Env):
         self._options = dict(params=params, observation=observation, actions=actions, x0=x0,
                              time_limit=time_limit, perturbation=perturbation,
                              angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
-                             nthread=1, challenge=challenge, links=links, rule=rule)
+                             nthread=1, challenge=challenge, links=links, rule=rule,
+                             reward=reward)
         self._arms = Arms(1, **self._options)
         self.links = self._arms.links
         self.render_mode = render_mode
@@ -152,8 +177,9 @@ class TwoLinkEnv(gymnasium.Env):
             raise RuntimeError("the episode is over (truncated at the time limit): call reset()")
         tau = arms.torques(action, single=True)
         x, r, truncated = arms.step(tau)
-        arms.x[:], arms.k[:] = x, arms.k + 1
-        return arms.observe([0])[0], float(r[0]), False, bool(truncated[0]), {}
+        arms.commit(x)
+        info = {"is_success": bool(arms.settled([0])[0])} if truncated[0] else {}
+        return arms.observe([0])[0], float(r[0]), False, bool(truncated[0]), info
 
     def render(self):
         if self.render_mode is None:
@@ -188,8 +214,18 @@ class TwoLinkVectorEnv(VectorEnv):
     """``num_envs`` arms stepped together: one ``mujoco.rollout`` call per Ts for all.
 
     Same options as :class:`TwoLinkEnv` (no rendering), ``nthread`` for MuJoCo's thread
-    pool (default: one per core). Next-step autoreset: the step after an arm's
-    truncation resets it (reward 0, not truncated) and ignores its action.
+    pool (default: one per core).
+
+    Next-step autoreset (Gymnasium's default): the step after an arm's truncation resets
+    it and ignores its action. That autoreset step returns the new episode's first
+    observation, terminated and truncated False, and the reward's lowest value
+    (:data:`twolink.envs.core.REWARD_FLOOR`: -0.5 under (15), -1 shaped), never the goal
+    reward 0, which a sum or a count of goal rewards could otherwise take it for; its infos
+    mark it, ``infos['autoreset']`` True where ``infos['_autoreset']``. Learners mask
+    those steps out (the transition from a final observation to a first one is no step of
+    the arm); Stable-Baselines3's same-step autoreset never shows them
+    (:mod:`twolink.envs.sb3`). The truncation step's infos hold ``is_success`` (with its
+    mask ``_is_success``, True for the arms truncated), as :class:`TwoLinkEnv`'s.
     ``reset(seed=s)`` seeds arm i with s + i (as ``SyncVectorEnv`` does); ``seed`` may
     also be a list; ``options``: ``x0`` (one (2N,) or one per arm (num_envs, 2N)) and
     ``reset_mask`` (a bool array (num_envs,): reset only those arms).
@@ -203,7 +239,7 @@ class TwoLinkVectorEnv(VectorEnv):
                  perturbation=None, angle_noise: float = 0.0, speed_noise: float = 0.0,
                  delay: int = 0, challenge=None, nthread: int | None = None,
                  render_mode: str | None = None, links: int | None = None,
-                 rule: str | None = None):
+                 rule: str | None = None, reward: str = "paper"):
         _check_task(task)
         whole(num_envs, "num_envs", 1, MAX_ENVS)
         if render_mode is not None:
@@ -214,7 +250,7 @@ class TwoLinkVectorEnv(VectorEnv):
                           actions=actions, x0=x0, time_limit=time_limit,
                           perturbation=perturbation, angle_noise=angle_noise,
                           speed_noise=speed_noise, delay=delay, nthread=nthread,
-                          challenge=challenge, links=links, rule=rule)
+                          challenge=challenge, links=links, rule=rule, reward=reward)
         self.links = self._arms.links
         self.single_action_space = self._arms.action_space()
         self.single_observation_space = self._arms.observation_space()
@@ -285,14 +321,20 @@ class TwoLinkVectorEnv(VectorEnv):
         tau = arms.torques(actions)
         x, r, truncated = arms.step(tau)
         done = self._autoreset
-        arms.x[:], arms.k[:] = x, arms.k + 1
+        arms.commit(x)
+        infos = {}
         if done.any():
             rows = np.flatnonzero(done)
             arms.reset_rows(rows, [arms.rngs[i] for i in rows], [arms.x0] * len(rows))
-            r[rows], truncated[rows] = 0.0, False
+            r[rows], truncated[rows] = arms.floor(), False
+            infos["autoreset"] = done.copy()
+            infos["_autoreset"] = done.copy()
+        if truncated.any():
+            infos["is_success"] = truncated & arms.settled(np.arange(self.num_envs))
+            infos["_is_success"] = truncated.copy()
         self._autoreset = truncated.copy()
         self._obs = arms.observe(np.arange(self.num_envs))
-        return self._obs.copy(), r, np.zeros(self.num_envs, dtype=bool), truncated, {}
+        return self._obs.copy(), r, np.zeros(self.num_envs, dtype=bool), truncated, infos
 
     def close_extras(self, **kwargs):
         """Free the plant (MuJoCo's thread pool)."""

@@ -12,28 +12,37 @@ import itertools
 import numpy as np
 from gymnasium import spaces
 
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters
-from twolink.arm.task import action_levels, centralized_reward
+from twolink.arm.parameters import SUCCESS_MARGIN, TS, ArmParameters, ChainParameters
+from twolink.arm.task import action_levels, in_goal_band
 from twolink.control.problems import centralized_actions
 from twolink.envs.core import (
     BAD_TIME_LIMIT,
+    REWARD_FLOOR,
     arm,
     check_action,
     check_challenge,
+    check_reward,
     check_two_link_options,
     check_x0,
+    check_x0_speeds,
     default_x0,
     horizon,
     initial_state,
     observe,
     perturbed_params,
+    reward_of,
+    state_bounds,
+    wrap_angles,
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
-from twolink.sim.plants import MAX_ANGLE, SPEED_BOUND, MujocoPlant, check_states
+from twolink.sim.plants import MujocoPlant, check_states
 from twolink.validate import choice, is_real, real, real_array
 
 OBSERVATIONS = ("state", "cos_sin")
-ACTIONS = ("box", "discrete")
+#: ``'box'``: torques in +-tau_max (float64); ``'discrete'``: the 3^N joint actions;
+#: ``'normalized'``: a float32 Box [-1, 1]^N scaled to +-tau_max (what deep RL libraries
+#: expect; Stable-Baselines3's checker warns about any other Box).
+ACTIONS = ("box", "discrete", "normalized")
 
 
 def _check_steps(time_limit) -> int:
@@ -44,10 +53,11 @@ def _check_steps(time_limit) -> int:
 
 
 def _check_x0(x0, speed_max, links: int = 2):
-    """``check_x0`` plus the plant's bounds, so a bad x0 fails at reset, not at a step."""
+    """``check_x0`` (angles wrapped to [-pi, pi)) plus the arm's speed limit, so a bad x0
+    fails at construction or reset, and a first observation lies in the declared space."""
     x0 = check_x0(x0, links)
     if not isinstance(x0, str):
-        check_states(x0, what="x0", speed_max=speed_max, links=links)
+        check_x0_speeds(x0, speed_max)
     return x0
 
 
@@ -89,7 +99,7 @@ class Arms:
 
     def __init__(self, rows: int, *, params, observation: str, actions: str,
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
-                 nthread, challenge=None, links=None, rule=None):
+                 nthread, challenge=None, links=None, rule=None, reward="paper"):
         if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
             raise ValueError(f"params must be an ArmParameters or a ChainParameters, got "
                              f"{type(params).__name__}")
@@ -101,11 +111,15 @@ class Arms:
                                angle_noise=angle_noise, speed_noise=speed_noise)
         self.observation = choice(observation, "observation", OBSERVATIONS)
         self.actions = choice(actions, "actions", ACTIONS)
-        self.x0 = _check_x0(default_x0(n) if x0 is None else x0, params.speed_max, n)
+        self.reward = check_reward(reward)
         self.steps = _check_steps(horizon(n) if time_limit is None else time_limit)
         size = perturbation is not None and not isinstance(perturbation, dict)
         # Checks a dict or a size now (a size is drawn anew every episode).
         fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
+        # Where the plant saturates speeds: Table I's limits (a size or a challenge never
+        # changes them; a dict of changes may).
+        self.speed_max = np.maximum(params.speed_max, fixed.speed_max)
+        self.x0 = _check_x0(default_x0(n) if x0 is None else x0, self.speed_max, n)
         for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
                             ("delay", delay)):
             if not is_real(value):
@@ -130,27 +144,29 @@ class Arms:
         self.rngs: list = [None] * rows
         self.x = np.zeros((rows, 2 * n))
         self.k = np.zeros(rows, dtype=int)
+        # The last sample k at which each arm was outside the goal band (-1: never).
+        self.last_out = np.full(rows, -1)
 
     # -------------------------------------------------------------- spaces
     def action_space(self) -> spaces.Space:
         if self.actions == "discrete":
             return spaces.Discrete(len(self.table))
+        if self.actions == "normalized":
+            return spaces.Box(-1.0, 1.0, (self.links,), np.float32)
         t = self.params.tau_max
         return spaces.Box(-t, t, (self.links,), np.float64)
 
     def observation_space(self) -> spaces.Space:
-        """Bounds of the true state (x0's bounds; the plant keeps states inside them);
-        unbounded where noise may leave them."""
-        speed = SPEED_BOUND * self.params.speed_max
+        """The true state's bounds (:func:`twolink.envs.core.state_bounds`): angles in
+        [-pi, pi] and speeds in +-speed_max (the plant wraps and saturates them at the end
+        of every sample period; x0 is wrapped and held to the limit), cos/sin in [-1, 1];
+        the angles and speeds unbounded where observation noise may leave those bounds."""
         n = self.links
-        if self.observation == "state":
-            high = np.array([MAX_ANGLE] * n + [*speed])
-            if self._noisy:
-                high[:] = np.inf
-        else:
-            high = np.array([1.0] * (2 * n) + [*speed])
-            if self._noisy:
-                high[2 * n:] = np.inf
+        bound = state_bounds(self.speed_max)
+        if self._noisy:
+            bound[:] = np.inf
+        high = bound if self.observation == "state" else np.concatenate(
+            [np.ones(2 * n), bound[n:]])
         return spaces.Box(-high, high, (len(high),), np.float64)
 
     # -------------------------------------------------------------- checks
@@ -158,10 +174,13 @@ class Arms:
         """Checked torques (rows, N) for the actions of all arms (``single``: the one
         action of a one-arm environment); a ValueError otherwise."""
         a = real_array(action, "action", dtype=None, finite=False)
-        if self.actions == "box":
-            if single:
-                return check_action(a, self.params.tau_max)[None]
-            return check_action(a, self.params.tau_max, rows=self.rows)
+        if self.actions != "discrete":
+            t = self.params.tau_max
+            unit = self.actions == "normalized"
+            bound = np.ones_like(t) if unit else t
+            a = check_action(a, bound)[None] if single else \
+                check_action(a, bound, rows=self.rows)
+            return a * t if unit else a
         want = () if single else (self.rows,)
         if a.shape != want or a.dtype.kind not in "iu":
             raise ValueError(f"a discrete action must be {'one whole number' if single else 'whole numbers'}"
@@ -175,13 +194,13 @@ class Arms:
         """One x0 for all arms, or one per arm (rows, 2N); a list of per-arm x0 options."""
         n = self.links
         if isinstance(x0, str) or np.ndim(x0) == 1:
-            x0 = _check_x0(x0, self.params.speed_max, n)
+            x0 = _check_x0(x0, self.speed_max, n)
             return [x0] * self.rows
-        x0 = check_states(x0, what="x0", speed_max=self.params.speed_max, links=n)
+        x0 = check_states(x0, what="x0", links=n)
         if x0.shape != (self.rows, 2 * n):
             raise ValueError(f"x0 must be one state ({2 * n},) or one per arm ({self.rows}, "
                              f"{2 * n}), got shape {x0.shape}")
-        return list(x0.copy())
+        return list(wrap_angles(check_x0_speeds(x0, self.speed_max)))
 
     # -------------------------------------------------------------- episodes
     def reset_rows(self, rows, rngs, x0s) -> None:
@@ -194,6 +213,7 @@ class Arms:
                 self.plant.set_row_params(i, self._draw(rng))
             self.x[i] = initial_state(x0, rng, self.links)
             self.k[i] = 0
+            self.last_out[i] = -1 if in_goal_band(self.x[i]) else 0
         self._delay.restart(rows)
         self.sensors.restart(rows)
 
@@ -204,9 +224,26 @@ class Arms:
 
     def step(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One sample period of every arm under checked torques ``tau``: the next states
-        (not yet stored), rewards (15) and truncation flags."""
+        (not yet stored: :meth:`commit`), rewards (15) or shaped, and truncation flags."""
         x = self.plant.step(self.x, self._delay(tau))
-        return x, centralized_reward(x).astype(np.float64), self.k + 1 >= self.steps
+        return x, reward_of(x, self.reward), self.k + 1 >= self.steps
+
+    def commit(self, x: np.ndarray) -> None:
+        """Store the states a :meth:`step` reached: one more sample for every arm."""
+        self.x[:], self.k[:] = x, self.k + 1
+        out = ~in_goal_band(x)
+        self.last_out[out] = self.k[out]
+
+    def settled(self, rows) -> np.ndarray:
+        """Whether the episodes of ``rows`` (at their time limit) succeeded by
+        :func:`twolink.sim.metrics.success`: settled in the goal band no later than
+        SUCCESS_MARGIN (1 s) before the end, i.e. inside it at every sample from then on."""
+        settle = (self.last_out[rows] + 1).astype(float) * TS
+        return settle <= self.steps * TS - SUCCESS_MARGIN + 1e-9
+
+    def floor(self) -> float:
+        """The reward of an autoreset step: the reward's lowest value, never a goal."""
+        return REWARD_FLOOR[self.reward]
 
     def close(self) -> None:
         self.plant.close()

@@ -59,7 +59,7 @@ from pettingzoo.utils import conversions
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink.arm import mjcf
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters, check_links
+from twolink.arm.parameters import TS, ArmParameters, ChainParameters, check_links, state_names
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.envs.core import (
     BAD_TIME_LIMIT,
@@ -70,15 +70,17 @@ from twolink.envs.core import (
     check_reset_options,
     check_two_link_options,
     check_x0,
+    check_x0_speeds,
     default_x0,
     horizon,
     initial_state,
     observation_names,
     observe,
     perturbed_params,
+    state_bounds,
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
-from twolink.sim.plants import MujocoPlant, check_states
+from twolink.sim.plants import MujocoPlant
 from twolink.sim.rollout import steps_for
 from twolink.validate import choice, is_real, real, whole
 
@@ -104,6 +106,12 @@ def _task_keys(names) -> dict:
     return {agent: f"agent{i}" for i, agent in enumerate(names, 1)}
 
 
+def _box(high) -> spaces.Box:
+    """The float64 Box [-high, high]."""
+    high = np.asarray(high, dtype=np.float64)
+    return spaces.Box(-high, high, high.shape, np.float64)
+
+
 def _check_agent_action(agent: str, action) -> np.ndarray:
     """The torque of ``agent`` as float64 (1,), or a ValueError naming the agent."""
     try:
@@ -123,7 +131,17 @@ def _check_agent_action(agent: str, action) -> np.ndarray:
 
 
 class ParallelArm(pettingzoo.ParallelEnv):
-    """The decentralized task (17)-(18) as a :class:`pettingzoo.ParallelEnv`."""
+    """The decentralized task (17)-(18) as a :class:`pettingzoo.ParallelEnv`.
+
+    Observation spaces declare the true bounds, as the Gymnasium and dm_env environments
+    do: angles in [-pi, pi] and speeds in +-speed_max (the plant wraps and saturates them
+    at the end of every sample period; an x0 given is wrapped and refused with a speed
+    beyond speed_max), and so does ``state_space``. Declared unbounded: the angles and
+    speeds an agent observes under observation noise (``angle_noise``, ``speed_noise``, a
+    noisy ``challenge``: Gaussian noise can carry a reading past any bound; ``state()``
+    is the true state and stays bounded), and the neighbour's torque of ``link1_tau2``
+    (the torque as commanded, before the plant clips it: any finite number).
+    """
 
     metadata = {"name": "twolink_decentralized_v0", "render_modes": ["rgb_array"],
                 "render_fps": round(1 / TS), "is_parallelizable": True}
@@ -157,14 +175,19 @@ class ParallelArm(pettingzoo.ParallelEnv):
                                   ("delay", delay, "a whole number of sample periods")):
             if not is_real(value):      # one real number (not a bool, not an array)
                 raise ValueError(f"{name} must be {what}, got {value!r}")
-        self._x0 = self._check_x0(x0, params)
         # Check the remaining options now (with a throw-away generator), not at reset.
-        perturbed_params(params, perturbation, np.random.default_rng(0))
-        Sensors(angle_noise, speed_noise, rngs=[None])
+        fixed = perturbed_params(params, perturbation, np.random.default_rng(0))
+        # Where the plant saturates speeds: Table I's limits (a size or a challenge never
+        # changes them; a dict of changes may).
+        self._speed_max = np.maximum(params.speed_max, fixed.speed_max)
+        self._x0 = self._check_x0(x0)
+        sensors = Sensors(angle_noise, speed_noise, rngs=[None])
         ActuationDelay(None, delay)
         self._challenge = check_challenge(challenge, perturbation=perturbation,
                                           angle_noise=angle_noise, speed_noise=speed_noise,
                                           delay=delay)
+        if self._challenge is not None:
+            sensors = self._challenge.sensors(rngs=[None])
         self._base, self._perturbation = params, perturbation
         self._noise_std = (float(angle_noise), float(speed_noise))
         self._delay = delay if self._challenge is None else self._challenge.action_delay
@@ -177,14 +200,17 @@ class ParallelArm(pettingzoo.ParallelEnv):
         names = observation_names(n)
         # With link1_tau2="previous" every inner agent also sees its outer neighbour's torque.
         extra = 1 if link1_tau2 == "previous" else 0
+        bound = state_bounds(self._speed_max)
+        self.state_space = spaces.Box(-bound, bound, (2 * n,), np.float64)
+        seen = np.full(2 * n, np.inf) if sensors.noisy else bound
+        state = list(state_names(n))
         self.observation_spaces = {
-            a: spaces.Box(-np.inf, np.inf, (len(names[self._keys[a]]) +
-                                            (extra if i < n else 0),), np.float64)
+            a: _box([seen[state.index(c)] for c in names[self._keys[a]]]
+                    + [np.inf] * (extra if i < n else 0))
             for i, a in enumerate(self._agents, 1)}
         tau_max = params.tau_max
         self.action_spaces = {a: spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64)
                               for i, a in enumerate(self._agents)}
-        self.state_space = spaces.Box(-np.inf, np.inf, (2 * n,), np.float64)
 
         self._rng = None
         self._plant = None
@@ -194,12 +220,11 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self._k = 0
 
     # ------------------------------------------------------------------ spaces
-    @staticmethod
-    def _check_x0(x0, params):
-        """A checked ``x0`` option; a given state also within the plant's speed bound."""
-        x0 = check_x0(x0, params.links)
+    def _check_x0(self, x0):
+        """A checked ``x0`` option; a given state wrapped and within the speed limit."""
+        x0 = check_x0(x0, self.links)
         if not isinstance(x0, str):
-            check_states(x0, what="x0", speed_max=params.speed_max, links=params.links)
+            check_x0_speeds(x0, self._speed_max)
         return x0
 
     def observation_space(self, agent):
@@ -212,7 +237,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
     def reset(self, seed=None, options=None):
         """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
         options = check_reset_options(options, RESET_OPTIONS)
-        x0 = self._check_x0(options["x0"], self._base) if "x0" in options else self._x0
+        x0 = self._check_x0(options["x0"]) if "x0" in options else self._x0
         if seed is not None:
             whole(seed, "seed", 0, message="{what} must be a non-negative integer or None, "
                                            "got {value!r}")
@@ -353,9 +378,9 @@ class SequentialArm(pettingzoo.AECEnv):
         self.possible_agents = list(reversed(self._agents))  # the turn order: outermost first
         self.agents: list = []
         self.observation_spaces = {a: arm.observation_space(a) for a in self._agents}
-        for a in self._agents[:-1]:                          # inner agents: + tau_{i+1}
-            own = arm.observation_space(a).shape[0]
-            self.observation_spaces[a] = spaces.Box(-np.inf, np.inf, (own + 1,), np.float64)
+        for a in self._agents[:-1]:                # inner agents: + tau_{i+1}, unbounded
+            own = arm.observation_space(a).high
+            self.observation_spaces[a] = _box([*own, np.inf])
         self.action_spaces = {a: arm.action_space(a) for a in self._agents}
         self.state_space = arm.state_space
 

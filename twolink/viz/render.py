@@ -29,8 +29,10 @@ from twolink.arm.parameters import (
 from twolink.arm.task import centralized_reward
 from twolink.gl import (  # noqa: F401
     RenderError,
+    close_at_exit,
     diagnose,
     gl_backend,
+    release_current,
     unavailable_error,
     use_gl_backend,
 )
@@ -127,7 +129,9 @@ class Renderer:
     :class:`~twolink.arm.parameters.ChainParameters`; states then have 2N components.
     ``samples`` is the multisample anti-aliasing level (0 = off: on Mesa's software
     device 4x MSAA makes a frame about three times slower). Use as a context manager (or
-    call :meth:`close`) to free the GL context.
+    call :meth:`close`) to free the GL context; one never closed is closed at interpreter
+    exit (before EGL's display is terminated). The GL context is current on the calling
+    thread only while a frame renders (:func:`twolink.gl.release_current`).
     """
 
     def __init__(self, *, width: int = 640, height: int = 480, ghost: bool = False,
@@ -146,12 +150,26 @@ class Renderer:
             self._renderer = mujoco.Renderer(self.model, self.height, self.width)
         except Exception as exc:  # EGL/GL failures surface as several exception types
             raise unavailable_error(exc) from None
+        self._release()
+        close_at_exit(self)
         self._font = None
 
+    def _release(self) -> None:
+        release_current(getattr(self._renderer, "_gl_context", None))
+
     def close(self) -> None:
-        if getattr(self, "_renderer", None) is not None:
-            self._renderer.close()
+        """Free the GL context (made current first: its textures and buffers are freed
+        through it)."""
+        renderer = getattr(self, "_renderer", None)
+        if renderer is not None:
             self._renderer = None
+            context = getattr(renderer, "_gl_context", None)
+            try:
+                if context is not None:
+                    context.make_current()
+            except Exception:       # current on another thread: its resources go with it
+                pass
+            renderer.close()
 
     def __enter__(self):
         return self
@@ -188,7 +206,10 @@ class Renderer:
             raise RenderError("renderer is closed")
         self._pose(x, ghost_x)
         self._renderer.update_scene(self.data, camera=CAMERA)
-        img = self._renderer.render()
+        try:
+            img = self._renderer.render()
+        finally:
+            self._release()
         if self.overlay and lines:
             img = self._draw_text(img, lines)
         return img

@@ -38,7 +38,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from twolink.arm.integrate import SUBSTEPS, wrap_angle
+from twolink.arm.integrate import SUBSTEPS
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, TS, ArmParameters
 from twolink.control.time_optimal.symbolic import (
     INSTALL_HINT,
@@ -49,6 +49,7 @@ from twolink.control.time_optimal.symbolic import (
     require_casadi,
     step_function,
 )
+from twolink.control.time_optimal.search import estimate, replay, search, wrap_state
 from twolink.control.time_optimal.table import (
     FORMAT,
     Limit,
@@ -64,7 +65,8 @@ __all__ = ["INSTALL_HINT", "MODELS", "CasadiMissing", "FORMAT", "Limit", "LimitT
            "OpenLoop", "limit", "limit_table", "shipped_limits", "shipped_tables",
            "check_states", "format_table", "replay_on", "step_function", "casadi_version",
            "tables_from_json", "tables_to_json", "provenance", "MAX_SAMPLES",
-           "DEFAULT_MAX_SAMPLES", "DEFAULT_STARTS", "MAX_STARTS", "DEFAULT_HOLD", "MAX_HOLD"]
+           "DEFAULT_MAX_SAMPLES", "DEFAULT_STARTS", "MAX_STARTS", "DEFAULT_HOLD", "MAX_HOLD",
+           "WINDINGS"]
 
 #: Most samples the search may try (the 5 s evaluation horizon).
 MAX_SAMPLES = 100
@@ -112,10 +114,17 @@ def _check_count(name: str, value, top: int) -> int:
     return int(value)
 
 
-def _settings(max_samples, starts, hold) -> dict:
+#: The winding sets :func:`limit` takes: every winding of :func:`.search.windings`, or
+#: the band around 0 of the wrapped angles only.
+WINDINGS = ("all", "nearest")
+
+
+def _settings(max_samples, starts, hold, windings="all") -> dict:
+    if windings not in WINDINGS:
+        raise ValueError(f"windings must be one of {', '.join(WINDINGS)}, got {windings!r}")
     return {"max_samples": _check_count("max_samples", max_samples, MAX_SAMPLES),
             "starts": _check_count("starts", starts, MAX_STARTS),
-            "hold": _check_count("hold", hold, MAX_HOLD)}
+            "hold": _check_count("hold", hold, MAX_HOLD), "nearest": windings == "nearest"}
 
 
 #: Per process: one ProblemCache per parameter set (worker processes keep theirs).
@@ -125,7 +134,6 @@ _CACHES: dict = {}
 def _solve(job) -> Limit:
     """One state's search in this process (the workers' entry point)."""
     from twolink.control.time_optimal.nlp import ProblemCache
-    from twolink.control.time_optimal.search import search
 
     x0, model, params, settings = job
     cache = _CACHES.get(params)
@@ -133,12 +141,35 @@ def _solve(job) -> Limit:
         cache = _CACHES[params] = ProblemCache(params)
     r = search(np.asarray(x0, float), model, cache, **settings)
     torques = np.zeros((0, 2)) if r.hold is None else r.hold.torques
-    x = np.r_[wrap_angle(np.asarray(x0[:2], float)), np.asarray(x0[2:], float)]
+    x = wrap_state(x0)
     return Limit(x0=tuple(float(v) for v in x), model=model, lower=r.lower, upper=r.upper,
                  winding=tuple(int(v) for v in r.winding), torques=torques,
                  reach_slack=None if r.reach is None else r.reach.s,
                  hold_slack=None if r.hold is None else r.hold.s,
                  solves=r.solves, time_s=r.seconds)
+
+
+def _mirrors(x: np.ndarray) -> list:
+    """For each row of wrapped states ``x``, the first earlier row equal to its mirror
+    image -x (wrapped), else None."""
+    image = wrap_state(-x)
+    out = []
+    for i in range(len(x)):
+        hit = np.flatnonzero(np.all(np.abs(x[:i] - image[i]) <= 1e-12, axis=1))
+        out.append(int(hit[0]) if hit.size and out[hit[0]] is None else None)
+    return out
+
+
+def _mirrored(row: Limit, j: int, x0, model: str, params, settings) -> Limit:
+    """``row`` (the answer of state j) for the mirror state x0, checked by replay."""
+    import dataclasses
+
+    torques = -np.asarray(row.torques, float)
+    if row.upper is not None and not replay(model, params, x0, torques, row.upper)[1]:
+        return _solve((x0, model, params, settings))
+    return dataclasses.replace(row, x0=tuple(float(v) for v in x0), torques=torques,
+                               winding=tuple(-k for k in row.winding), solves=0,
+                               time_s=0.0, mirror_of=j)
 
 
 def _with_mujoco(rows: list, params) -> list:
@@ -153,21 +184,24 @@ def _with_mujoco(rows: list, params) -> list:
 
 def limit(x0, model: str = "full", *, max_samples: int = DEFAULT_MAX_SAMPLES,
           starts: int = DEFAULT_STARTS, hold: int = DEFAULT_HOLD,
-          params: ArmParameters = TABLE_I, mujoco: bool = False) -> Limit:
+          params: ArmParameters = TABLE_I, mujoco: bool = False,
+          windings: str = "all") -> Limit:
     """The limit T*(x0) of one state x0 (4,) on ``model`` (``full`` or ``simplified``).
 
     ``max_samples`` caps N (at most :data:`MAX_SAMPLES`), ``starts`` is the number of
     initial guesses per winding at N - 1, ``hold`` the samples the upper bound's band
     holds before the arm is at rest. ``mujoco`` also replays the torques open loop on
-    the MuJoCo plant (:attr:`Limit.mujoco_settle`). Bad input: a one-line ValueError;
-    CasADi missing: :class:`CasadiMissing` naming ``pip install 'twolink[limits]'``.
+    the MuJoCo plant (:attr:`Limit.mujoco_settle`). ``windings="nearest"`` restricts the
+    band to the one around 0 of the wrapped angles (no extra turn of either link). Bad
+    input: a one-line ValueError; CasADi missing: :class:`CasadiMissing` naming
+    ``pip install 'twolink[limits]'``.
     """
     check_model(model)
     x = check_states(x0, params)
     if x.shape[0] != 1 or np.ndim(x0) != 1:
         raise ValueError(f"limit takes one state of shape (4,), got shape {np.shape(x0)}; "
                          f"use limit_table for many")
-    settings = _settings(max_samples, starts, hold)
+    settings = _settings(max_samples, starts, hold, windings)
     require_casadi()
     row = _solve((x[0], model, params, settings))
     return _with_mujoco([row], params)[0] if mujoco else row
@@ -176,32 +210,46 @@ def limit(x0, model: str = "full", *, max_samples: int = DEFAULT_MAX_SAMPLES,
 def limit_table(states, model: str = "full", *, max_samples: int = DEFAULT_MAX_SAMPLES,
                 starts: int = DEFAULT_STARTS, hold: int = DEFAULT_HOLD,
                 params: ArmParameters = TABLE_I, workers: int | None = None,
-                mujoco: bool = True) -> LimitTable:
+                mujoco: bool = True, mirror: bool = True,
+                windings: str = "all") -> LimitTable:
     """:func:`limit` of every state of ``states`` (n, 4) on ``model``, in ``workers``
     processes (default: one per CPU, at most n), with the run's provenance (CasADi
     version, model, parameters, Ts, substeps, settings, wall time). ``mujoco`` replays
-    every upper bound's torques on the MuJoCo plant."""
+    every upper bound's torques on the MuJoCo plant. ``mirror``: a state whose mirror
+    image -x is an earlier row takes that row's answer mirrored (the models are odd:
+    f(-x, -u) = -f(x, u)), its torques replayed on the numpy model to check it; a
+    mirror that fails the replay is searched itself."""
     check_model(model)
     x = check_states(states, params)
-    settings = _settings(max_samples, starts, hold)
+    settings = _settings(max_samples, starts, hold, windings)
     if workers is None:
         workers = min(os.cpu_count() or 1, len(x))
     workers = _check_count("workers", workers, 256)
     require_casadi()
-    jobs = [(row, model, params, settings) for row in x]
+    x = wrap_state(x)
+    mirrors = _mirrors(x) if mirror else [None] * len(x)
+    own = sorted((i for i, m in enumerate(mirrors) if m is None),     # longest first
+                 key=lambda i: -estimate(x[i], params))
+    jobs = [(x[i], model, params, settings) for i in own]
     t0 = time.perf_counter()
     if workers == 1 or len(jobs) == 1:
-        rows = [_solve(j) for j in jobs]
+        solved = [_solve(j) for j in jobs]
     else:
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
                                  mp_context=multiprocessing.get_context(method)) as pool:
-            rows = list(pool.map(_solve, jobs, chunksize=1))
+            solved = list(pool.map(_solve, jobs, chunksize=1))
+    rows = [None] * len(x)
+    for i, r in zip(own, solved):
+        rows[i] = r
+    for i, j in enumerate(mirrors):
+        if j is not None:
+            rows[i] = _mirrored(rows[j], j, x[i], model, params, settings)
     wall = time.perf_counter() - t0
     if mujoco:
         rows = _with_mujoco(rows, params)
     prov = provenance(params, settings)
-    prov.update(model=model, workers=workers, time_s=round(wall, 2),
+    prov.update(model=model, workers=workers, mirror=bool(mirror), time_s=round(wall, 2),
                 cpu_time_s=round(sum(r.time_s for r in rows), 2))
     return LimitTable(model=model, rows=tuple(rows), provenance=prov)
 
@@ -211,10 +259,13 @@ def provenance(params: ArmParameters = TABLE_I, settings: dict | None = None) ->
     the parameters, Ts, the RK4 substeps, the goal band and the search's settings."""
     from twolink.artifacts import provenance as machine
 
+    settings = dict(settings or {})
+    if "nearest" in settings:
+        settings["windings"] = "nearest" if settings.pop("nearest") else "all"
     return {**machine(), "casadi_version": casadi_version(), "solver": "ipopt",
             "parameters": params.as_dict(), "ts": TS, "substeps": SUBSTEPS,
             "goal_band": {"angle_rad": GOAL_ANGLE, "speed_rad_s": GOAL_SPEED},
-            **(settings or {}),
+            **settings,
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(
                 timespec="seconds")}
 

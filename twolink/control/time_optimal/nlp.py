@@ -32,6 +32,7 @@ IPOPT_OPTIONS = {
     "ipopt.acceptable_tol": 1e-7,
     "ipopt.acceptable_constr_viol_tol": 1e-9,
     "ipopt.max_iter": 200,
+    "ipopt.mu_strategy": "adaptive",
     "print_time": False,
 }
 #: IPOPT's answers that count as converged.
@@ -40,6 +41,19 @@ CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 DEFECT_TOL = 1e-8
 #: Rows of the band constraint per sample: +- angle and +- speed of each link.
 BAND_ROWS = 8
+
+
+#: One CasADi step per (model, parameters), shared by the solvers of every K (its
+#: derivative functions are then generated once).
+_STEPS: dict = {}
+
+
+def shared_step(model: str, params: ArmParameters):
+    """The :func:`~.symbolic.step_function` of ``model``, made once per process."""
+    key = (model, params)
+    if key not in _STEPS:
+        _STEPS[key] = step_function(model, params)
+    return _STEPS[key]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,7 +86,7 @@ class ShootingProblem:
         self.model = check_model(model)
         self.params = params
         self.samples = k = int(samples)
-        self.step = step_function(model, params)
+        self.step = shared_step(model, params)
         w = ca.MX.sym("w", 6 * k + 5)
         targets = ca.MX.sym("t", 2)
         xu = ca.reshape(w[:6 * k], 6, k)

@@ -8,8 +8,8 @@ For one initial state x0 (angles wrapped to [-pi, pi)) and one model:
 2. *screen*: the reach problem (band at sample N, :mod:`.nlp`) at an estimate N0 for
    every winding from a smooth guess;
 3. *walk*: from the best screened winding, N down while the reach problem stays
-   feasible (or up until it becomes so), each solve warm-started from the last one
-   stretched in time; every other winding then only tries to beat that N;
+   feasible (or up until it becomes so: by the secant of the slack over N, then back
+   down), each solve warm-started from the last one stretched in time; every other winding then only tries to beat that N;
 4. *lower bound*: N - 1 again for every winding from ``starts`` initial guesses (the
    warm start, the smooth guess, a bang-bang rollout, then random torque rollouts);
    any feasible answer lowers N and the step repeats. A winding whose answer at some
@@ -19,9 +19,9 @@ For one initial state x0 (angles wrapped to [-pi, pi)) and one model:
    search's bound, not a proof);
 5. *upper bound*: from N = lower up, the hold problem (band at samples N..N+T and the
    arm at rest at N+T, T = ``hold``) from the reach answer; its torques are replayed on
-   the numpy model (wrap, clip and saturation included) with zero torque after N+T to
-   the end of the horizon, and ``upper`` is the first N whose replay is in the band at
-   every sample from N on.
+   the numpy model (wrap, clip and saturation included) with zero torque for 1 s after
+   N+T, and ``upper`` is the first N whose replay is in the band at every sample from N
+   on and at rest at its end (zero torque then holds it there for ever).
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ import numpy as np
 
 from twolink.arm import dynamics
 from twolink.arm.integrate import SUBSTEPS, rk4, sample_step, wrap_angle
-from twolink.arm.parameters import HORIZON, TS, ArmParameters
+from twolink.arm.parameters import TS, ArmParameters
 from twolink.arm.task import in_goal_band
 from twolink.control.time_optimal.nlp import ProblemCache, Solution
 
@@ -42,6 +42,12 @@ HOLD_MARGIN = 1e-6
 #: A winding whose best end state at some N' >= N - 1 lies more than this many band
 #: widths from its target (slack s) is not tried at N - 1 from further starts.
 PRUNE_SLACK = 8.0
+#: Samples of zero torque the replay runs after the torques end (1 s).
+REPLAY_AFTER = 20
+#: Speeds (rad/s) under which the replay's last state counts as at rest.
+REST_SPEED = 1e-6
+#: Most samples one step of the walk up N may jump.
+MAX_JUMP = 6
 #: Names of the initial guesses, in the order ``starts`` takes them (random ones follow).
 START_NAMES = ("warm", "smooth", "bang")
 
@@ -58,6 +64,16 @@ class SearchResult:
     replay: np.ndarray | None
     solves: int
     seconds: float
+
+
+def wrap_state(x) -> np.ndarray:
+    """States (..., 4) with their angles in [-pi, pi): those already there unchanged
+    (bit for bit), the others wrapped."""
+    x = np.array(x, dtype=float)
+    a = x[..., :2]
+    out = (a < -math.pi) | (a >= math.pi)
+    x[..., :2] = np.where(out, wrap_angle(a), a)
+    return x
 
 
 def windings(x0) -> list:
@@ -147,12 +163,14 @@ def resample(sol: Solution, n_old: int, n: int, k: int) -> tuple:
     return states, torques
 
 
-def replay(model: str, p: ArmParameters, x0, torques, samples: int) -> tuple:
-    """The numpy model's states (wrapped) under ``torques`` then zero torque until the
-    horizon (at least 20 samples after the torques end), and whether the states are in
-    the goal band at every sample from ``samples`` on."""
+def replay(model: str, p: ArmParameters, x0, torques, samples: int, *,
+           after: int = REPLAY_AFTER) -> tuple:
+    """The numpy model's states (wrapped) under ``torques`` then zero torque for ``after``
+    more samples, and whether the states are in the goal band at every sample from
+    ``samples`` on and the arm at rest at the end (speeds within :data:`REST_SPEED`:
+    zero torque then keeps it where it is)."""
     accel = dynamics.MODELS[model]
-    total = max(int(round(HORIZON / TS)), len(torques) + 20)
+    total = len(torques) + after
     u = np.zeros((total, 2))
     u[:len(torques)] = torques
     states = np.empty((total + 1, 4))
@@ -160,19 +178,21 @@ def replay(model: str, p: ArmParameters, x0, torques, samples: int) -> tuple:
     for j in range(total):
         x = sample_step(accel, p, x, u[j])
         states[j + 1] = x
-    return states, bool(np.all(in_goal_band(states[samples:])))
+    rest = bool(np.all(np.abs(states[-1, 2:]) <= REST_SPEED))
+    return states, bool(np.all(in_goal_band(states[samples:]))) and rest
 
 
 def search(x0, model: str, cache: ProblemCache, *, max_samples: int, starts: int,
-           hold: int) -> SearchResult:
-    """The lower and upper bounds of x0 on ``model`` (see the module docstring)."""
+           hold: int, nearest: bool = False) -> SearchResult:
+    """The lower and upper bounds of x0 on ``model`` (see the module docstring);
+    ``nearest`` tries the band around 0 of the wrapped angles only (winding (0, 0))."""
     t_start = time.perf_counter()
     p = cache.params
     solves0 = cache.solves
-    x0 = np.r_[wrap_angle(np.asarray(x0[:2], float)), np.asarray(x0[2:], float)]
+    x0 = wrap_state(x0)
     if in_goal_band(x0):
         return SearchResult(0, 0, (0, 0), None, None, x0[None], 0, 0.0)
-    ws = windings(x0)
+    ws = [(0, 0)] if nearest else windings(x0)
     tried: dict = {}
 
     def reach(w, n, guess, name):
@@ -206,6 +226,21 @@ def search(x0, model: str, cache: ProblemCache, *, max_samples: int, starts: int
         m, sol = known[w]
         return m >= n and sol.converged and sol.s > PRUNE_SLACK
 
+    def walk_up(w, n, sol):
+        """N up from an infeasible answer until feasible: one sample at first, then
+        the secant of the slack over N predicts the jump (at most MAX_JUMP)."""
+        last = None
+        while n < max_samples and not sol.feasible():
+            step = 1
+            if last is not None and sol.converged and last[1].converged:
+                slope = (sol.s - last[1].s) / (n - last[0])
+                if slope < 0:
+                    step = int(min(MAX_JUMP, max(1, math.floor(0.8 * sol.s / -slope))))
+            m = min(n + step, max_samples)
+            last = (n, sol)
+            n, sol = m, reach(w, m, resample(sol, n, m, m), "warm")
+        return n, sol
+
     n0 = min(estimate(x0, p), max_samples)
     screen = {w: (n0, reach(w, n0, smooth_guess(x0, targets_of(w), n0, n0), "smooth"))
               for w in ws}
@@ -231,10 +266,14 @@ def search(x0, model: str, cache: ProblemCache, *, max_samples: int, starts: int
                     break
                 n, sol = n - 1, nxt
         else:
-            while n < max_samples and not sol.feasible():
-                n, sol = n + 1, reach(w, n + 1, resample(sol, n, n + 1, n + 1), "warm")
+            n, sol = walk_up(w, n, sol)
             if not sol.feasible():
                 continue
+            while n > 1:        # a jump may overshoot
+                nxt = reach(w, n - 1, resample(sol, n, n - 1, n - 1), "warm")
+                if not nxt.feasible():
+                    break
+                n, sol = n - 1, nxt
         known[w] = (n, sol)
         lower, best = n, (w, sol)
     if lower is None:
@@ -260,14 +299,19 @@ def search(x0, model: str, cache: ProblemCache, *, max_samples: int, starts: int
         lower, best = lower - 1, hit
         known[hit[0]] = (lower, hit[1])
 
-    # The upper bound: hold in the band from N on, replayed on the numpy model.
-    n, (w, sol), n_sol = lower, best, lower
+    # The upper bound: hold in the band from N on, replayed on the numpy model; the
+    # best winding first, then any other found feasible at this N.
+    n = lower
     while n <= max_samples:
         k = n + hold
-        for name, guess in (("reach", resample(sol, n_sol, n, k)),
-                            ("smooth", smooth_guess(x0, targets_of(w), n, k))):
-            h = cache.solve(model, k, x0, targets_of(w), *guess, first=n, rest=True)
-            if h.feasible(HOLD_MARGIN):
+        others = [(w, known[w]) for w in ws if w != best[0] and known[w][1].feasible()]
+        for w, (n_sol, sol) in [(best[0], (lower, best[1]))] + others:
+            for guess in (resample(sol, n_sol, n, k), smooth_guess(x0, targets_of(w), n, k)):
+                h = cache.solve(model, k, x0, targets_of(w), *guess, first=n, rest=True)
+                if not h.feasible(HOLD_MARGIN):
+                    continue
+                # IPOPT may overstep a bound by its relaxation (1e-8 relative): clip.
+                h = dataclasses.replace(h, torques=np.clip(h.torques, -p.tau_max, p.tau_max))
                 states, ok = replay(model, p, x0, h.torques, n)
                 if ok:
                     return SearchResult(lower, n, w, best[1], h, states,

@@ -30,7 +30,10 @@ class Limit:
     wrapped x0). ``reach_slack`` and ``hold_slack``: IPOPT's slack s at the bound (s <= 0
     is inside the band; -1 the band's centre at rest). ``mujoco_settle``: the settle time
     (s) of ``torques`` replayed open loop on the MuJoCo plant over the 5 s horizon (inf:
-    it does not settle; None: not replayed).
+    it does not settle; None: not replayed). ``mirror_of``: the row of the table whose
+    mirror image -x0 this state is (both models are odd, f(-x, -u) = -f(x, u), so the
+    row's torques negated reach the band in the same N; they are replayed on the numpy
+    model all the same), None if it was searched itself.
     """
 
     x0: tuple
@@ -44,6 +47,7 @@ class Limit:
     solves: int = 0
     time_s: float = 0.0
     mujoco_settle: float | None = None
+    mirror_of: int | None = None
 
     @property
     def samples(self) -> int | None:
@@ -67,6 +71,7 @@ class Limit:
                 "hold_slack": self.hold_slack, "solves": self.solves,
                 "time_s": round(self.time_s, 3),
                 "mujoco_settle_s": _finite_or_str(self.mujoco_settle),
+                "mirror_of": self.mirror_of,
                 "torques": np.asarray(self.torques, float).tolist()}
 
     @classmethod
@@ -80,7 +85,8 @@ class Limit:
                                       float).reshape(-1, 2),
                    reach_slack=d.get("reach_slack"), hold_slack=d.get("hold_slack"),
                    solves=int(d.get("solves", 0)), time_s=float(d.get("time_s", 0.0)),
-                   mujoco_settle=None if settle is None else float(settle))
+                   mujoco_settle=None if settle is None else float(settle),
+                   mirror_of=None if d.get("mirror_of") is None else int(d["mirror_of"]))
 
 
 def _finite_or_str(v):
@@ -155,10 +161,20 @@ class LimitTable:
 
 
 def tables_to_json(tables, provenance: dict) -> str:
-    """The JSON text of the shipped file: one entry per model."""
-    data = {"format": FORMAT, "provenance": provenance,
-            "models": {t.model: t.to_dict() for t in tables}}
-    return json.dumps(data, indent=1, sort_keys=True, allow_nan=False) + "\n"
+    """The JSON text of the shipped file: one entry per model, one line per row."""
+    rows = []
+    models = {}
+    for t in tables:
+        d = t.to_dict()
+        d["rows"], first = [f"@@row{len(rows) + i}@@" for i in range(len(d["rows"]))], d["rows"]
+        rows += first
+        models[t.model] = d
+    text = json.dumps({"format": FORMAT, "provenance": provenance, "models": models},
+                      indent=1, sort_keys=True, allow_nan=False)
+    for i, row in enumerate(rows):
+        text = text.replace(f'"@@row{i}@@"', json.dumps(row, sort_keys=True, allow_nan=False),
+                            1)
+    return text + "\n"
 
 
 def tables_from_json(text: str) -> dict:

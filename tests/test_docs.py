@@ -1,0 +1,202 @@
+"""The documentation: generated pages match their sources, every Python example runs,
+the README stays a landing page whose links resolve.
+
+One mechanism runs the examples: every fenced ``python`` block of README.md and of
+docs/**/*.md, the blocks of one page in order in one namespace, from a temporary folder.
+``<!-- skip-test: why -->`` right before a block skips it (minutes of work);
+``<!-- test-requires: module -->`` skips it where that module is missing (an optional
+extra). The site itself is built by scripts/build-docs.sh (``mkdocs build --strict``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+#: At most this many blocks may be skipped outright (``skip-test``): examples are meant to run.
+MAX_SKIPPED = 3
+
+
+def _generator():
+    spec = importlib.util.spec_from_file_location("docs_generate", DOCS / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+# --------------------------------------------------------------------------- examples
+FENCE = re.compile(r"^(?P<indent>[ \t]*)```(?P<lang>[\w+-]*)[^\n]*\n(?P<body>.*?)^(?P=indent)```[ \t]*$",
+                   re.M | re.S)
+MARK = re.compile(r"<!--\s*(?P<kind>skip-test|test-requires):\s*(?P<what>.*?)\s*-->\s*$")
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    page: Path
+    line: int                   # line of the page where the code starts (1-based)
+    source: str
+    skip: str | None = None     # why it is skipped (skip-test)
+    requires: str | None = None  # module it needs (test-requires)
+
+
+def _blocks(page: Path) -> list:
+    text = page.read_text()
+    out = []
+    for m in FENCE.finditer(text):
+        if m.group("lang") != "python":
+            continue
+        before = [ln for ln in text[:m.start()].splitlines() if ln.strip()]
+        mark = MARK.search(before[-1]) if before else None
+        indent = len(m.group("indent"))
+        body = "".join(ln[indent:] + "\n" for ln in m.group("body").splitlines())
+        out.append(Block(page, text.count("\n", 0, m.start()) + 2, body,
+                         skip=mark.group("what") if mark and mark["kind"] == "skip-test" else None,
+                         requires=mark.group("what") if mark and mark["kind"] == "test-requires"
+                         else None))
+    return out
+
+
+def _pages() -> list:
+    return [README, *sorted(DOCS.rglob("*.md"))]
+
+
+PAGES = [p for p in _pages() if _blocks(p)]
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_python_examples_run(page, tmp_path, monkeypatch):
+    """Each page's python blocks, in order, in one namespace, from an empty folder (so
+    whatever an example writes lands there). A failure names the page and its line."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("TWOLINK_OUTPUT", str(tmp_path / "renders"))
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    namespace = {"__name__": "__docs__"}
+    ran = 0
+    for block in _blocks(page):
+        if block.skip is not None:
+            continue
+        if block.requires is not None and importlib.util.find_spec(block.requires) is None:
+            continue
+        code = "\n" * (block.line - 1) + block.source     # tracebacks give the page's lines
+        exec(compile(code, str(page.relative_to(ROOT)), "exec"), namespace)
+        ran += 1
+    if not ran:
+        pytest.skip("every python block of this page is marked to skip here")
+
+
+def test_skips_are_few_and_say_why():
+    blocks = [b for p in _pages() for b in _blocks(p)]
+    skipped = [b for b in blocks if b.skip is not None]
+    assert all(b.skip for b in skipped)
+    assert len(skipped) <= MAX_SKIPPED, [f"{b.page.name}:{b.line}" for b in skipped]
+    for b in blocks:
+        if b.requires is not None:
+            assert re.fullmatch(r"[\w.]+", b.requires), (b.page, b.line, b.requires)
+
+
+def test_the_block_reader_sees_marks_indents_and_other_languages(tmp_path):
+    page = tmp_path / "p.md"
+    page.write_text("intro\n\n<!-- skip-test: slow -->\n```python\nx = 1\n```\n\n"
+                    "```bash\nls\n```\n\n- item\n\n  ```python\n  y = 2\n  ```\n\n"
+                    "<!-- test-requires: nosuchmodule -->\n```python\nz = 3\n```\n")
+    blocks = _blocks(page)
+    assert [(b.line, b.source, b.skip, b.requires) for b in blocks] == [
+        (5, "x = 1\n", "slow", None), (15, "y = 2\n", None, None),
+        (20, "z = 3\n", None, "nosuchmodule")]
+
+
+# --------------------------------------------------------------------------- generated
+def test_generated_pages_match_their_sources():
+    """The CLI and API reference, the results pages and the generated blocks (README,
+    mkdocs.yml nav, ...) are what docs/generate.py writes from the code and the data."""
+    gen = _generator()
+    stale = gen.stale()
+    assert not stale, ("out of date (run: python docs/generate.py): " + ", ".join(stale))
+
+
+def test_every_subcommand_has_its_reference_page():
+    from twolink.cli import COMMANDS
+
+    gen = _generator()
+    pages = gen.cli_pages()
+    for name in COMMANDS:
+        page = pages[f"reference/cli/{name}.md"]
+        assert page.startswith(gen.STAMP) and f"# `twolink {name}`" in page
+
+
+def test_the_cli_pages_list_every_option():
+    import argparse
+
+    from twolink.cli import build_parser
+
+    gen = _generator()
+    pages = gen.cli_pages()
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for name, parser in sub.choices.items():
+        for action in parser._actions:
+            if action.option_strings and action.help is not argparse.SUPPRESS \
+                    and not isinstance(action, argparse._HelpAction):
+                assert f"`{', '.join(action.option_strings)}" in pages[f"reference/cli/{name}.md"]
+
+
+def test_a_changed_source_makes_its_page_stale(tmp_path, monkeypatch):
+    """The check really compares: a page edited by hand is reported."""
+    gen = _generator()
+    out = gen.outputs()
+    rel = "docs/reference/cli/index.md"
+    edited = dict(out)
+    edited[rel] = out[rel] + "typed by hand\n"
+    monkeypatch.setattr(gen, "ROOT", tmp_path)
+    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    for path, text in out.items():
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+    assert gen.stale(out) == []
+    assert gen.stale(edited) == [rel]
+    (tmp_path / "docs" / "reference" / "cli" / "gone.md").write_text(gen.STAMP + " -->\n")
+    assert gen.stale(out) == ["docs/reference/cli/gone.md"]
+
+
+def test_a_block_without_markers_is_an_error():
+    gen = _generator()
+    with pytest.raises(ValueError, match="has no block 'commands'"):
+        gen.fill("README.md", "no markers here\n", {"commands": "x"})
+
+
+# --------------------------------------------------------------------------- README
+def test_readme_is_a_landing_page():
+    lines = README.read_text().splitlines()
+    assert len(lines) <= 250, len(lines)
+
+
+def test_readme_links_resolve():
+    text = README.read_text()
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if re.match(r"[a-z]+://", target) or target.startswith("#"):
+            continue
+        path = target.split("#")[0]
+        assert (ROOT / path).exists(), target
+
+
+def test_the_docs_extra_pins_what_the_build_needs():
+    import tomllib
+
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]
+    pins = {re.split(r"[\[=]", r)[0]: r for r in extras["docs"]}
+    for name in ("mkdocs", "mkdocs-material", "mkdocstrings", "mkdocstrings-python"):
+        assert name in pins and "==" in pins[name], name
+    build = (ROOT / "scripts" / "build-docs.sh").read_text()
+    assert "--strict" in build and "build/site" in build
+    assert "scripts/build-docs.sh" in (ROOT / ".ci" / "run").read_text()
+
+
+if __name__ == "__main__":          # python tests/test_docs.py: the stale pages, if any
+    sys.exit(_generator().main(["--check"]))
