@@ -155,3 +155,37 @@ def test_numpy_blow_up_fails_loudly_without_runtime_warnings(monkeypatch):
         with pytest.raises(SimulationError, match=r"non-finite state from x = \[\+0, \+0, "
                                                   r"\+1e\+300, \+0\] \(batch row 1\)"):
             plant.step(np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1e300, 0.0]]), np.zeros(2))
+
+
+@pytest.mark.parametrize("nthread", [0, -1, 1000, 2.0, "2", True])
+def test_nthread_is_bounded_in_one_line(nthread):
+    with pytest.raises(ValueError, match=r"^nthread must be a whole number from 1 to "
+                                         rf"{plants_mod.MAX_NTHREAD} \(") as err:
+        MujocoPlant(TABLE_I, nthread=nthread)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("nthread", [-1, 1000])
+def test_evaluate_refuses_nthread_before_any_work(nthread, monkeypatch):
+    from twolink.sim import evaluation
+
+    monkeypatch.setattr(evaluation, "MujocoPlant", None)     # never reached
+    with pytest.raises(ValueError, match="^nthread must be a whole number from 1 to"):
+        evaluation.evaluate("centralized", nthread=nthread)
+
+
+@pytest.mark.parametrize("name", PLANTS)
+@pytest.mark.parametrize("values, message", [
+    (dict(m2=1e-320, I2=1e-320), "link 2 is all but massless"),
+    (dict(m1=1e-300, I1=1e-300), "link 1 is all but massless"),
+    (dict(m2=1e-9, I2=1e-9), "link 2 is too light for its damping"),
+])
+def test_massless_and_too_light_plants_are_one_value_error(name, values, message):
+    p = TABLE_I.scaled(**{k: v / getattr(TABLE_I, k) for k, v in values.items()})
+    if name == "simplified" and "too light" in message:
+        with make_plant(name, p) as plant:        # (11) has no damping over inertia
+            assert np.isfinite(plant.step(np.zeros(4), np.zeros(2))).all()
+        return
+    with pytest.raises(ValueError, match=message) as err:
+        make_plant(name, p)
+    assert "\n" not in str(err.value)

@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters
+from twolink.arm.parameters import TS, ArmParameters, ChainParameters, as_chain
 
 #: RK4 substeps per sample period used by every numpy plant (see README, integration error).
 SUBSTEPS = 10
@@ -148,3 +148,79 @@ def sample_step_compiled(model: str, p: ArmParameters, x: np.ndarray, tau: np.nd
         float(p.dtheta1_max), float(p.dtheta2_max), float(ts), int(substeps),
         1.0, 0.0 if freeze_link2 else 1.0, freeze_link2, out)
     return out.reshape(batch + (4,))
+
+
+# --------------------------------------------------------------------------- stability
+#: RK4's stability limit on the negative real axis: a mode dx/dt = -lambda x stays bounded
+#: under RK4 substeps of length h only while h * lambda is below this (2.7853).
+RK4_LIMIT = 2.785
+#: MuJoCo compiles no moving body lighter than this (its mjMINVAL; kg and kg m^2).
+MUJOCO_MIN_MASS = 1e-15
+
+
+def _check_poses(links: int) -> np.ndarray:
+    """Joint angles at which :func:`check_sampling` evaluates M(theta): theta2 over a fine
+    circle for two links; for more links every joint at 0 or pi and 256 fixed random poses."""
+    if links == 2:
+        return np.stack([np.zeros(129), np.linspace(-math.pi, math.pi, 129)], -1)
+    corners = np.array(np.meshgrid(*[[0.0, math.pi]] * links)).reshape(links, -1).T
+    rng = np.random.default_rng(0)
+    return np.concatenate([corners, rng.uniform(-math.pi, math.pi, (256, links))])
+
+
+def sampling_rate(p: Parameters) -> tuple[float, int]:
+    """(lambda, k): the fastest rate (1/s) of the damped arm's linear part, the largest
+    eigenvalue of M(theta)^-1 diag(b) over the poses of :func:`_check_poses`, and the link
+    whose joint alone (the others free) is fastest, b_k (M^-1)_kk. Infinity (and the
+    lightest link) where M(theta) is singular or not finite."""
+    from twolink.arm import dynamics
+
+    c = as_chain(p)
+    b = np.sqrt(np.asarray(c.dampings))
+    with np.errstate(all="ignore"):
+        m = dynamics.chain_mass_matrix(c, _check_poses(c.links))
+        try:
+            if not np.all(np.isfinite(m)):
+                raise np.linalg.LinAlgError
+            np.linalg.cholesky(m)
+            inv = np.linalg.inv(m)
+            rates = np.linalg.eigvalsh(b[:, None] * inv * b[None, :])
+        except np.linalg.LinAlgError:
+            rates = inv = None
+    masses = np.asarray(c.masses) + np.asarray(c.inertias)
+    if rates is None or not np.all(np.isfinite(rates)):
+        return math.inf, int(np.argmin(masses)) + 1
+    joint = np.asarray(c.dampings) * np.diagonal(inv, axis1=-2, axis2=-1).max(0)
+    return float(rates.max()), int(np.argmax(joint)) + 1
+
+
+def check_masses(p: Parameters) -> None:
+    """A ValueError naming the link if a link's mass or inertia is under
+    :data:`MUJOCO_MIN_MASS`: an all but massless link, which no plant simulates (MuJoCo
+    refuses to compile it, the models divide by zero)."""
+    c = as_chain(p)
+    for k, (mass, inertia) in enumerate(zip(c.masses, c.inertias), 1):
+        if mass < MUJOCO_MIN_MASS or inertia < MUJOCO_MIN_MASS:
+            raise ValueError(f"link {k} is all but massless (mass {mass:g} kg, inertia "
+                             f"{inertia:g} kg m^2; at least {MUJOCO_MIN_MASS:g} each): no "
+                             f"plant simulates it")
+
+
+def check_sampling(p: Parameters, *, ts: float = TS, substeps: int = SUBSTEPS) -> None:
+    """A ValueError unless the full model (6) (N links: its rigid-body generalisation) with
+    parameters ``p`` stays bounded under RK4 substeps of ts / substeps, the integration of
+    every numpy plant and of MuJoCo: the substep times :func:`sampling_rate` below
+    :data:`RK4_LIMIT`. A link too light for its damping (its inertia over its damping far
+    under the substep) fails it; so does a mass matrix that is singular in floating point."""
+    c = as_chain(p)
+    check_masses(c)
+    rate, k = sampling_rate(c)
+    h = ts / substeps
+    if not rate * h < RK4_LIMIT:
+        what = "its mass matrix M(theta) is singular" if math.isinf(rate) else (
+            f"the damped arm's fastest rate, {rate:.3g} 1/s (M(theta)^-1 diag(b)), times "
+            f"the RK4 substep of {h * 1e3:g} ms is {rate * h:.3g}")
+        raise ValueError(f"link {k} is too light for its damping (mass {c.masses[k - 1]:g} "
+                         f"kg, inertia {c.inertias[k - 1]:g} kg m^2, damping "
+                         f"{c.dampings[k - 1]:g}): {what}, over RK4's stability limit "
+                         f"{RK4_LIMIT}, so the full model (6) and MuJoCo diverge")

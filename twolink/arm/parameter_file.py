@@ -8,7 +8,10 @@ excitation) and a sha256 of the content. It is written atomically.
 
 :func:`load` refuses, with one line naming the file, anything that is not such a file:
 missing, too large, not JSON, another format or version, edited or corrupted (the sha256),
-non-numeric, NaN or non-positive parameters, derived values or recorded fitted values that
+not a regular file (a FIFO, a device), non-numeric, NaN, infinite (an integer beyond the
+floats) or non-positive parameters, an arm no plant can simulate (an all but massless link,
+or a link so light for its damping that RK4 diverges:
+:func:`twolink.arm.integrate.check_sampling`), derived values or recorded fitted values that
 the parameters do not reproduce. The hash detects edits and corruption; it is not a
 signature.
 """
@@ -19,8 +22,10 @@ import hashlib
 import json
 import math
 import os
+import stat
 from pathlib import Path
 
+from twolink.arm.integrate import check_sampling
 from twolink.arm.parameters import ArmParameters
 from twolink.artifacts import VERSION as __version__
 from twolink.artifacts import write_text
@@ -84,6 +89,7 @@ def save(path: os.PathLike, params: ArmParameters, *, provenance: dict) -> Path:
     ``{"value": v, "std_error": s}`` is checked against the parameters, here and on load.
     """
     record = _record(params, provenance)
+    check_sampling(params)
     _check_identified(record, Path(path))
     text = json.dumps(record, indent=2, sort_keys=True, allow_nan=False) + "\n"
     return write_text(path, text)
@@ -101,13 +107,16 @@ def read(path: os.PathLike) -> ParameterFile:
         return ParameterFileError(f"{path}: {why}")
 
     try:
-        size = path.stat().st_size
+        info = path.stat()
     except FileNotFoundError:
         raise bad("no such file") from None
     except OSError as exc:
         raise bad(f"cannot read it ({exc.strerror or exc})") from None
-    if path.is_dir():
+    if stat.S_ISDIR(info.st_mode):
         raise bad("is a directory, not a parameter file")
+    if not stat.S_ISREG(info.st_mode):      # a FIFO would block the read, a device not end
+        raise bad(f"is not a regular file (a {_kind(info.st_mode)}), not a parameter file")
+    size = info.st_size
     if size > MAX_BYTES:
         raise bad(f"{size} bytes, more than a parameter file may hold ({MAX_BYTES} bytes)")
     try:
@@ -139,8 +148,11 @@ def read(path: os.PathLike) -> ParameterFile:
     for name, value in values.items():
         if not is_real(value, numpy=False):
             raise bad(f"parameter {name} must be a number, got {value!r}")
+        if not math.isfinite(_as_float(value)):
+            raise bad(f"parameter {name} must be a finite number, got {_short(value)}")
     try:
         params = ArmParameters(**{k: float(v) for k, v in values.items()})
+        check_sampling(params)
     except ValueError as exc:
         raise bad(str(exc)) from None
     dynamic = record.get("dynamic")
@@ -148,7 +160,8 @@ def read(path: os.PathLike) -> ParameterFile:
         raise bad(f"'dynamic' must name exactly {', '.join(DYNAMIC)}")
     for name, value in dynamic_values(params).items():
         if not _close(dynamic[name], value):
-            raise bad(f"{name} = {dynamic[name]!r} recorded, but the parameters give {value!r}")
+            raise bad(f"{name} = {_short(dynamic[name])} recorded, but the parameters give "
+                      f"{value!r}")
     if not isinstance(record.get("provenance"), dict):
         raise bad("'provenance' must be an object")
     _check_identified(record, path)
@@ -161,9 +174,31 @@ def load(path: os.PathLike) -> ArmParameters:
     return read(path).params
 
 
+def _as_float(value) -> float:
+    """A JSON number as a float; infinity for an integer beyond the floats."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _short(value) -> str:
+    """The repr of a recorded value, an integer of hundreds of digits by its length."""
+    text = repr(value)
+    return text if len(text) <= 40 else f"an integer of {len(text.lstrip('-'))} digits"
+
+
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "FIFO"), (stat.S_ISCHR, "character device"),
+                       (stat.S_ISBLK, "block device"), (stat.S_ISSOCK, "socket")):
+        if test(mode):
+            return name
+    return "special file"
+
+
 def _close(recorded, value: float) -> bool:
-    return (is_real(recorded, numpy=False) and math.isfinite(recorded)
-            and abs(recorded - value) <= _RTOL * abs(value))
+    return (is_real(recorded, numpy=False) and math.isfinite(_as_float(recorded))
+            and abs(_as_float(recorded) - value) <= _RTOL * abs(value))
 
 
 def _check_identified(record: dict, path: Path) -> None:
@@ -180,6 +215,6 @@ def _check_identified(record: dict, path: Path) -> None:
                 f"{path}: identified {name} does not match the parameters' {name} = "
                 f"{record['dynamic'][name]!r}")
         err = entry.get("std_error")
-        if not is_real(err, numpy=False) or not math.isfinite(err) or err < 0:
+        if not is_real(err, numpy=False) or not math.isfinite(_as_float(err)) or err < 0:
             raise ParameterFileError(f"{path}: identified {name}: std_error must be a finite "
-                                     f"non-negative number, got {err!r}")
+                                     f"non-negative number, got {_short(err)}")

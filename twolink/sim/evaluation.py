@@ -41,7 +41,7 @@ from twolink.sim.perturbations import (
     ActuationDelay,
     keyed_generators,
 )
-from twolink.sim.plants import MujocoPlant, check_states
+from twolink.sim.plants import MujocoPlant, check_nthread, check_states
 from twolink.sim.rollout import rollout, rollout_grid, steps_for
 from twolink.validate import real, whole
 
@@ -247,6 +247,8 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     ``delay`` (samples of actuation delay) and ``angle_noise_deg`` (deg, with speed noise
     :data:`SPEED_PER_DEG` rad/s per deg) apply. ``seed``: drawn plants, noise and faults.
     ``horizon``: seconds per run (success = settled 1 s before its end).
+    ``nthread``: MuJoCo's rollout threads, 1 to :data:`twolink.sim.plants.MAX_NTHREAD`
+    (default: one per core).
     ``compensate``: drive the policy through :func:`twolink.sim.estimation.compensated`
     (it predicts with the model the controller names in ``meta["model"]``). Off by
     default: a comparison of controllers scores each as it is; the result records the
@@ -255,6 +257,7 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     ch = _challenge(challenge, delay, angle_noise_deg)
     horizon = real(horizon, "horizon")
     whole(seed, "seed", 0)
+    nthread = check_nthread(nthread)
     plants = _plants(params, ch, count, seed)
     x0 = _states(x0)
     runs = len(plants) * len(x0)

@@ -26,7 +26,13 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from twolink.arm import dynamics, mjcf
-from twolink.arm.integrate import SUBSTEPS, finish_sample, sample_step
+from twolink.arm.integrate import (
+    SUBSTEPS,
+    check_masses,
+    check_sampling,
+    finish_sample,
+    sample_step,
+)
 from twolink.arm.parameters import (
     TABLE_I,
     TS,
@@ -35,6 +41,7 @@ from twolink.arm.parameters import (
     check_links,
     state_names,
 )
+from twolink.validate import whole
 
 PLANTS = ("simplified", "full", "mujoco")
 #: Largest |angle| (rad) a plant accepts. Angles are wrapped at the end of every sample
@@ -43,6 +50,21 @@ MAX_ANGLE = 1e3
 #: Largest |speed| a plant accepts, as a multiple of its speed limit (2 pi rad/s in
 #: Table I, so 62.8 rad/s). Speeds saturate at the limit after the first sample period.
 SPEED_BOUND = 10.0
+
+
+#: The most threads a MuJoCo plant (and ``evaluate``) starts: four per core, at least 8.
+#: MuJoCo's rollout gains nothing from more threads than cores.
+MAX_NTHREAD = max(8, 4 * (os.cpu_count() or 1))
+
+
+def check_nthread(nthread, what: str = "nthread") -> int:
+    """``nthread`` as an int: None gives one thread per core, else a whole number from 1
+    to :data:`MAX_NTHREAD`; a ValueError naming ``what`` for anything else."""
+    if nthread is None:
+        return min(MAX_NTHREAD, os.cpu_count() or 1)
+    return whole(nthread, what, 1, MAX_NTHREAD,
+                 message="{what} must be a whole number from 1 to {high} (threads of MuJoCo's "
+                         "rollout, at most 4 per core), got {value!r}")
 
 
 class SimulationError(RuntimeError):
@@ -173,6 +195,13 @@ def mujoco_warnings():
 
 
 # --------------------------------------------------------------------------- plants
+def _model(params) -> mujoco.MjModel:
+    """The compiled MJCF of ``params``, refused first (a ValueError naming the link) if no
+    plant can simulate it (:func:`twolink.arm.integrate.check_sampling`)."""
+    check_sampling(params)
+    return mjcf.build_model(params)
+
+
 def _arm(params):
     """``params`` with a two-link :class:`ChainParameters` turned into its
     :class:`ArmParameters`, so that two links always run the same code."""
@@ -237,8 +266,12 @@ class ModelPlant(Plant):
                  substeps: int = SUBSTEPS, gravity: bool = False):
         super().__init__(params)
         self.name = name
-        self.substeps = substeps
+        self.substeps = whole(substeps, "substeps", 1)
         n = self.links
+        if name == "simplified":
+            check_masses(self.params)     # (11) divides by P2 and M11 only
+        else:
+            check_sampling(self.params, substeps=self.substeps)
         if name == "simplified":
             if n != 2:
                 raise ValueError(f"the simplified plant needs two links, the arm has {n}: "
@@ -278,11 +311,12 @@ class MujocoPlant(Plant):
         if len(links) > 1:
             raise ValueError(f"the parameter sets of a plant must all have the same number of "
                              f"links, got {', '.join(str(n) for n in sorted(links))}")
+        self.nthread = check_nthread(nthread)
         Plant.__init__(self, plist[0])
         self.params = plist if self.per_row else plist[0]
         self._plist = plist
         built: dict = {}        # one compiled model per distinct parameter set
-        self.models = [built[p] if p in built else built.setdefault(p, mjcf.build_model(p))
+        self.models = [built[p] if p in built else built.setdefault(p, _model(p))
                        for p in plist]
         # Limits per batch row (per-row plants) or shared (one plant), broadcast alike.
         self._tau_max = np.stack([p.tau_max for p in plist]) if self.per_row else plist[0].tau_max
@@ -291,7 +325,6 @@ class MujocoPlant(Plant):
         self.model = self.models[0]
         _check_layout(self.model, self.links)
         self.nstep = substeps_per_sample(self.model)
-        self.nthread = max(1, nthread if nthread is not None else (os.cpu_count() or 1))
         self._datas = [mujoco.MjData(self.model) for _ in range(self.nthread)]
         self._pool = mj_rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)
 
@@ -305,7 +338,7 @@ class MujocoPlant(Plant):
         if params.links != self.links:
             raise ValueError(f"a {params.links}-link parameter set for a plant of "
                              f"{self.links} links")
-        model = mjcf.build_model(params)
+        model = _model(params)
         _check_layout(model, self.links)
         self._plist[row] = params
         self.models[row] = model
