@@ -3,8 +3,10 @@
 The arm is seen from the top camera with the goal region marked, a translucent ghost
 arm following the simplified-model (11) rollout of the same policy from the same x0,
 and a text overlay with time, torques and reward. Two ``--policy`` values render side
-by side; ``--challenge`` (or ``--delay`` / ``--angle-noise``) and ``--compensate`` run
-them as ``twolink rollout`` does. ``--links N`` renders an N-link arm, its ghost then the
+by side; ``--controller`` takes any controller (``module:callable``,
+``path/to/file.py:callable``, a baseline name or a policy file) in their place or beside
+one. ``--challenge`` (or ``--delay`` / ``--angle-noise``) and ``--compensate`` run them as
+``twolink rollout`` does. ``--links N`` renders an N-link arm, its ghost then the
 numpy full N-link model's rollout. Rendering speed is measured by the benchmarks
 (``make bench``).
 """
@@ -22,20 +24,19 @@ from tqdm import tqdm
 from twolink.arm.parameters import HORIZON, TS
 from twolink.artifacts import check_outputs
 from twolink.commands import SUMMARIES
+from twolink.commands._controllers import add_controller_option
+from twolink.commands._controllers import controllers_of as command_controllers
 from twolink.commands._options import (
     X0_HELP,
     add_arm_options,
     add_challenge_options,
     arm_of,
     challenge_of,
-    check_policy_links,
     check_two_link_options,
-    default_policy,
     parse_x0,
-    policy_label,
 )
 from twolink.envs.core import horizon
-from twolink.policy.fuzzy_policy import load_policy, shipped_policies
+from twolink.policy.fuzzy_policy import shipped_policies
 from twolink.resources import output_dir
 from twolink.sim.challenges import challenge
 from twolink.sim.evaluation import challenged_rollouts
@@ -58,6 +59,7 @@ def add_parser(sub):
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
                         f"give two for a side-by-side video (default: centralized; with "
                         f"--links N the shipped N-link policy)")
+    add_controller_option(p, extra=" (two in all for a side-by-side video)")
     p.add_argument("--plant", choices=PLANTS, default="mujoco",
                    help="plant whose rollout is shown (default mujoco)")
     p.add_argument("--x0", nargs="+", metavar="X", help=X0_HELP)
@@ -109,32 +111,30 @@ def run(args) -> int:
     width, height = parse_size(args.size)
     x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed, links=links,
                   speed_max=params.speed_max)
-    names = args.policy or [default_policy(links, args.rule)]
-    if len(names) > 2:
-        raise ValueError(f"give one or two --policy values (side by side), got {len(names)}")
     steps_for(args.duration)
     ch = challenge_of(args)
     check_fps(args.fps)
     if not np.isfinite(args.speed) or args.speed <= 0:
         raise ValueError(f"--speed must be a positive number, got {args.speed}")
-    labels = [policy_label(n) for n in names]
-    if len(set(labels)) < len(labels):
-        raise ValueError(f"the two --policy values name the same policy {labels[0]!r}")
+    given = [*(args.policy or []), *args.controller]
+    if len(given) == 2 and given[0] == given[1]:
+        raise ValueError(f"the two --policy or --controller values name the same policy "
+                         f"{given[0]!r}")
+    policies = command_controllers(args, links, most=2)
+    labels = list(policies)
     default = output_dir(create=False)
     out = args.output or default / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
     fmt = video_format(out)
-    check_size(width * len(names), height, fmt)
-    check_budget(args.duration / args.speed * args.fps + 1, width * len(names), height)
+    check_size(width * len(labels), height, fmt)
+    check_budget(args.duration / args.speed * args.fps + 1, width * len(labels), height)
     check_outputs({"--output": out}, creatable=[default])
 
-    policies = {label: load_policy(n) for label, n in zip(labels, names)}
-    for label, policy in policies.items():
-        check_policy_links(label, policy, links)
     ghost = "simplified" if links == 2 else "full"
     shown = [args.plant] + ([ghost] if args.ghost else [])
     if ch is None and not args.compensate:
-        runs = rollout_grid(policies, shown, x0, duration=args.duration,
+        runs = rollout_grid(policies, shown, x0[None], duration=args.duration,  # a batch of 1
                             params=None if links == 2 else params)
+        runs = {k: tr[0] for k, tr in runs.items()}
     else:
         runs = challenged_rollouts(policies, shown, x0, ch or challenge("none"), seed=args.seed,
                                    compensate=args.compensate, duration=args.duration)
@@ -158,7 +158,7 @@ def run(args) -> int:
                    disable=args.no_progress or args.json, leave=False)
         count = write_video(out, bar, args.fps)
     seconds = time.perf_counter() - t0
-    result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(names),
+    result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(labels),
               "height": height, "video_seconds": count / args.fps,
               "render_seconds": seconds, "policies": labels, "plant": args.plant,
               **({} if links == 2 else {"links": links, "rule": args.rule}),
@@ -168,6 +168,6 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
     else:
-        print(f"wrote {out} ({count} frames, {width * len(names)}x{height}, {args.fps:g} fps, "
+        print(f"wrote {out} ({count} frames, {width * len(labels)}x{height}, {args.fps:g} fps, "
               f"rendered in {seconds:.1f} s)")
     return 0

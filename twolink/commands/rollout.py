@@ -1,7 +1,10 @@
 """``twolink rollout``: run policies on plants from x0, summarise, save and plot.
 
 Several ``--policy`` or ``--plant`` values run every combination and overlay them in one
-Fig. 3-style figure (one column per policy, one line style per plant). ``--challenge``
+Fig. 3-style figure (one column per policy, one line style per plant). ``--controller``
+adds any controller (``module:callable``, ``path/to/file.py:callable``, a baseline name
+or a policy file, :func:`twolink.control.controllers.resolve_controller`) to the same
+closed loop. ``--challenge``
 (or ``--delay`` / ``--angle-noise``) runs them under a challenge level, ``--compensate``
 behind the run-time compensator (:mod:`twolink.sim.estimation`). ``--links N`` (with
 ``--rule``) runs an N-link arm (:func:`twolink.arm.parameters.chain`) on MuJoCo or the numpy
@@ -18,20 +21,19 @@ from twolink.arm.parameters import (
 )
 from twolink.artifacts import check_outputs
 from twolink.commands import SUMMARIES
+from twolink.commands._controllers import add_controller_option, context_of, kind_of
+from twolink.commands._controllers import controllers_of as command_controllers
 from twolink.commands._options import (
     X0_HELP,
     add_arm_options,
     add_challenge_options,
     arm_of,
     challenge_of,
-    check_policy_links,
     check_two_link_options,
-    default_policy,
     parse_x0,
-    policy_label,
 )
 from twolink.envs.core import horizon  # the default duration: 5 s, 8 s beyond two links
-from twolink.policy.fuzzy_policy import load_policy, shipped_policies
+from twolink.policy.fuzzy_policy import shipped_policies
 from twolink.resources import output_dir
 from twolink.sim.challenges import challenge
 from twolink.sim.evaluation import challenged_rollouts
@@ -53,6 +55,7 @@ def add_parser(sub):
                    help=f"shipped policy ({', '.join(shipped_policies())}) or a policy .npz; "
                         f"repeat to overlay (default: centralized; with --links N the shipped "
                         f"N-link policy)")
+    add_controller_option(p)
     p.add_argument("--plant", action="append", choices=PLANTS,
                    help="plant to run on; repeat to overlay (default: mujoco; simplified "
                         "is the two-link model (11) only)")
@@ -100,15 +103,7 @@ def run(args) -> int:
     check_two_link_options(args, links)
     if args.duration is None:
         args.duration = horizon(links)
-    names = list(dict.fromkeys(args.policy or [default_policy(links, args.rule)]))
-    labels = [policy_label(n) for n in names]
-    twice = [label for i, label in enumerate(labels) if label in labels[:i]]
-    if twice:
-        raise ValueError(f"two --policy values share the label {twice[0]!r} "
-                         f"(a file's stem); rename one")
-    policies = {label: load_policy(n) for label, n in zip(labels, names)}
-    for label, policy in policies.items():
-        check_policy_links(label, policy, links)
+    policies = command_controllers(args, links)
     plants = list(dict.fromkeys(args.plant or ["mujoco"]))
     x0 = parse_x0(args.x0, degrees=args.degrees, seed=args.seed, links=links,
                   speed_max=params.speed_max)
@@ -118,8 +113,9 @@ def run(args) -> int:
     reference = "simplified" if links == 2 else "full"
 
     if ch is None and not args.compensate:
-        everything = rollout_grid(policies, plants + [reference], x0, duration=args.duration,
-                                  params=None if links == 2 else params)
+        everything = rollout_grid(policies, plants + [reference], x0[None],  # a batch of 1
+                                  duration=args.duration, params=None if links == 2 else params)
+        everything = {k: tr[0] for k, tr in everything.items()}
     else:
         everything = challenged_rollouts(policies, plants + ["simplified"], x0,
                                          ch or challenge("none"), seed=args.seed,
@@ -136,7 +132,7 @@ def run(args) -> int:
             output_dir()                         # the default folder, made on demand
         meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed, **arm,
                 "challenge": report["challenge"], "compensate": args.compensate,
-                "policies": {k: (v.kind, v.meta.get("context")) for k, v in policies.items()}}
+                "policies": {k: (kind_of(v), context_of(v)) for k, v in policies.items()}}
         save_csv(outputs["csv"], runs)
         save_npz(outputs["npz"], runs, meta=meta)
         panels = {pname: {plant: runs[(pname, plant)] for plant in plants}
