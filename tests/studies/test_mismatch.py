@@ -249,6 +249,32 @@ def test_bad_input_is_one_error_line_and_writes_nothing(tmp_path, capsys, argv, 
     assert not out.exists()
 
 
+def _free_port() -> int:
+    """A local TCP port nothing listens on (bound, then released)."""
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@pytest.mark.parametrize("address, match", [
+    (None, "no Ray cluster answers there (connection refused)"),
+    ("nonsense", "--address must be HOST:PORT, ray://HOST:PORT, auto or local"),
+])
+def test_a_ray_address_that_does_not_answer_fails_at_once_and_writes_nothing(
+        tmp_path, capsys, address, match):
+    out = tmp_path / "r"
+    address = address or f"127.0.0.1:{_free_port()}"
+    t0 = time.perf_counter()
+    assert main(["mismatch", "--quick", "--out", str(out), "--executor", "ray",
+                 "--address", address]) == 2
+    assert time.perf_counter() - t0 < 5.0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0] and err[0].startswith("twolink mismatch: error:")
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
 def test_a_users_report_is_not_overwritten(tmp_path, capsys):
     out = tmp_path / "r"
     out.mkdir()

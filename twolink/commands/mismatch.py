@@ -11,6 +11,7 @@ intervals and median settle times, under renders/mismatch-<N>link/.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -29,7 +30,7 @@ from twolink.policy.fuzzy_policy import load_policy
 from twolink.policy.registry import TWO_LINK
 from twolink.resources import output_dir
 from twolink.sim.cell_store import SweepFile
-from twolink.sim.cells import EXECUTORS
+from twolink.sim.cells import EXECUTORS, ray_session
 from twolink.sim.challenges import LEVELS, challenge
 from twolink.studies.mismatch.measure import build
 from twolink.studies.mismatch.plan import CHAIN_SEED, PLANS, plan
@@ -186,6 +187,17 @@ def run(args) -> int:
                          "drop --no-robust or them")
     if args.seed is not None and (args.seed < 0 or args.seed >= 2**63):
         raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {args.seed}")
+    out = args.out or output_dir(create=False) / chosen.folder
+    if out.parent.is_dir():                          # checked again once it is made
+        check_report_folder(out, force=args.force)
+    # Ray is connected before any file is made: an address that does not answer leaves none.
+    with ray_session(args.address, args.workers, "--address") if args.executor == "ray" \
+            else contextlib.nullcontext():
+        return _report(args, chosen, levels)
+
+
+def _report(args, chosen, levels) -> int:
+    """Measure and write the two-link report into --out (checked first)."""
     out = args.out or output_dir() / chosen.folder
     check_report_folder(out, force=args.force)
     out.mkdir(exist_ok=True)

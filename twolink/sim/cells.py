@@ -27,12 +27,14 @@ cells and two runs never share one file.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import dataclasses
 import hashlib
 import json
 import math
 import multiprocessing
 import os
+import socket
 import sys
 import threading
 from typing import Callable, Iterable, Optional, Sequence
@@ -223,6 +225,40 @@ def _tasks(cells: Sequence[Cell]) -> list[list[Cell]]:
     return tasks
 
 
+#: Seconds :func:`check_ray_address` waits for a Ray cluster's port to answer.
+RAY_PROBE_SECONDS = 3.0
+
+
+def check_ray_address(address: Optional[str], what: str = "address") -> None:
+    """Refuse, in one line and before any work, a Ray ``address`` at which nothing
+    answers: ``HOST:PORT`` or ``ray://HOST:PORT`` gets a TCP connection within
+    :data:`RAY_PROBE_SECONDS`, or a RuntimeError naming ``what``; None, ``auto`` and
+    ``local`` (Ray finds or starts the cluster itself) are not probed. A ValueError for an
+    address of another form. A RuntimeError too if Ray is not installed."""
+    import importlib.util
+
+    if importlib.util.find_spec("ray") is None:
+        raise RuntimeError("the ray executor needs Ray: pip install ray")
+    if address is None or address in ("auto", "local"):
+        return
+    if not isinstance(address, str):
+        raise ValueError(f"{what} must be HOST:PORT, ray://HOST:PORT, auto or local, got "
+                         f"{address!r}")
+    rest = address[len("ray://"):] if address.startswith("ray://") else address
+    host, _, port = rest.rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"{what} must be HOST:PORT, ray://HOST:PORT, auto or local, got "
+                         f"{address!r}")
+    try:
+        socket.create_connection((host, int(port)), timeout=RAY_PROBE_SECONDS).close()
+    except OSError as exc:
+        why = (f"no answer within {RAY_PROBE_SECONDS:g} s" if isinstance(exc, TimeoutError)
+               else (exc.strerror or str(exc)).lower())
+        raise RuntimeError(f"{what} {address}: no Ray cluster answers there ({why}); start "
+                           f"one (ray start --head) or give its address") from None
+
+
 def _check_executor(executor: str, workers: int) -> None:
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
@@ -248,6 +284,8 @@ def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
     cells = list(dict.fromkeys(cells))
     workers = workers or max(1, (os.cpu_count() or 1) // nthread)
     _check_executor(executor, workers)
+    if executor == "ray" and store is None:        # before the sweep file is made
+        check_ray_address(address)
     if store is None and path is not None:
         with SweepFile(path) as opened:
             if opened.note:
@@ -322,24 +360,36 @@ def _run_local(tasks, done, *, nthread, workers) -> None:
             raise
 
 
-def _run_ray(tasks, done, *, nthread, address, workers) -> None:
-    try:
-        import ray
-    except ImportError:
-        raise RuntimeError("the ray executor needs Ray: pip install ray") from None
+@contextlib.contextmanager
+def ray_session(address: Optional[str] = None, workers: Optional[int] = None,
+                what: str = "address"):
+    """Ray connected for the ``with`` block: the cluster at ``address``
+    (:func:`check_ray_address` first), or an already initialised Ray, or a new local one
+    of ``workers`` CPUs (default: all); shut down afterwards if this call started it. A
+    command enters it before writing any file, so a cluster that does not answer leaves
+    none behind."""
+    check_ray_address(address, what)
+    import ray
+
     started = False
     if not ray.is_initialized():
         if address:
             ray.init(address=address, log_to_driver=False)
         else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            ray.init(num_cpus=workers or os.cpu_count() or 1, include_dashboard=False,
+                     log_to_driver=False)
         started = True
     try:
+        yield ray
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def _run_ray(tasks, done, *, nthread, address, workers) -> None:
+    with ray_session(address, workers) as ray:
         remote = ray.remote(num_cpus=nthread)(run_cells)
         pending = [remote.remote(t, nthread=nthread) for t in tasks]
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
             done(ray.get(ready[0]))
-    finally:
-        if started:
-            ray.shutdown()
