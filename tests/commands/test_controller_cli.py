@@ -52,7 +52,7 @@ def user(tmp_path):
 
 def _cli(*argv, cwd=None, env=None):
     return subprocess.run([sys.executable, "-m", "twolink.cli", *map(str, argv)],
-                          capture_output=True, text=True, cwd=cwd, timeout=120,
+                          capture_output=True, text=True, cwd=cwd, timeout=120, check=False,
                           env=None if env is None else {**os.environ, **env})
 
 

@@ -5,10 +5,13 @@ The shipped fuzzy policies, the classical baselines and any --controller of your
 hard, plain and (for controllers that name their model) compensated, on MuJoCo from the
 65 states of the evaluation set: k/n with the 95 % Wilson interval, the worst plant, the
 median settle time, settle / T* (median and worst, failures as never settled) and the
-mean torque. Writes Markdown, JSON and a figure (success against settle / T*).
+mean torque. Writes Markdown, JSON and a figure (success against settle / T*). With
+--executor ray the rows run as tasks on a Ray cluster (--address, or a new local Ray),
+with the same numbers as a local run.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -42,19 +45,34 @@ def add_parser(sub):
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="folder of leaderboard.md, .json and .png (default "
                         "renders/leaderboard, or renders/leaderboard-quick)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="where the rows run: this process (local, the default) or tasks on "
+                        "Ray (the same numbers; a controller file must exist at the same "
+                        "path on every Ray node)")
+    p.add_argument("--address", default=None,
+                   help="Ray cluster address, HOST:PORT or ray://HOST:PORT (with --executor "
+                        "ray; default: a new local Ray)")
     p.add_argument("--no-save", action="store_true", help="only print the table")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     return p
 
 
-def controllers_of(names, specs) -> dict:
-    """``{label: checked controller}`` of the chosen names and the extra specs."""
-    from twolink.control.controllers import baseline_names, resolve_controller
+def chosen_specs(names, specs) -> list:
+    """The specs a leaderboard runs: ``names`` (default every shipped two-link policy and
+    every baseline), then the extra ``specs``."""
+    from twolink.control.controllers import baseline_names
     from twolink.policy.registry import TWO_LINK
 
     chosen = list(names) if names is not None else [*TWO_LINK, *baseline_names()]
+    return [*chosen, *specs]
+
+
+def controllers_of(names, specs) -> dict:
+    """``{label: checked controller}`` of the chosen names and the extra specs."""
+    from twolink.control.controllers import resolve_controller
+
     out = {}
-    for spec in [*chosen, *specs]:
+    for spec in chosen_specs(names, specs):
         c = resolve_controller(spec)
         if c.name in out:
             raise ValueError(f"two controllers are labelled {c.name!r}; give each once")
@@ -65,14 +83,10 @@ def controllers_of(names, specs) -> dict:
 
 
 def run(args) -> int:
-    from twolink.artifacts import check_outputs
-    from twolink.resources import output_dir
     from twolink.sim.cells import states_of
     from twolink.sim.challenges import challenge
     from twolink.studies.leaderboard.limits import state_limits
     from twolink.studies.leaderboard.measure import SEED
-    from twolink.studies.leaderboard.measure import run as measure
-    from twolink.studies.leaderboard.report import FILES, markdown, write
 
     states = QUICK["states"] if args.quick else "full"
     plants = args.plants if args.plants is not None else (QUICK["plants"] if args.quick else 32)
@@ -83,11 +97,37 @@ def run(args) -> int:
         raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {seed}")
     levels = args.levels or (QUICK["levels"] if args.quick else tuple(LEVELS))
     levels = [challenge(n).name for n in levels]
+    if args.address is not None and args.executor != "ray":
+        raise ValueError("--address needs --executor ray")
     controllers = controllers_of(args.controllers, args.controller)
+    specs = dict(zip(controllers, chosen_specs(args.controllers, args.controller)))
     x0 = states_of(states)
     limits, source = state_limits(x0)
     if limits is None:
         raise ValueError(f"no time-optimal limit for these states ({source})")
+    # Ray is connected before any file is made: an address that does not answer leaves none.
+    with _ray(args):
+        return _measure_and_write(args, controllers, specs, x0, limits, source, levels,
+                                  plants, seed)
+
+
+def _ray(args):
+    """The Ray session of ``--executor ray`` (a null context for local)."""
+    if args.executor != "ray":
+        return contextlib.nullcontext()
+    from twolink.sim.cells import ray_session
+
+    return ray_session(args.address, None, "--address")
+
+
+def _measure_and_write(args, controllers, specs, x0, limits, source, levels, plants,
+                       seed) -> int:
+    """Run the rows and write or print the report (outputs checked first)."""
+    from twolink.artifacts import check_outputs
+    from twolink.resources import output_dir
+    from twolink.studies.leaderboard.measure import run as measure
+    from twolink.studies.leaderboard.report import FILES, markdown, write
+
     out = None
     if not args.no_save:
         out = args.out or output_dir() / ("leaderboard-quick" if args.quick else "leaderboard")
@@ -96,7 +136,8 @@ def run(args) -> int:
         check_outputs({name: out / f for name, f in FILES.items()}, creatable=[out])
     command = "twolink leaderboard" + (" --quick" if args.quick else "")
     log = None if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
-    rows = measure(controllers, x0, limits, levels=levels, plants=plants, seed=seed, log=log)
+    rows = measure(controllers, x0, limits, levels=levels, plants=plants, seed=seed, log=log,
+                   executor=args.executor, address=args.address, specs=specs)
     report = {"command": command, "states": len(x0), "plants": plants, "seed": seed,
               "horizon": 5.0, "limits": source, "levels": levels,
               "rows": [r.as_dict() for r in rows]}

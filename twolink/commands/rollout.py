@@ -163,6 +163,6 @@ def run(args) -> int:
             line += (f"  gap to {reference}: {g['angle_rms']:.3g} rad, "
                      f"{g['speed_rms']:.3g} rad/s RMS")
         print(line)
-    for k, v in report.get("outputs", {}).items():
+    for v in report.get("outputs", {}).values():
         print(f"wrote {v}")
     return 0

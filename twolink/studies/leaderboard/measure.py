@@ -10,6 +10,12 @@ one row per controller. ``settle / T*`` divides each run's settle time by the li
 its initial state (a failed run counts as never settled, inf); the median and the worst
 run are reported. ``mean |tau|`` is the mean absolute torque the controller commanded,
 over every sample, row and joint.
+
+The rows run one after another in this process (``executor="local"``) or as tasks on a
+Ray cluster (``executor="ray"``, :func:`twolink.sim.cells.ray_session`): every row is one
+deterministic :func:`measure_row` of the same inputs, so both give the same numbers (only
+``seconds`` differs). A controller given by its spec (a string) is resolved again in the
+worker; a controller object travels pickled.
 """
 from __future__ import annotations
 
@@ -107,31 +113,83 @@ def settle_ratios(settle: np.ndarray, success: np.ndarray, limits: np.ndarray) -
     return np.where(success, settle, np.inf) / limits
 
 
+#: Where the rows run: this process, or tasks on Ray.
+EXECUTORS = ("local", "ray")
+
+
+def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
+                limits: np.ndarray, plants: int, seed: int, nthread=None) -> Entry:
+    """One row: ``controller`` (a controller, or a spec for
+    :func:`twolink.control.controllers.resolve_controller`) under ``level`` in ``mode``,
+    evaluated from ``x0`` against ``limits``."""
+    if isinstance(controller, str):
+        from twolink.control.controllers import resolve_controller
+        controller = resolve_controller(controller)
+    meter = TorqueMeter(checked(controller, name=name))
+    ch = LEVELS[level]
+    t0 = time.perf_counter()
+    ev = evaluate(meter, x0=x0, challenge=ch, seed=seed,
+                  count=plants if ch.perturbs_plant() else 1,
+                  compensate=mode == "compensated", label=name, nthread=nthread)
+    ratio = settle_ratios(ev.settle, ev.success, limits)
+    return Entry(name, level, mode, ev.score, float(np.median(ratio)), float(ratio.max()),
+                 meter.mean, time.perf_counter() - t0)
+
+
+def _ray_rows(tasks, done, *, address) -> list:
+    """Every task of :func:`measure_row` on Ray, one CPU each; ``done(i, entry)`` as each
+    ends; the entries in task order."""
+    from twolink.sim.cells import ray_session
+
+    with ray_session(address, None, "--address") as ray:
+        remote = ray.remote(num_cpus=1)(measure_row)
+        refs = [remote.remote(*task, nthread=1) for task in tasks]
+        index = {ref: i for i, ref in enumerate(refs)}
+        out = [None] * len(refs)
+        pending = list(refs)
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            i = index[ready[0]]
+            out[i] = ray.get(ready[0])
+            done(i, out[i])
+    return out
+
+
 def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(LEVELS),
-        plants: int = 32, seed: int = SEED, log=None) -> list[Entry]:
+        plants: int = 32, seed: int = SEED, log=None, executor: str = "local",
+        address: str | None = None, specs: dict | None = None) -> list[Entry]:
     """Every controller (``{name: controller}``) x level x mode (:func:`modes_for`) from
     the states ``x0`` (n, 4) whose limits are ``limits`` (n,) seconds; ``plants`` plants
-    per level that perturbs the plant. ``log(line)`` hears of every finished row."""
+    per level that perturbs the plant. ``log(line)`` hears of every finished row.
+    ``executor``: ``local`` (this process) or ``ray`` (the cluster at ``address``, an
+    initialised Ray or a new local one); ``specs`` (``{name: spec}``) sends those
+    controllers to Ray by spec instead of pickled (a file's callable then imports there)."""
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     levels = [challenge(name).name for name in levels]
     cells = [(name, level, mode) for name, c in controllers.items() for level in levels
              for mode in modes_for(c, level)]
     if len(cells) > MAX_CELLS:
         raise ValueError(f"{len(cells)} leaderboard rows are more than {MAX_CELLS}; name "
                          f"fewer controllers or levels")
-    rows = []
-    for i, (name, level, mode) in enumerate(cells, 1):
-        meter = TorqueMeter(checked(controllers[name], name=name))
-        ch = LEVELS[level]
-        t0 = time.perf_counter()
-        ev = evaluate(meter, x0=x0, challenge=ch, seed=seed,
-                      count=plants if ch.perturbs_plant() else 1,
-                      compensate=mode == "compensated", label=name)
-        ratio = settle_ratios(ev.settle, ev.success, limits)
-        entry = Entry(name, level, mode, ev.score, float(np.median(ratio)),
-                      float(ratio.max()), meter.mean, time.perf_counter() - t0)
-        rows.append(entry)
+    x0, limits = np.asarray(x0, dtype=float), np.asarray(limits, dtype=float)
+    specs = specs or {}
+    finished = [0]
+
+    def done(i, entry):
+        finished[0] += 1
         if log is not None:
             s = entry.score
-            log(f"[{i}/{len(cells)}] {name} {level} {mode}: {s.successes}/{s.n} "
-                f"({entry.seconds:.1f} s)")
+            log(f"[{finished[0]}/{len(cells)}] {entry.controller} {entry.level} "
+                f"{entry.mode}: {s.successes}/{s.n} ({entry.seconds:.1f} s)")
+
+    if executor == "ray":
+        tasks = [(specs.get(name, controllers[name]), name, level, mode, x0, limits, plants,
+                  seed) for name, level, mode in cells]
+        return _ray_rows(tasks, done, address=address)
+    rows = []
+    for i, (name, level, mode) in enumerate(cells):
+        rows.append(measure_row(controllers[name], name, level, mode, x0, limits, plants,
+                                seed))
+        done(i, rows[-1])
     return rows
