@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from twolink.validate import whole
+
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, REWARD_GOAL, REWARD_OTHER
 
 
@@ -50,6 +52,21 @@ def agent_reward(x, link: int) -> np.ndarray:
     return np.where(link_in_band(x[..., i], x[..., n + i]), REWARD_GOAL, REWARD_OTHER)
 
 
-def action_levels(tau_max: float) -> np.ndarray:
-    """The discrete torques of one joint in (16) and (18): {-tau_max, 0, tau_max}."""
-    return np.array([-tau_max, 0.0, tau_max])
+#: Torque levels per joint of the paper's (16) and (18); the most a synthesis may ask for.
+PAPER_LEVELS = 3
+MAX_LEVELS = 9
+
+
+def check_levels(levels) -> int:
+    """``levels`` if it is a whole number from 2 to :data:`MAX_LEVELS`, else a ValueError."""
+    return whole(levels, "levels", 2, MAX_LEVELS)
+
+
+def action_levels(tau_max: float, levels: int = PAPER_LEVELS) -> np.ndarray:
+    """The discrete torques of one joint: ``levels`` values evenly spaced over
+    [-tau_max, tau_max]. The paper's (16) and (18): 3 levels, {-tau_max, 0, tau_max};
+    an odd count always holds 0 (the torque that lets the arm rest in the band)."""
+    levels = check_levels(levels)
+    if levels == PAPER_LEVELS:
+        return np.array([-tau_max, 0.0, tau_max])
+    return np.array([tau_max * (2 * j / (levels - 1) - 1) for j in range(levels)])

@@ -23,8 +23,9 @@ import argparse
 import json
 from pathlib import Path
 
-from twolink.arm.parameters import DELTA, GAMMA, TABLE_I
-from twolink.artifacts import check_outputs
+from twolink.arm.parameters import DELTA, GAMMA, GOAL_SPEED, TABLE_I
+from twolink.arm.task import MAX_LEVELS, PAPER_LEVELS
+from twolink.artifacts import check_outputs, output_file
 from twolink.commands import SUMMARIES
 from twolink.commands._options import add_arm_options, arm_of
 from twolink.control.problems import (
@@ -35,16 +36,20 @@ from twolink.control.problems import (
     SYNTHESIS_MODELS,
     check_robust,
     check_robust_size,
+    check_size,
     table_sizes,
 )
 from twolink.control.synthesis import synthesize
+from twolink.fqi.fuzzy import BIN_LAYOUTS, check_bins
 from twolink.fqi.iteration import ROBUST_MODES
 from twolink.policy.fuzzy_policy import (
     MAX_Q_BYTES,  # what Policy.load accepts per Q-table
 )
+from twolink.policy.readout import Readout
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.sim.perturbations import MAX_SPREAD
+from twolink.validate import whole
 
 #: Defaults of a robust synthesis (those of the shipped robust policies).
 DEFAULT_DRAWS = 8
@@ -54,8 +59,10 @@ DEFAULT_SEED = 0
 
 def default_file_name(kind: str, model: str = "simplified", context: str = "frozen",
                       sweeps: str = "synchronous", refine: int = 1,
-                      robust: str | None = None) -> str:
-    """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>][_robust|_mean].npz``, each part
+                      robust: str | None = None, levels: int = PAPER_LEVELS,
+                      bins: str = "paper") -> str:
+    """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>][_<L>levels][_<bins>bins]
+    [_robust|_mean].npz``, each part
     only when not the default (so the five shipped nominal combinations get their registry
     names)."""
     name = kind + ("" if model == "simplified" else f"_{model}")
@@ -65,6 +72,10 @@ def default_file_name(kind: str, model: str = "simplified", context: str = "froz
         name += f"_{sweeps}"
     if refine != 1:
         name += f"_refine{refine}"
+    if levels != PAPER_LEVELS:
+        name += f"_{levels}levels"
+    if bins != "paper":
+        name += f"_{bins}bins"
     if robust is not None:
         name += "_robust" if robust == "worst" else f"_{robust}"
     return f"{name}.npz"
@@ -103,6 +114,16 @@ def add_parser(sub):
     p.add_argument("--refine", type=_refine, default=None, metavar="K",
                    help="subdivide every bin of the paper's grid K times (default 1: the "
                         "paper's grid; see the README's 'Finer grids')")
+    p.add_argument("--levels", default=None, metavar="L",
+                   help=f"torque levels per joint, evenly spaced over [-tau_max, tau_max], "
+                        f"2 to {MAX_LEVELS} (default 3: the paper's -tau_max, 0, tau_max)")
+    p.add_argument("--bins", default=None, metavar="LAYOUT",
+                   help=f"bin layout of the angles and speeds: {', '.join(BIN_LAYOUTS)} "
+                        f"(default paper; goal: concentrated around the goal band)")
+    p.add_argument("--speed-dead-zone", default=None, metavar="W",
+                   help=f"read every speed through a dead zone of W rad/s, 0 <= W <= "
+                        f"{GOAL_SPEED} (twolink.policy.readout; default 0: none), recorded "
+                        f"in the file")
     p.add_argument("--robust", choices=ROBUST_MODES, default=None,
                    help="robust synthesis over --draws models: worst (Q = min over the "
                         "models of rho_k + gamma T_k V) or mean (their average)")
@@ -122,7 +143,7 @@ def add_parser(sub):
     p.add_argument("--gamma", type=float, default=GAMMA, help=f"discount factor (default {GAMMA})")
     p.add_argument("--delta", type=float, default=DELTA,
                    help=f"stop when max |Q_l - Q_(l-1)| <= delta (default {DELTA})")
-    p.add_argument("-o", "--output", type=Path, default=None,
+    p.add_argument("-o", "--output", default=None,
                    help="policy file to write (default: "
                         "./<kind>[_<model>][_<context>][_robust|_mean].npz)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
@@ -173,8 +194,9 @@ def _chain_job(args, links: int) -> tuple[str, dict, Path]:
                              f"{est.peak_bytes / 2**30:.3g} GiB) is over the "
                              f"{MAX_Q_BYTES >> 20} MiB a policy file may hold; twolink "
                              f"scaling synthesises it in memory")
-    out = args.output or Path(chain_file_name(args.kind, links, args.rule, args.context))
-    check_outputs({"-o": out})
+    out, folders = output_file(args.output, chain_file_name(args.kind, links, args.rule,
+                                                            args.context))
+    check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
     opts = {"p": TABLE_I, "links": links, "rule": args.rule, "context": args.context,
@@ -192,6 +214,23 @@ def _number(text, option: str, kind: type):
         what = "a whole number" if kind is int else "a number"
         raise ValueError(f"{option} must be {what}, got {text!r}")
     return value
+
+
+def _design_options(args) -> dict:
+    """synthesize()'s levels, bins and readout from --levels/--bins/--speed-dead-zone,
+    checked (a two-link synthesis only)."""
+    opts = {}
+    if args.levels is not None:
+        opts["levels"] = whole(_number(args.levels, "--levels", int), "--levels", 2, MAX_LEVELS)
+    if args.bins is not None:
+        opts["bins"] = check_bins(args.bins)
+    if args.speed_dead_zone is not None:
+        width = _number(args.speed_dead_zone, "--speed-dead-zone", float)
+        if not 0.0 <= width <= GOAL_SPEED:
+            raise ValueError(f"--speed-dead-zone must lie in [0, {GOAL_SPEED}] rad/s (the "
+                             f"goal band's speed), got {args.speed_dead_zone}")
+        opts["readout"] = Readout(speed_dead_zone=width)
+    return opts
 
 
 def _robust_options(args) -> dict:
@@ -255,6 +294,11 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     if args.kind is None:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
     if links != 2:
+        given = [o for o, v in (("--levels", args.levels), ("--bins", args.bins),
+                                ("--speed-dead-zone", args.speed_dead_zone)) if v is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "
+                             f"the paper's levels and bins")
         return [_chain_job(args, links)]
     model = args.model or "simplified"
     context = args.context or "frozen"
@@ -263,22 +307,25 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     sweeps = args.sweeps or "synchronous"
     refine = args.refine or 1
     robust = _robust_options(args)
-    biggest = max(table_sizes(args.kind, refine).values())
+    design = _design_options(args)
+    levels, bins = design.get("levels", PAPER_LEVELS), design.get("bins", "paper")
+    biggest = max(table_sizes(args.kind, refine, levels, bins).values())
     if biggest * 8 > MAX_Q_BYTES:
         raise ValueError(f"--refine {refine}: a {args.kind} Q-table of {biggest} values "
                          f"({biggest * 8 / 2**20:.0f} MiB) is over the {MAX_Q_BYTES >> 20} "
                          f"MiB a policy file may hold")
+    check_size(args.kind, refine, levels, bins)
     if robust:
-        check_robust_size(args.kind, refine, robust["draws"])
+        check_robust_size(args.kind, refine, robust["draws"], levels, bins)
     p, source = _parameters(args)
-    out = args.output or Path(default_file_name(args.kind, model, context, sweeps, refine,
-                                                robust.get("robust")))
-    check_outputs({"-o": out})
+    out, folders = output_file(args.output, default_file_name(
+        args.kind, model, context, sweeps, refine, robust.get("robust"), levels, bins))
+    check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
     opts = {"p": p, "model": model, "context": context, "gamma": args.gamma,
             "delta": args.delta, "sweeps": sweeps, "refine": refine, "source": source,
-            **robust}
+            **robust, **design}
     return [(args.kind, opts, out)]
 
 
@@ -287,6 +334,7 @@ def run(args) -> int:
     summary = []
     for kind, opts, out in jobs:
         policy = synthesize(kind, progress=not args.json, **opts)
+        out.parent.mkdir(exist_ok=True)      # -o DIR/: DIR passed check_outputs
         policy.save(out)
         info = {a.name: a.info for a in policy.agents}
         arm = {} if policy.links == 2 else {"links": policy.links, "rule": policy.meta["rule"]}

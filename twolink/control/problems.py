@@ -35,7 +35,7 @@ from twolink.arm.parameters import (
     TABLE_I,
     ArmParameters,
 )
-from twolink.arm.task import action_levels, agent_reward, centralized_reward
+from twolink.arm.task import action_levels, agent_reward, centralized_reward, check_levels
 from twolink.fqi import fuzzy
 from twolink.fqi.factored import (
     default_threads,
@@ -149,25 +149,31 @@ def _grid(*axes: fuzzy.Axis, refine: int = 1) -> fuzzy.Grid:
     return fuzzy.Grid(tuple(a.refined(refine) for a in axes))
 
 
-def centralized_actions(p: ArmParameters = TABLE_I) -> np.ndarray:
-    """The joint actions of the centralized problem (16): every pair of the levels
-    {-tau_max, 0, tau_max} of both links, shape (9, 2), tau2 varying fastest."""
-    return np.array(list(itertools.product(action_levels(p.tau1_max), action_levels(p.tau2_max))))
+def centralized_actions(p: ArmParameters = TABLE_I, levels: int = 3) -> np.ndarray:
+    """The joint actions of the centralized problem (16): every pair of the ``levels``
+    torque levels of both links (:func:`twolink.arm.task.action_levels`; the paper's
+    {-tau_max, 0, tau_max}: shape (9, 2)), tau2 varying fastest."""
+    return np.array(list(itertools.product(action_levels(p.tau1_max, levels),
+                                           action_levels(p.tau2_max, levels))))
 
 
 def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
-                        refine: int = 1, compiled: bool = False) -> Problem:
+                        refine: int = 1, compiled: bool = False, levels: int = 3,
+                        bins: str = "paper") -> Problem:
     """The centralized MDP over x = [theta1, theta2, dtheta1, dtheta2], u = [tau1, tau2].
 
     ``refine`` > 1 subdivides every bin (for scaling studies; see :meth:`fuzzy.Axis.refined`);
     ``compiled`` samples the model with the compiled RK4 over one theta1 slice
-    (see :func:`model_step`; equal to the numpy path up to round-off).
+    (see :func:`model_step`; equal to the numpy path up to round-off); ``levels`` torque
+    levels per joint and the bin layout ``bins`` (:data:`fuzzy.BIN_LAYOUTS`; the paper's:
+    3 and "paper").
     """
     start = time.perf_counter()
     dynamics_of(model)
-    grid = _grid(fuzzy.angle_axis("theta1"), fuzzy.angle_axis("theta2"),
-                 fuzzy.speed_axis("dtheta1"), fuzzy.speed_axis("dtheta2"), refine=refine)
-    actions = centralized_actions(p)
+    grid = _grid(fuzzy.angle_axis("theta1", bins), fuzzy.angle_axis("theta2", bins),
+                 fuzzy.speed_axis("dtheta1", bins), fuzzy.speed_axis("dtheta2", bins),
+                 refine=refine)
+    actions = centralized_actions(p, levels)
     centers = grid.centers()
     nxt = model_step(model, p, centers[:, None, :], actions[None, :, :], compiled=compiled,
                 theta1_bins=grid.axes[0].size if compiled else 1)
@@ -176,7 +182,8 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
 
 
 def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
-                   refine: int = 1, compiled: bool = False) -> Problem:
+                   refine: int = 1, compiled: bool = False, levels: int = 3,
+                   bins: str = "paper") -> Problem:
     """Agent 2's MDP over (theta2, dtheta2), u = tau2.
 
     Under (11) link 2 does not depend on link 1. Under the full model agent 2 cannot see
@@ -184,8 +191,9 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
     """
     start = time.perf_counter()
     dynamics_of(model)
-    grid = _grid(fuzzy.angle_axis("theta2"), fuzzy.speed_axis("dtheta2"), refine=refine)
-    actions = action_levels(p.tau2_max)[:, None]
+    grid = _grid(fuzzy.angle_axis("theta2", bins), fuzzy.speed_axis("dtheta2", bins),
+                 refine=refine)
+    actions = action_levels(p.tau2_max, levels)[:, None]
     c = grid.centers()
     x = np.zeros((len(c), 4))
     x[:, 1], x[:, 3] = c[:, 0], c[:, 1]
@@ -199,28 +207,29 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
 def agent1_problem(agent2: Optional[Agent], p: ArmParameters = TABLE_I,
                    model: str = "simplified", context: str = "frozen", *,
                    refine: int = 1, axes: Optional[tuple] = None,
-                   compiled: bool = False) -> Problem:
+                   compiled: bool = False, levels: int = 3, bins: str = "paper") -> Problem:
     """Agent 1's MDP over (theta1, dtheta1, theta2, tau2), u = tau1 (see module docstring).
 
     ``agent2`` (agent 2's synthesised controller) is needed by the propagated context only.
     ``refine`` subdivides the state bins; ``axes`` replaces the paper's (theta1, dtheta1,
-    theta2) axes (coarse grids for tests). The tau2 axis stays the three torque values.
+    theta2) axes (coarse grids for tests), else they follow the layout ``bins``. The tau2
+    axis holds agent 2's ``levels`` torque values, and agent 1 chooses among as many.
     """
     if context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of {', '.join(CONTEXTS)}")
     if context == "propagated" and agent2 is None:
         raise ValueError("the propagated context needs agent 2's controller")
     if axes is None:
-        axes = (fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
-                fuzzy.angle_axis("theta2"))
+        axes = (fuzzy.angle_axis("theta1", bins), fuzzy.speed_axis("dtheta1", bins),
+                fuzzy.angle_axis("theta2", bins))
     if tuple(a.name for a in axes) != ("theta1", "dtheta1", "theta2"):
         raise ValueError(f"agent 1's state axes must be theta1, dtheta1, theta2, got "
                          f"{', '.join(a.name for a in axes)}")
     start = time.perf_counter()
     dynamics_of(model)
     grid = fuzzy.Grid(_grid(*axes, refine=refine).axes
-                      + (fuzzy.torque_axis("tau2", p.tau2_max),))
-    actions = action_levels(p.tau1_max)[:, None]
+                      + (fuzzy.torque_axis("tau2", p.tau2_max, levels),))
+    actions = action_levels(p.tau1_max, levels)[:, None]
     c = grid.centers()
     x = np.zeros((len(c), 4))
     x[:, 0], x[:, 2], x[:, 1] = c[:, 0], c[:, 1], c[:, 2]
@@ -256,17 +265,37 @@ def check_refine(refine: int) -> int:
     return whole(refine, "refine", 1, MAX_REFINE)
 
 
-def table_sizes(kind: str, refine: int = 1) -> dict:
-    """Q-table size of every agent of ``kind`` on the paper's grid refined ``refine`` times,
-    known before anything is synthesised: ``{agent: N_X * N_U}``."""
+def table_sizes(kind: str, refine: int = 1, levels: int = 3, bins: str = "paper") -> dict:
+    """Q-table size of every agent of ``kind`` on the grid of layout ``bins`` refined
+    ``refine`` times with ``levels`` torque levels per joint, known before anything is
+    synthesised: ``{agent: N_X * N_U}``."""
     refine = check_refine(refine)
-    ang = fuzzy.angle_axis("a").refined_size(refine)
-    spd = fuzzy.speed_axis("s").refined_size(refine)
+    levels = check_levels(levels)
+    ang = fuzzy.angle_axis("a", bins).refined_size(refine)
+    spd = fuzzy.speed_axis("s", bins).refined_size(refine)
     if kind == "centralized":
-        return {"centralized": ang * ang * spd * spd * 9}
+        return {"centralized": ang * ang * spd * spd * levels * levels}
     if kind == "decentralized":
-        return {"agent2": ang * spd * 3, "agent1": ang * spd * ang * 3 * 3}
+        return {"agent2": ang * spd * levels, "agent1": ang * spd * ang * levels * levels}
     raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
+
+
+def check_size(kind: str, refine: int = 1, levels: int = 3, bins: str = "paper") -> int:
+    """The peak bytes of a (non-robust) synthesis (:func:`robust_bytes` of one model), or a
+    ValueError when it is over :data:`MAX_ROBUST_BYTES` or a Q-table would not fit in a
+    policy file (:data:`twolink.policy.fuzzy_policy.MAX_Q_BYTES`)."""
+    from twolink.policy.fuzzy_policy import MAX_Q_BYTES
+    for agent, size in table_sizes(kind, refine, levels, bins).items():
+        if 8 * size > MAX_Q_BYTES:
+            raise ValueError(f"--levels {levels} --bins {bins} --refine {refine}: {agent}'s "
+                             f"Q-table would hold {8 * size / 2**20:.0f} MiB, over the "
+                             f"{MAX_Q_BYTES >> 20} MiB a policy file may hold")
+    need = robust_bytes(kind, refine, 1, levels, bins)
+    if need > MAX_ROBUST_BYTES:
+        raise ValueError(f"--levels {levels} --bins {bins} --refine {refine}: the "
+                         f"transitions take about {need / 2**20:.0f} MiB, over the "
+                         f"{MAX_ROBUST_BYTES >> 20} MiB a synthesis may use")
+    return need
 
 
 def check_robust(robust: str, draws: int, spread: float, seed: int) -> tuple:
@@ -289,7 +318,8 @@ def parameter_draws(p: ArmParameters, draws: int, spread: float, seed: int
     return [p] + [random_perturbation(rng, spread, p, PHYSICAL) for _ in range(draws - 1)]
 
 
-def robust_bytes(kind: str, refine: int = 1, draws: int = 1) -> int:
+def robust_bytes(kind: str, refine: int = 1, draws: int = 1, levels: int = 3,
+                 bins: str = "paper") -> int:
     """Peak bytes a robust synthesis of the largest agent of ``kind`` takes, known before
     any work, per model and (bin, action) row: its reached point, reward and table.
     The agents' tables are fixed-width (at most 2**d memberships of int32 index + float64
@@ -298,21 +328,23 @@ def robust_bytes(kind: str, refine: int = 1, draws: int = 1) -> int:
     memberships per row, the other axes' 2**(d-1) once per theta1 block), built and then
     stacked for the sweeps (twice), plus 48 bytes per row once (Q, Q' and the policy's
     copy). Measured within 10 % of this on the paper's grid (tests)."""
-    sizes = table_sizes(kind, refine)
+    sizes = table_sizes(kind, refine, levels, bins)
     dims = {"centralized": 4, "agent2": 2, "agent1": 4}
     if kind == "centralized":
         d, rows = dims["centralized"], sizes["centralized"]
-        first = fuzzy.angle_axis("theta1").refined(check_refine(refine)).size
+        first = fuzzy.angle_axis("theta1", bins).refined_size(check_refine(refine))
         table = 2 * (24 + 12 * 2 ** (d - 1) / first)
         return int(draws * rows * (8 * d + 16 + table) + 48 * rows)
     return max(draws * rows * (8 * dims[a] + 32 + 8 + 12 * 2 ** dims[a])
                for a, rows in sizes.items())
 
 
-def check_robust_size(kind: str, refine: int, draws: int) -> int:
+def check_robust_size(kind: str, refine: int, draws: int, levels: int = 3,
+                      bins: str = "paper") -> int:
     """:func:`robust_bytes`, or a ValueError with the estimate when it is over
     :data:`MAX_ROBUST_BYTES`."""
-    need = robust_bytes(kind, refine, draws)
+    check_size(kind, refine, levels, bins)
+    need = robust_bytes(kind, refine, draws, levels, bins)
     if need > MAX_ROBUST_BYTES:
         raise ValueError(f"--draws {draws}: the transitions of {draws} {kind} models take "
                          f"about {need / 2**20:.0f} MiB, over the {MAX_ROBUST_BYTES >> 20} MiB "

@@ -55,13 +55,17 @@ from twolink.control.problems import (
     check_refine,
     check_robust,
     check_robust_size,
+    check_size,
     check_sweeps,
     dynamics_of,
     parameter_draws,
     solve,
     solve_robust,
 )
+from twolink.arm.task import PAPER_LEVELS, check_levels
+from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy
+from twolink.policy.readout import Readout
 from twolink.sim.perturbations import PHYSICAL
 
 
@@ -76,7 +80,9 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
                sweeps: str = "synchronous", refine: int = 1,
                robust: Optional[str] = None, draws: int = 1, spread: float = 0.0,
                seed: int = 0, source: Optional[dict] = None,
-               progress: bool = False, links: int = 2, rule: str = "tapered") -> Policy:
+               progress: bool = False, links: int = 2, rule: str = "tapered",
+               levels: int = PAPER_LEVELS, bins: str = "paper",
+               readout: Optional[Readout] = None) -> Policy:
     """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``
     with ``sweeps`` of Alg. 1 (:data:`SWEEPS`) over the paper's bins, each subdivided
     ``refine`` times (:meth:`fuzzy.Axis.refined`; 1: the paper's grid). Both are recorded
@@ -89,11 +95,31 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     file, whose provenance ``source`` is recorded as ``meta["parameters_source"]``.
     ``model`` defaults to ``"simplified"``, ``context`` to ``"frozen"``.
 
+    ``levels`` torque levels per joint (:func:`twolink.arm.task.action_levels`; the
+    paper's 3), the bin layout ``bins`` (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`; the
+    paper's "paper") and the ``readout`` of the readings
+    (:class:`twolink.policy.readout.Readout`; none) are recorded in ``meta`` when they are
+    not the paper's.
+
     ``links`` > 2: the decentralized agents of the arm ``parameters.chain(links, rule,
     base=p)`` on its full model (:func:`twolink.control.links_decentralized.synthesize_chain`; ``context``
     None takes that construction's default).
     """
+    levels, bins = check_levels(levels), fuzzy.check_bins(bins)
+    if readout is not None and not isinstance(readout, Readout):
+        raise TypeError(f"readout must be a twolink.policy.readout.Readout, got "
+                        f"{type(readout).__name__}")
+    design = {}
+    if levels != PAPER_LEVELS:
+        design["levels"] = levels
+    if bins != "paper":
+        design["bins"] = bins
+    if readout is not None and readout.active:
+        design["readout"] = readout.as_dict()
     if check_links(links) > 2:
+        if design:
+            raise ValueError(f"levels, bins and readout are two-link options; a {links}-link "
+                             f"arm takes none of them")
         return _synthesize_links(kind, p, model, context, gamma, delta, sweeps, refine,
                                  (robust, draws, spread, seed), source, progress, links, rule)
     model = "simplified" if model is None else model
@@ -106,7 +132,8 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     if kind == "decentralized" and context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
                          f"{', '.join(CONTEXTS)}")
-    more = {"sweeps": sweeps, "refine": refine}
+    more = {"sweeps": sweeps, "refine": refine, **design}
+    check_size(kind, refine, levels, bins)
     if model in IDENTIFIED_MODELS:
         more["dynamics"] = dynamics_of(model)
     if source is not None:
@@ -116,17 +143,18 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
             raise ValueError("draws, spread and seed apply to a robust synthesis only: "
                              "give robust='worst' or 'mean'")
         return _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine,
-                                   progress, more)
+                                   progress, more, levels, bins)
     robust, draws, spread, seed = check_robust(robust, draws, spread, seed)
     if sweeps != "synchronous":
         raise ValueError("robust synthesis runs synchronous sweeps only")
-    check_robust_size(kind, refine, draws)
+    check_robust_size(kind, refine, draws, levels, bins)
     models = parameter_draws(p, draws, spread, seed)
     more["robust"] = {"mode": robust, "draws": draws, "spread": spread, "seed": seed,
                       "draw_0": "centre", "perturbed": list(PHYSICAL),
                       "models": [m.as_dict() for m in models]}
     opts = {"mode": robust, "gamma": gamma, "delta": delta, "progress": progress}
-    build = {"model": model, "refine": refine, "compiled": True}
+    build = {"model": model, "refine": refine, "compiled": True, "levels": levels,
+             "bins": bins}
     if kind == "centralized":
         agent = solve_robust([centralized_problem(m, **build) for m in models], **opts,
                              layout="factored")
@@ -138,14 +166,15 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
 
 
 def _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine, progress,
-                        more) -> Policy:
+                        more, levels, bins) -> Policy:
     opts = {"gamma": gamma, "delta": delta, "sweeps": sweeps, "progress": progress}
+    design = {"refine": refine, "levels": levels, "bins": bins}
     if kind == "centralized":
-        agent = solve(centralized_problem(p, model, refine=refine, compiled=True), **opts,
+        agent = solve(centralized_problem(p, model, compiled=True, **design), **opts,
                       layout="factored")
         return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
-    a2 = solve(agent2_problem(p, model, refine=refine), **opts)
-    a1 = solve(agent1_problem(a2, p, model, context, refine=refine), **opts,
+    a2 = solve(agent2_problem(p, model, **design), **opts)
+    a1 = solve(agent1_problem(a2, p, model, context, **design), **opts,
                extra={"context": context})
     return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
 

@@ -11,9 +11,21 @@ import math
 
 import numpy as np
 
+from twolink.arm.task import action_levels
+
 #: Bin centres of the paper (docs/conventions.md), in degrees and degrees per second.
 ANGLE_BINS_DEG = (-180.0, -130.0, -80.0, -30.0, -15.0, -5.0, 0.0, 5.0, 15.0, 30.0, 80.0, 130.0)
 SPEED_BINS_DEG = (-360.0, -180.0, -30.0, 0.0, 30.0, 180.0, 360.0)
+#: Bins concentrated where the task is decided, the goal band |theta| <= 5 deg and
+#: |dtheta| <= 0.1 rad/s (5.7 deg/s): centres at the band's edge and inside it, spacing
+#: growing away from it. 16 angle and 13 speed bins against the paper's 12 and 7.
+GOAL_ANGLE_BINS_DEG = (-180.0, -120.0, -70.0, -40.0, -20.0, -10.0, -5.0, -2.0, 0.0,
+                       2.0, 5.0, 10.0, 20.0, 40.0, 70.0, 120.0)
+GOAL_SPEED_BINS_DEG = (-360.0, -180.0, -90.0, -40.0, -15.0, -5.0, 0.0, 5.0, 15.0, 40.0,
+                       90.0, 180.0, 360.0)
+#: Named bin layouts: (angle centres, speed centres), degrees and degrees per second.
+BIN_LAYOUTS = {"paper": (ANGLE_BINS_DEG, SPEED_BINS_DEG),
+               "goal": (GOAL_ANGLE_BINS_DEG, GOAL_SPEED_BINS_DEG)}
 #: The two extra speed bins (deg/s, at -+ this value) that N-link agents add to some speed
 #: axes (:mod:`twolink.control.links_decentralized`; the paper's two-link agents do not use them).
 EXTRA_SPEED_DEG = 6.0
@@ -100,17 +112,27 @@ class Axis:
         return {"name": self.name, "centers": list(self.centers), "circular": self.circular}
 
 
-def angle_axis(name: str) -> Axis:
-    return Axis(name, tuple(np.deg2rad(ANGLE_BINS_DEG)), circular=True)
+def check_bins(bins: str) -> str:
+    """``bins`` if it names a layout of :data:`BIN_LAYOUTS`, else a ValueError naming them."""
+    if not isinstance(bins, str) or bins not in BIN_LAYOUTS:
+        raise ValueError(f"unknown bin layout {bins!r}; choose one of {', '.join(BIN_LAYOUTS)}")
+    return bins
 
 
-def speed_axis(name: str) -> Axis:
-    return Axis(name, tuple(np.deg2rad(SPEED_BINS_DEG)))
+def angle_axis(name: str, bins: str = "paper") -> Axis:
+    """A circular angle axis with the angle centres of layout ``bins``."""
+    return Axis(name, tuple(np.deg2rad(BIN_LAYOUTS[check_bins(bins)][0])), circular=True)
 
 
-def torque_axis(name: str, tau_max: float) -> Axis:
-    """The three torque values -tau_max, 0, tau_max as fuzzy bins (agent 1's tau2 input)."""
-    return Axis(name, (-tau_max, 0.0, tau_max))
+def speed_axis(name: str, bins: str = "paper") -> Axis:
+    """A speed axis with the speed centres of layout ``bins``."""
+    return Axis(name, tuple(np.deg2rad(BIN_LAYOUTS[check_bins(bins)][1])))
+
+
+def torque_axis(name: str, tau_max: float, levels: int = 3) -> Axis:
+    """A joint's torque levels (:func:`twolink.arm.task.action_levels`) as fuzzy bins
+    (agent 1's tau2 input): -tau_max, 0, tau_max for the paper's three."""
+    return Axis(name, tuple(action_levels(tau_max, levels)))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,6 +7,9 @@ argmax_u Q(m, u) (14); actions whose Q lies within :data:`TIE_TOLERANCE` of the 
 are tied and the first of them wins (docs/conventions.md), so round-off never decides an action. The
 decentralized policy runs agent 2 first and hands its tau2 to agent 1, as in (18).
 
+A policy may read its states through dead zones (:mod:`twolink.policy.readout`,
+``meta["readout"]``) before its agents see them.
+
 A policy is for an arm of N = :attr:`Policy.links` links (``meta["links"]``, 2 when
 absent): it reads states x = [theta_1..theta_N, dtheta_1..dtheta_N] and its agents
 together output tau1..tauN. Files of two-link policies carry no ``links``.
@@ -33,6 +36,7 @@ import numpy as np
 from twolink.arm.parameters import check_links, state_names
 from twolink.artifacts import atomic_path
 from twolink.fqi.fuzzy import Grid
+from twolink.policy.readout import Readout
 from twolink.policy.registry import SHIPPED
 from twolink.validate import real, real_array
 
@@ -151,6 +155,8 @@ class Policy:
         self._links = check_links(self.meta.get("links", 2))
         self._state_names = state_names(self._links)
         self._outputs = _torque_names(self._links)
+        self._readout = Readout.from_dict(self.meta["readout"]) if "readout" in self.meta \
+            else Readout()
         known = set(self._state_names)
         for agent in self.agents:
             missing = [n for n in agent.inputs if n not in known]
@@ -167,6 +173,11 @@ class Policy:
         """N, the number of links of the arm this policy is for."""
         return self._links
 
+    @property
+    def readout(self) -> Readout:
+        """The dead zones on the readings (``meta["readout"]``; none when absent)."""
+        return self._readout
+
     def __repr__(self):
         sizes = ", ".join(f"{a.name}: {a.q.size}" for a in self.agents)
         return f"Policy({self.kind!r}, Q sizes {{{sizes}}})"
@@ -180,6 +191,7 @@ class Policy:
             raise ValueError(f"policy input must have shape (..., {width}), got {x.shape}{arm}")
         if not np.all(np.isfinite(x)):
             raise ValueError("policy input contains NaN or infinite values")
+        x = self._readout.apply(x, self._links)
         signals = {name: x[..., k] for k, name in enumerate(self._state_names)}
         for agent in self.agents:
             points = np.stack([signals[n] for n in agent.inputs], -1)
