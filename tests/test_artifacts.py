@@ -80,3 +80,76 @@ def test_outputs_never_resolve_into_the_shipped_files(tmp_path):
         assert "resolves into twolink's shipped files" in res.stderr
         assert res.stderr.count("\n") == 1
     assert shipped.read_bytes() == before
+
+
+def test_an_output_written_with_a_trailing_slash_is_a_folder_made_for_it(tmp_path, capsys):
+    from twolink.cli import main
+
+    folder = tmp_path / "new"
+    assert main(["mjcf", "-o", f"{folder}/"]) == 0, capsys.readouterr().err
+    assert [p.name for p in folder.iterdir()] == ["twolink.xml"]
+    deeper = tmp_path / "missing" / "new"
+    assert main(["mjcf", "-o", f"{deeper}/"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "directory" in err and "does not exist" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new"]
+
+
+class _Stop(Exception):
+    """Raised by a stub where the real work would start."""
+
+
+def test_identify_takes_a_folder_with_a_trailing_slash(tmp_path, capsys, monkeypatch):
+    """The folder passes the checks and is made only when the file is written (the work
+    is stubbed: only where the command writes is at stake)."""
+    from twolink.cli import main
+    from twolink.commands import identify
+
+    monkeypatch.setattr(identify.excitation, "experiment",
+                        lambda *a, **k: (_ for _ in ()).throw(_Stop()))
+    with pytest.raises(_Stop):
+        main(["identify", "-o", f"{tmp_path / 'i'}/"])
+    assert not (tmp_path / "i").exists()                   # nothing before the work
+    assert main(["identify", "-o", f"{tmp_path / 'no' / 'i'}/"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_synthesize_takes_a_folder_with_a_trailing_slash(tmp_path, monkeypatch):
+    from twolink.cli import main
+    from twolink.commands import synthesize
+    from twolink.policy.fuzzy_policy import load_policy
+
+    monkeypatch.setattr(synthesize, "synthesize",
+                        lambda kind, **k: load_policy("decentralized"))
+    assert main(["synthesize", "decentralized", "--json", "-o", f"{tmp_path / 's'}/"]) == 0
+    assert [p.name for p in (tmp_path / "s").iterdir()] == ["decentralized.npz"]
+
+
+def test_learn_takes_a_folder_with_a_trailing_slash(tmp_path, monkeypatch):
+    from twolink.cli import main
+    from twolink.commands import learn
+
+    seen = []
+
+    class Learner:
+        def __init__(self, config, init=None, nthread=1):
+            pass
+
+        def run(self, *, checkpoint, progress):
+            seen.append(checkpoint)
+            raise _Stop
+
+        def close(self):
+            pass
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.close()
+
+    monkeypatch.setattr(learn, "Learner", Learner)
+    with pytest.raises(_Stop):
+        main(["learn", "--task", "decentralized", "-o", f"{tmp_path / 'l'}/"])
+    assert seen == [tmp_path / "l" / "learned_decentralized.npz"]
+    assert (tmp_path / "l").is_dir()

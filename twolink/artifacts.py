@@ -63,6 +63,26 @@ def check_writable(path: os.PathLike) -> Path:
     return path
 
 
+def output_file(given, default_name: str) -> tuple[Path, list]:
+    """(file, folders to make) of an ``-o`` value naming a file: ``given`` itself, or
+    ``default_name`` in the current directory when None, or ``DIR/<default_name>`` when it
+    is written with a trailing ``/`` (``DIR`` then among the folders :func:`check_outputs`
+    may find missing and :func:`make_folders` makes, once every check has passed)."""
+    if given is None:
+        return Path(default_name), []
+    text = os.fspath(given)
+    if text.endswith(tuple(sep for sep in (os.sep, os.altsep) if sep)):
+        folder = Path(text)
+        return folder / default_name, [folder]
+    return Path(text), []
+
+
+def make_folders(folders) -> None:
+    """Make each of ``folders`` (one level, after :func:`check_outputs` passed them)."""
+    for folder in folders:
+        Path(folder).mkdir(exist_ok=True)
+
+
 def check_outputs(outputs: Mapping[str, os.PathLike | None], *, creatable=(),
                   ship: bool = False) -> dict:
     """Check every output of a command before any work: each can be written

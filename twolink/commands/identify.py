@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from twolink.arm import parameter_file
 from twolink.arm.parameters import TS
-from twolink.artifacts import check_outputs, provenance
+from twolink.artifacts import check_outputs, make_folders, output_file, provenance
 from twolink.commands import SUMMARIES
 from twolink.sim import excitation, identify
 
@@ -59,8 +58,9 @@ def add_parser(sub):
     p.add_argument("--bootstrap", type=_number(int, "must be a whole number"), default=20,
                    help="bootstrap replicates for the standard errors (default 20; 2 to "
                         f"{identify.MAX_BOOTSTRAP})")
-    p.add_argument("-o", "--output", type=Path, default=None,
-                   help=f"parameter file to write (default ./{DEFAULT_OUTPUT})")
+    p.add_argument("-o", "--output", default=None,
+                   help=f"parameter file to write (default ./{DEFAULT_OUTPUT}; DIR/ writes "
+                        f"DIR/{DEFAULT_OUTPUT}, making DIR)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--reveal", action="store_true",
                    help="after the fit, print the hidden plant's values and the errors")
@@ -85,8 +85,8 @@ def _table(result: dict) -> str:
 
 
 def run(args) -> int:
-    out = args.output or Path(DEFAULT_OUTPUT)
-    check_outputs({"-o": out})
+    out, folders = output_file(args.output, DEFAULT_OUTPUT)
+    check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
     excitation.check_experiment(duration=args.duration, angle_noise_deg=args.angle_noise_deg,
@@ -104,6 +104,7 @@ def run(args) -> int:
         "excitation_description": excitation.EXCITATIONS[args.excitation],
         "reading_interval_s": log.dt, "control_period_s": TS, "readings": len(log.angles),
         "speeds_measured": False}
+    make_folders(folders)
     parameter_file.save(out, params, provenance={"command": "twolink identify", **record,
                                                  "environment": provenance()})
     result = {"path": str(out), **record, "parameters": params.as_dict()}

@@ -11,7 +11,7 @@ import json
 import math
 from pathlib import Path
 
-from twolink.artifacts import check_outputs
+from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
 from twolink.control.learning import Learner, evaluate, stays_above, steps_to_reach
 from twolink.control.learning_setup import (
@@ -111,9 +111,10 @@ def add_parser(sub):
     p.add_argument("--eval-every", default="0", metavar="N",
                    help="control steps between evaluations and checkpoints (default: "
                         "steps / 20)")
-    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
+    p.add_argument("-o", "--output", default=None, metavar="FILE",
                    help="checkpoint policy file (default ./learned_<learner>.npz; with "
-                        "--resume, the resumed file)")
+                        "--resume, the resumed file; DIR/ writes that name in DIR, making "
+                        "DIR)")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="learning-curve figure (default: the checkpoint's name with "
                         "_curve.png)")
@@ -171,13 +172,14 @@ def run(args) -> int:
     if args.resume is not None:
         check_resume_options(args)
         checkpoint = Policy.load(args.resume)
-        output = args.output or args.resume
+        output, folders = output_file(args.output, args.resume.name) if args.output \
+            else (args.resume, [])
         learner = Learner.resume(checkpoint, steps=_count(args.steps) if args.steps else None,
                                  nthread=threads)
     else:
         config = _config(args)
         init = load_policy(args.init) if args.init else None
-        output = args.output or Path(f"learned_{config.learner}.npz")
+        output, folders = output_file(args.output, f"learned_{config.learner}.npz")
         if output.is_dir():
             raise ValueError(f"-o {output} is a directory; give a policy file name")
         if output.exists() and not args.force:
@@ -185,7 +187,8 @@ def run(args) -> int:
         learner = Learner(config, init=init, nthread=threads)
     plot = args.plot or output.with_name(output.stem + "_curve.png")
     try:
-        check_outputs({"--output": output, "--plot": plot})
+        check_outputs({"--output": output, "--plot": plot}, creatable=folders)
+        make_folders(folders)
         with learner:
             curve = learner.run(checkpoint=output, progress=not args.json)
             kind = policy_kind(learner.config.learner)

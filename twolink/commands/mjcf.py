@@ -1,10 +1,8 @@
 """``twolink mjcf``: write the MJCF model generated from Table I."""
 from __future__ import annotations
 
-from pathlib import Path
-
 from twolink.arm import mjcf
-from twolink.artifacts import check_outputs
+from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
 from twolink.resources import MODEL_FILE, model_file, source_checkout
 
@@ -15,8 +13,9 @@ def add_parser(sub):
                                    f"and write it (default: ./{MODEL_FILE}; --ship replaces "
                                    "the committed models/twolink.xml of a source checkout).")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("-o", "--output", type=Path, default=None,
-                       help=f"file to write (default ./{MODEL_FILE})")
+    where.add_argument("-o", "--output", default=None,
+                       help=f"file to write (default ./{MODEL_FILE}; DIR/ writes "
+                            f"DIR/{MODEL_FILE}, making DIR)")
     where.add_argument("--ship", action="store_true",
                        help="overwrite the committed models/twolink.xml (source checkouts only)")
     return p
@@ -27,9 +26,10 @@ def run(args) -> int:
         if source_checkout() is None:
             raise OSError("--ship writes models/twolink.xml of a source checkout, but twolink "
                           "runs from an installed package; use -o FILE")
-        out = model_file()
+        out, folders = model_file(), []
     else:
-        out = args.output or Path(MODEL_FILE)
-    check_outputs({"-o": out}, ship=args.ship)
+        out, folders = output_file(args.output, MODEL_FILE)
+    check_outputs({"-o": out}, creatable=folders, ship=args.ship)
+    make_folders(folders)
     print(f"wrote {mjcf.write_model(out)}")
     return 0
