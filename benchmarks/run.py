@@ -22,13 +22,16 @@ MODES = {
     "quick": {"repeats": 2, "sweep_repeats": 3, "full_setup": False,
               "central": (1, 2), "decentral": (1, 2, 3),
               "batch": 64, "frames": 10, "render_repeats": 1,
-              "vector_samples": 20},
+              "vector_samples": 20, "eval_states": 13,
+              "eval_horizon": 2.0},
     "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
              "central": (1, 2, 3, 4), "decentral": (1, 2, 3, 6),
              "batch": 256, "frames": 40, "render_repeats": 3,
-             "vector_samples": 100},
+             "vector_samples": 100, "eval_states": 65,
+             "eval_horizon": 5.0},
 }
-SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env")
+SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env",
+            "evaluation")
 
 
 def machine() -> dict:
@@ -80,6 +83,11 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
             from benchmarks import vector_env
             r, summary[section] = vector_env.bench_vector_env(
                 num_envs=64, samples=cfg["vector_samples"], repeats=cfg["repeats"])
+        elif section == "evaluation":
+            from benchmarks import evaluation
+            r, summary[section] = evaluation.bench_evaluation(states=cfg["eval_states"],
+                                                              horizon=cfg["eval_horizon"],
+                                                              repeats=cfg["repeats"])
         else:
             raise ValueError(f"unknown benchmark section {section!r}; choose from "
                              f"{', '.join(SECTIONS)}")

@@ -250,3 +250,24 @@ def test_vector_env_rows_and_ratio_is_the_times():
     assert m["vector_steps_per_s"] == pytest.approx(4 * 3 / m["seconds"]["vector"], rel=1e-12)
     _positive_finite(rows)
     assert "vector_env" in run.SECTIONS and run.MODES["quick"]["vector_samples"] >= 1
+
+
+def test_evaluation_rows_and_ratio_is_the_times():
+    """evaluate() against the raw rollout of the same controller and states: both rows,
+    the ratio is their times, and both runs settle alike."""
+    from benchmarks import evaluation
+
+    rows, summary = evaluation.bench_evaluation(controllers=("lqr",), states=5, horizon=0.5,
+                                                repeats=1, nthread=1)
+    by = _by_name(rows)
+    sec = "evaluation: lqr, 5 states x 10 Ts, 1 thread"
+    for name in ("evaluate(): seconds", "raw rollout(): seconds", "evaluate / raw rollout",
+                 "open loop mujoco.rollout: physics steps/s",
+                 "evaluate / open-loop mujoco.rollout steps/s"):
+        assert (sec, name) in by
+    s = summary["lqr"]
+    assert by[(sec, "evaluate / raw rollout")].value == pytest.approx(
+        s["evaluate_seconds"] / s["raw_seconds"], rel=1e-12)
+    assert s["same_settle"] and s["mujoco_steps"] > 0
+    _positive_finite(rows)
+    assert "evaluation" in run.SECTIONS and run.MODES["quick"]["eval_states"] >= 1
