@@ -82,7 +82,9 @@ def test_resume_refuses_new_settings_and_a_forged_iteration_count(tmp_path, caps
 @pytest.mark.parametrize("args, message", [
     (["--steps", "0"], "steps must be a whole number in [1, 100,000,000], got 0"),
     (["--steps", "-10"], "steps must be a whole number"),
-    (["--steps", "1.5"], "expected a whole number, got '1.5'"),
+    (["--steps", "1.5"], "--steps must be a whole number, got '1.5'"),
+    (["--seed", "-1"], "--seed must be a non-negative whole number"),
+    (["--seed", "x"], "--seed must be a whole number, got 'x'"),
     (["--arms", "0"], "arms must be a whole number"),
     (["--arms", "100000"], "arms must be a whole number in [1, 1,024]"),
     (["--alpha", "0"], "learning rate alpha must be a number in (0, 1]"),

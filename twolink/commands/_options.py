@@ -24,6 +24,7 @@ from twolink.policy.registry import SHIPPED
 from twolink.sim.challenges import LEVELS, check_horizon, requested
 from twolink.sim.plants import MAX_ANGLE, SPEED_BOUND, check_states
 from twolink.sim.rollout import steps_for
+from twolink.validate import whole
 
 X0_HELP = ("initial state theta1 theta2 dtheta1 dtheta2: four numbers in radians and "
            "rad/s (degrees and deg/s with --degrees), separated by spaces or commas, or "
@@ -117,10 +118,21 @@ def add_challenge_options(p) -> None:
                         "observer (twolink.sim.estimation) for the challenge's delays and noise")
 
 
+#: The largest seed a command takes (numpy's generators take any, the JSON files int64).
+MAX_SEED = 2**63 - 1
+
+
+def seed_option(value, option: str = "--seed", high: int = MAX_SEED) -> int:
+    """``value`` as an int if it is a whole number from 0 to ``high``, else a one-line
+    ValueError naming ``option``: every command's seed is checked by this before any work."""
+    return whole(value, option, 0, high, message="{what} must be a non-negative whole number "
+                 "(at most " + ("2**63 - 1" if high == MAX_SEED else "{high}")
+                 + "), got {value!r}")
+
+
 def challenge_of(args):
     """The challenge ``args`` ask for (None: the plain plant), checked against the horizon."""
-    if args.seed < 0:
-        raise ValueError(f"--seed must be a non-negative whole number, got {args.seed}")
+    seed_option(args.seed)
     ch = requested(args.challenge, delay=args.delay, angle_noise_deg=args.angle_noise)
     check_horizon(ch, steps_for(args.duration), args.duration)
     return ch

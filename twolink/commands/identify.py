@@ -15,6 +15,7 @@ from twolink.arm import parameter_file
 from twolink.arm.parameters import TS
 from twolink.artifacts import check_outputs, make_folders, output_file, provenance
 from twolink.commands import SUMMARIES
+from twolink.commands._options import seed_option
 from twolink.sim import excitation, identify
 
 DEFAULT_OUTPUT = "identified.json"
@@ -85,6 +86,7 @@ def _table(result: dict) -> str:
 
 
 def run(args) -> int:
+    seed_option(args.seed)
     out, folders = output_file(args.output, DEFAULT_OUTPUT)
     check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:

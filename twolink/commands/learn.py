@@ -13,6 +13,7 @@ from pathlib import Path
 
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._options import seed_option
 from twolink.control.learning import Learner, evaluate, stays_above, steps_to_reach
 from twolink.control.learning_setup import (
     MAX_ARMS,
@@ -35,15 +36,21 @@ INIT_SCALE = _DEFAULTS.init_scale
 HYSTERESIS = _DEFAULTS.hysteresis
 
 
-def _count(text: str) -> int:
-    """A whole number written as 1000000, 1_000_000 or 1e6; else a ValueError."""
+def _count(text: str, option: str) -> int:
+    """A whole number written as 1000000, 1_000_000 or 1e6; else a ValueError naming
+    ``option``."""
     try:
         value = float(text.replace("_", ""))
     except ValueError:
-        raise ValueError(f"expected a whole number, got {text!r}") from None
+        raise ValueError(f"{option} must be a whole number, got {text!r}") from None
     if not math.isfinite(value) or value != int(value):
-        raise ValueError(f"expected a whole number, got {text!r}")
-    return int(value)
+        raise ValueError(f"{option} must be a whole number, got {text!r}")
+    if abs(value) < 2**53:
+        return int(value)
+    try:                                  # beyond a float's integers: read it exactly
+        return int(text.replace("_", ""))
+    except ValueError:
+        return int(value)
 
 
 def add_parser(sub):
@@ -155,18 +162,20 @@ def _config(args) -> LearnConfig:
         raise ValueError("--init-scale applies to a warm start (--init) only")
     scale = INIT_SCALE if args.init_scale is None else args.init_scale
     return LearnConfig(
-        learner=learner, steps=_count(args.steps) if args.steps else _DEFAULTS.steps,
-        arms=_count(args.arms), seed=_count(args.seed), update=args.update,
+        learner=learner, steps=_count(args.steps, "--steps") if args.steps else _DEFAULTS.steps,
+        arms=_count(args.arms, "--arms"),
+        seed=seed_option(_count(args.seed, "--seed")), update=args.update,
         alpha=args.alpha, alpha_halflife=args.alpha_halflife, epsilon=args.epsilon,
         epsilon_final=args.epsilon if args.epsilon_final is None else args.epsilon_final,
-        episode=_count(args.episode), eval_every=_count(args.eval_every),
+        episode=_count(args.episode, "--episode"),
+        eval_every=_count(args.eval_every, "--eval-every"),
         average=(0.0 if learner == "centralized" else AVERAGE) if args.average is None
         else args.average, init_scale=scale if args.init else 1.0,
         hysteresis=args.hysteresis).check()
 
 
 def run(args) -> int:
-    threads = _count(args.threads)
+    threads = _count(args.threads, "--threads")
     if not 1 <= threads <= 64:
         raise ValueError(f"--threads must be in [1, 64], got {threads}")
     if args.resume is not None:
@@ -174,8 +183,8 @@ def run(args) -> int:
         checkpoint = Policy.load(args.resume)
         output, folders = output_file(args.output, args.resume.name) if args.output \
             else (args.resume, [])
-        learner = Learner.resume(checkpoint, steps=_count(args.steps) if args.steps else None,
-                                 nthread=threads)
+        steps = _count(args.steps, "--steps") if args.steps else None
+        learner = Learner.resume(checkpoint, steps=steps, nthread=threads)
     else:
         config = _config(args)
         init = load_policy(args.init) if args.init else None

@@ -59,9 +59,10 @@ def add_parser(sub):
 def _states(args):
     import numpy as np
 
-    from twolink.commands._options import parse_x0
+    from twolink.commands._options import parse_x0, seed_option
     from twolink.sim.metrics import evaluation_set
 
+    seed_option(args.seed)
     rows = [parse_x0(words, degrees=args.degrees, seed=args.seed) for words in args.x0 or ()]
     if args.evaluation_set:
         rows += list(evaluation_set())

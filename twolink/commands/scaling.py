@@ -101,7 +101,10 @@ def run(args) -> int:
     check_rules(args.rules)
     if args.poses is not None:
         check_poses(args.poses)
-    check_seed(args.seed)
+    try:
+        check_seed(args.seed)
+    except ValueError as exc:                 # "seed must be ...": name the option
+        raise ValueError(f"--{exc}") from None
     max_bytes = _max_bytes(args.max_memory)
     plan(args.links or [MIN_LINKS], args.rules, quick=args.quick)
     out = args.out or output_dir() / ("scaling-quick" if args.quick else "scaling")

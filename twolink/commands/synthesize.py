@@ -49,7 +49,7 @@ from twolink.policy.readout import Readout
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.sim.perturbations import MAX_SPREAD
-from twolink.validate import whole
+from twolink.validate import real, whole
 
 #: Defaults of a robust synthesis (those of the shipped robust policies).
 DEFAULT_DRAWS = 8
@@ -275,6 +275,8 @@ def _parameters(args) -> tuple:
 def _jobs(args) -> list[tuple[str, dict, Path]]:
     """(kind, synthesize() options, output path) for every policy to write; checks first."""
     links, _ = arm_of(args)
+    real(args.gamma, "--gamma", 0.0, 1.0, open_low=True, open_high=True)
+    real(args.delta, "--delta", 0.0, open_low=True)      # inf or NaN: before any work
     if args.ship:
         if args.kind or args.model or args.context or args.output or args.force \
                 or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA \
