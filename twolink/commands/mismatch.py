@@ -201,7 +201,7 @@ def _report(args, chosen, levels) -> int:
     out = args.out or output_dir() / chosen.folder
     check_report_folder(out, force=args.force)
     out.mkdir(exist_ok=True)
-    progress = not args.json and sys.stderr.isatty()
+    progress = not args.json          # bars on a terminal, periodic lines in a log
     with SweepFile(out / "sweep.jsonl") as store:    # a second run on `out` stops here
         if store.note:
             print(f"twolink mismatch: {store.note}", file=sys.stderr)

@@ -98,6 +98,7 @@ from twolink.sim.metrics import (
     success,
 )
 from twolink.sim.plants import MujocoPlant
+from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout
 
 #: Updates that act as policy (14): every active bin its own action.
@@ -353,14 +354,12 @@ class Learner:
             on_eval: Optional[Callable[[Evaluation], None]] = None) -> list:
         """Step to ``config.steps``, evaluating (and checkpointing to ``checkpoint``) every
         ``eval_iterations`` and at the end; returns the learning curve."""
-        from tqdm import tqdm
-
         c = self.config
         if not self.curve:
             self._record(checkpoint, on_eval)
-        with tqdm(total=c.iterations * c.arms, initial=self.steps_done, unit=" steps",
-                  unit_scale=True, desc=f"learn {c.learner}", disable=None if progress else True,
-                  mininterval=0.5) as bar:
+        with progress_bar(total=c.iterations * c.arms, initial=self.steps_done,
+                          unit=" steps", unit_scale=True, desc=f"learn {c.learner}",
+                          enabled=progress, mininterval=0.5) as bar:
             while self.iteration < c.iterations:
                 self.step()
                 bar.update(c.arms)

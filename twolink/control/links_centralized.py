@@ -25,7 +25,6 @@ import time
 from typing import Optional
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm import dynamics
 from twolink.arm.integrate import SUBSTEPS, sample_step, wrap_angle
@@ -45,6 +44,7 @@ from twolink.artifacts import VERSION as __version__
 from twolink.fqi import fuzzy
 from twolink.fqi.factored import FactoredBuilder, default_threads, factored_q_iteration
 from twolink.policy.fuzzy_policy import Agent, Policy
+from twolink.sim.progress import progress_bar
 from twolink.validate import whole
 
 
@@ -216,8 +216,8 @@ def factored_problem(p, g: Optional[fuzzy.Grid] = None, *, progress: bool = Fals
     rewards = np.empty((g.axes[0].size, n_slice, n_u))
     step = max(1, BLOCK_PAIRS // n_u)
     clocks = {"model": [0.0, 0.0], "table": [0.0, 0.0]}
-    with tqdm(total=n_slice, desc=f"transitions {n}-link", unit=" bins", leave=False,
-              disable=None if progress else True, mininterval=0.25) as bar:
+    with progress_bar(total=n_slice, desc=f"transitions {n}-link", unit=" bins", leave=False,
+                      enabled=progress, mininterval=0.25) as bar:
         for r0 in range(0, n_slice, step):
             t0, c0 = time.perf_counter(), time.process_time()
             block = rest[r0:r0 + step]
@@ -260,8 +260,8 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
     table, rewards, clocks = factored_problem(p, g, progress=progress)
     nnz, stored = table.nnz, table.nbytes
     c0 = time.process_time()
-    with tqdm(desc=f"Q-iteration centralized {p.links}-link", unit=" sweeps", leave=False,
-              disable=None if progress else True, mininterval=0.25) as bar:
+    with progress_bar(desc=f"Q-iteration centralized {p.links}-link", unit=" sweeps",
+                      leave=False, enabled=progress, mininterval=0.25) as bar:
         def tick(ell, change):
             bar.update(1)
             bar.set_postfix(change=f"{change:.3g}")

@@ -47,14 +47,17 @@ import time
 from typing import Optional, Sequence
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm import dynamics
-from twolink.arm.integrate import SUBSTEPS, sample_step
+from twolink.arm.integrate import SUBSTEPS, sample_step, wrap_angle
 from twolink.arm.parameters import (
     DELTA,
     GAMMA,
+    GOAL_ANGLE,
+    GOAL_SPEED,
     LINK_RULES,
+    REWARD_GOAL,
+    REWARD_OTHER,
     TABLE_I,
     TS,
     ArmParameters,
@@ -63,11 +66,12 @@ from twolink.arm.parameters import (
     check_links,
     state_names,
 )
-from twolink.arm.task import action_levels, agent_reward
+from twolink.arm.task import PAPER_LEVELS, action_levels, agent_reward, check_levels
 from twolink.artifacts import VERSION as __version__
 from twolink.control.problems import CONTEXTS, Problem, check_sweeps, model_step, solve
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Agent, Policy
+from twolink.sim.progress import progress_bar
 
 #: Which speed axes get the two extra bins at +-:data:`EXTRA_SPEED_DEG`.
 EXTRA_BINS = ("none", "own", "context", "both", "base", "neighbour")
@@ -107,6 +111,36 @@ class Construction:
         return dataclasses.asdict(self)
 
 
+@dataclasses.dataclass(frozen=True)
+class Design:
+    """What every agent is made of, beside how it reads its transitions: ``levels``
+    torque levels per joint (:func:`twolink.arm.task.action_levels`; the context's torque
+    axis carries the neighbour's levels), the bin layout ``bins`` of the agents' own angle
+    and speed axes (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`; the context axes keep the
+    paper's bins) and ``band``, the fraction of the goal band (5 deg, 0.1 rad/s) inside
+    which the synthesis rewards a link with (17)'s 0 (1: the band itself). A band below 1
+    makes the value of resting exactly at the band's edge -0.5 a step, so an agent does
+    not stall there. The default is the paper's: three levels, its bins, its band."""
+
+    levels: int = PAPER_LEVELS
+    bins: str = "paper"
+    band: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "levels", check_levels(self.levels))
+        fuzzy.check_bins(self.bins)
+        b = self.band
+        if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 < b <= 1.0:
+            raise ValueError(f"band must be a fraction of the goal band in (0, 1], got {b!r}")
+        object.__setattr__(self, "band", float(b))
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+#: The paper's design: three torque levels, its bins and goal band.
+PAPER_DESIGN = Design()
+
 #: The default construction for two links: the paper's pair (18) on the full model (6).
 TWO_LINK_DEFAULT = Construction()
 #: The default construction for three links and more (chosen on development seeds,
@@ -132,29 +166,44 @@ def construction(links: int, rule: str = "tapered", **options) -> Construction:
     return dataclasses.replace(base, **{k: v for k, v in options.items() if v is not None})
 
 
-def _speed_axis(name: str, extra: bool) -> fuzzy.Axis:
-    if not extra:
-        return fuzzy.speed_axis(name)
-    deg = sorted(fuzzy.SPEED_BINS_DEG + (-EXTRA_SPEED_DEG, EXTRA_SPEED_DEG))
+def _speed_axis(name: str, extra: bool, bins: str = "paper") -> fuzzy.Axis:
+    """A speed axis of layout ``bins``, with two more bins at +-EXTRA_SPEED_DEG when
+    ``extra`` (unless the layout has a bin within 2 deg/s of them already)."""
+    axis = fuzzy.speed_axis(name, bins)
+    if not extra or np.any(np.abs(np.abs(np.rad2deg(axis.centers)) - EXTRA_SPEED_DEG) < 2):
+        return axis
+    deg = sorted(fuzzy.BIN_LAYOUTS[bins][1] + (-EXTRA_SPEED_DEG, EXTRA_SPEED_DEG))
     return fuzzy.Axis(name, tuple(np.deg2rad(deg)))
 
 
-def agent_grid(i: int, p: ChainParameters, c: Construction) -> fuzzy.Grid:
+def agent_grid(i: int, p: ChainParameters, c: Construction,
+               design: Design = PAPER_DESIGN) -> fuzzy.Grid:
     """Agent i's fuzzy grid over (theta_i, dtheta_i[, theta_{i+1}, [dtheta_{i+1},]
-    tau_{i+1}]); the torque axis is the three torque values of link i + 1."""
+    tau_{i+1}]); the own axes have the bins of ``design``, the torque axis is the
+    ``design.levels`` torque values of link i + 1."""
     n = p.links
     extra = c.extra_speed_bins
-    axes = [fuzzy.angle_axis(f"theta{i}"),
+    axes = [fuzzy.angle_axis(f"theta{i}", design.bins),
             _speed_axis(f"dtheta{i}", extra in ("own", "both")
                         or (extra == "base" and i <= 2 and i < n)
-                        or (extra == "neighbour" and i == n - 1))]
+                        or (extra == "neighbour" and i == n - 1), design.bins)]
     if i < n:
         axes.append(fuzzy.angle_axis(f"theta{i + 1}"))
         if c.speed_context:
             axes.append(_speed_axis(f"dtheta{i + 1}",
                                     extra in ("context", "both", "base", "neighbour")))
-        axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i])))
+        axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i]), design.levels))
     return fuzzy.Grid(tuple(axes))
+
+
+def _reward(x: np.ndarray, i: int, band: float) -> np.ndarray:
+    """(17) of link i on the states x, its goal band scaled by ``band`` (1: (17) itself)."""
+    if band == 1.0:
+        return agent_reward(x, i)
+    n = x.shape[-1] // 2
+    inside = (np.abs(wrap_angle(x[..., i - 1])) <= band * GOAL_ANGLE) & \
+        (np.abs(x[..., n + i - 1]) <= band * GOAL_SPEED)
+    return np.where(inside, REWARD_GOAL, REWARD_OTHER)
 
 
 def locked_joints(i: int, links: int, c: Construction) -> tuple:
@@ -194,17 +243,18 @@ def _transitions(p: ChainParameters, x: np.ndarray, tau: np.ndarray, locked: tup
 
 
 def agent_problem(i: int, p: ChainParameters, c: Construction,
-                  outer: Sequence[Agent] = ()) -> Problem:
-    """Agent i's MDP (see the module docstring); ``outer`` are the agents N..i+1 already
-    synthesised (the propagated context runs them on the state reached)."""
+                  outer: Sequence[Agent] = (), design: Design = PAPER_DESIGN) -> Problem:
+    """Agent i's MDP (see the module docstring) made as ``design`` says; ``outer`` are
+    the agents N..i+1 already synthesised (the propagated context runs them on the state
+    reached)."""
     n = p.links
     if not 1 <= i <= n:
         raise ValueError(f"agent {i}: an arm of {n} links has agents 1 to {n}")
     if c.context == "propagated" and i < n and len(outer) != n - i:
         raise ValueError(f"agent {i}: the propagated context needs the {n - i} outer agents")
     start = time.perf_counter()
-    grid = agent_grid(i, p, c)
-    actions = action_levels(float(p.tau_max[i - 1]))[:, None]
+    grid = agent_grid(i, p, c, design)
+    actions = action_levels(float(p.tau_max[i - 1]), design.levels)[:, None]
     centers = grid.centers()
     x = np.zeros((len(centers), 2 * n))
     x[:, i - 1], x[:, n + i - 1] = centers[:, 0], centers[:, 1]
@@ -231,10 +281,11 @@ def agent_problem(i: int, p: ChainParameters, c: Construction,
         else:
             columns.append(_outer_torque(outer, nxt, n, i))
     return Problem(f"agent{i}", grid, actions, (f"tau{i}",), np.stack(columns, -1),
-                   agent_reward(nxt, i), time.perf_counter() - start)
+                   _reward(nxt, i, design.band), time.perf_counter() - start)
 
 
-def transition_bytes(p: ChainParameters, c: Construction) -> int:
+def transition_bytes(p: ChainParameters, c: Construction,
+                     design: Design = PAPER_DESIGN) -> int:
     """Peak bytes of the largest agent's transitions, known before any work: per (bin,
     action) row its RK4 states and the model's temporaries (about 16 state vectors and
     four N x N matrices), its reached point and reward, and its row of T (at most 2**d
@@ -242,16 +293,17 @@ def transition_bytes(p: ChainParameters, c: Construction) -> int:
     n = p.links
     need = 0
     for i in range(1, n + 1):
-        grid = agent_grid(i, p, c)
+        grid = agent_grid(i, p, c, design)
         d = len(grid.axes)
-        rows = grid.size * 3
+        rows = grid.size * design.levels
         need = max(need, rows * (8 * (16 * 2 * n + 4 * n * n + d + 1) + 12 * 2 ** d))
     return need
 
 
-def check_size(p: ChainParameters, c: Construction, max_bytes: int = MAX_BYTES) -> int:
+def check_size(p: ChainParameters, c: Construction, max_bytes: int = MAX_BYTES,
+               design: Design = PAPER_DESIGN) -> int:
     """:func:`transition_bytes`, or a ValueError with the estimate over ``max_bytes``."""
-    need = transition_bytes(p, c)
+    need = transition_bytes(p, c, design)
     if need > max_bytes:
         raise ValueError(f"the {p.links}-link agents' transitions take about "
                          f"{need / 2**20:.0f} MiB, over the {max_bytes >> 20} MiB a "
@@ -259,36 +311,45 @@ def check_size(p: ChainParameters, c: Construction, max_bytes: int = MAX_BYTES) 
     return need
 
 
+def design(levels: int = PAPER_LEVELS, bins: str = "paper", band: float = 1.0) -> Design:
+    """The :class:`Design` of these options, checked (a ValueError naming the bad one)."""
+    return Design(levels, bins, band)
+
+
 def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                      context: Optional[str] = None, speed_context: Optional[bool] = None,
                      extra_speed_bins: Optional[str] = None, lock_inner: Optional[str] = None,
-                     beyond: Optional[str] = None, gamma: float = GAMMA,
+                     beyond: Optional[str] = None, levels: int = PAPER_LEVELS,
+                     bins: str = "paper", band: float = 1.0, gamma: float = GAMMA,
                      delta: float = DELTA, sweeps: str = "synchronous",
                      max_bytes: int = MAX_BYTES, progress: bool = False) -> Policy:
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
     take the default for N links and the rule of ``p`` (:func:`construction`: the paper's
-    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond). The memory the transitions take is
-    estimated first and refused over ``max_bytes``. The policy's ``meta`` records the
-    links, the rule, the parameters, the construction, gamma, delta, Ts, the RK4 substeps
-    and every agent's sweeps and timings."""
+    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond); ``levels``, ``bins`` and ``band`` make
+    the :class:`Design` (the paper's by default). Every option and the memory the
+    transitions take (refused over ``max_bytes``) are checked before any work. The
+    policy's ``meta`` records the links, the rule, the parameters, the construction (and
+    the design when it is not the paper's), gamma, delta, Ts, the RK4 substeps and every
+    agent's sweeps and timings."""
     p = as_chain(p)
     n = p.links
     c = construction(n, p.rule, context=context, speed_context=speed_context,
                      extra_speed_bins=extra_speed_bins, lock_inner=lock_inner, beyond=beyond)
+    made = design(levels, bins, band)
     check_sweeps(sweeps)
     if not (isinstance(gamma, (int, float)) and 0.0 < gamma < 1.0):
         raise ValueError(f"gamma must lie in (0, 1), got {gamma!r}")
     if not (isinstance(delta, (int, float)) and delta > 0.0):
         raise ValueError(f"delta must be positive, got {delta!r}")
-    need = check_size(p, c, max_bytes)
+    need = check_size(p, c, max_bytes, made)
     start = time.perf_counter()
     agents = []
-    with tqdm(total=n, desc=f"{n}-link agents", unit=" agent",
-              disable=None if progress else True, leave=False) as bar:
+    with progress_bar(total=n, desc=f"{n}-link agents", unit=" agent", enabled=progress,
+                      leave=False) as bar:
         for i in range(n, 0, -1):
             bar.set_postfix(agent=i)
-            problem = agent_problem(i, p, c, agents)
+            problem = agent_problem(i, p, c, agents, made)
             agents.append(solve(problem, gamma=gamma, delta=delta, sweeps=sweeps,
                                 progress=progress,
                                 extra={"locked": list(locked_joints(i, n, c))}))
@@ -302,4 +363,6 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                                                       "sweep_seconds", "seconds", "q_size",
                                                       "transition_nnz")}
                        for a in agents}}
+    if made != PAPER_DESIGN:
+        meta["design"] = made.as_dict()
     return Policy("decentralized", agents, meta)

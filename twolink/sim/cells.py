@@ -40,7 +40,6 @@ import threading
 from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
 from twolink.policy.fuzzy_policy import load_policy
@@ -58,6 +57,7 @@ from twolink.sim.perturbations import (
     torque_limited,
 )
 from twolink.sim.plants import MujocoPlant
+from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout, steps_for
 
 FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
@@ -301,8 +301,8 @@ def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
                == r.get("policy_digest")}
     pending = [c for c in cells if c.key not in results]
     tasks = _tasks(pending)
-    bar = tqdm(total=len(pending), desc="sweep cells", unit=" cells",
-               disable=None if progress else True, leave=False)
+    bar = progress_bar(total=len(pending), desc="sweep cells", unit=" cells",
+                       enabled=progress, leave=False)
 
     def done(records):
         if store is not None:

@@ -21,7 +21,6 @@ import functools
 import math
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
 from twolink.sim.challenges import MAX_PLANTS, PLANT_COUNT, Challenge, check_horizon
@@ -42,6 +41,7 @@ from twolink.sim.perturbations import (
     keyed_generators,
 )
 from twolink.sim.plants import MujocoPlant, check_nthread, check_states
+from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout, rollout_grid, steps_for
 from twolink.validate import real, whole
 
@@ -278,8 +278,8 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     keys = [(p, s) for p in range(len(plants)) for s in range(len(x0))]
     act, sensed = closed_loop(policy, ch, keys=keys, seed=seed, steps=steps,
                               compensate=compensate)
-    bar = tqdm(total=steps, desc=f"evaluate {label}", unit=" Ts", leave=False,
-               disable=None if progress else True)
+    bar = progress_bar(total=steps, desc=f"evaluate {label}", unit=" Ts", leave=False,
+                       enabled=progress)
 
     def observe(k, x):
         bar.update()

@@ -23,13 +23,13 @@ import time
 from typing import Iterable, Optional
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.policy.registry import SHIPPED
 from twolink.sim.cells import states_of
 from twolink.sim.challenges import LEVELS, Challenge, challenge
 from twolink.sim.evaluation import evaluate
+from twolink.sim.progress import progress_bar
 
 #: The two ways a policy is run: as it is, and behind the run-time compensator.
 MODES = ("plain", "compensated")
@@ -95,9 +95,8 @@ def study(policies: Iterable[str], *, plants: int, states: str, seed: int,
     out: dict = {}
     settle: dict = {}
     t0, c0 = time.perf_counter(), time.process_time()
-    bar = tqdm(total=len(levels) * sum(len(modes_for(n)) for n in policies),
-               desc="robust section",
-               unit=" runs", disable=None if progress else True, leave=False)
+    bar = progress_bar(total=len(levels) * sum(len(modes_for(n)) for n in policies),
+                       desc="robust section", unit=" runs", enabled=progress, leave=False)
     try:
         for name in policies:
             out[name] = {}

@@ -29,7 +29,6 @@ import os
 from typing import Optional
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm.parameters import (
     CHAIN_HORIZON,
@@ -47,6 +46,7 @@ from twolink.arm.parameters import (
 from twolink.artifacts import provenance
 from twolink.sim.metrics import Score, random_poses, score, settle_time, success
 from twolink.sim.plants import make_plant
+from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import Trajectory, rollout
 from twolink.studies.scaling.synthesis import (
     ProcessDied,
@@ -333,7 +333,7 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
     check_peak_method(peak)
     load_before = os.getloadavg()
     rows = []
-    with tqdm(cells, desc="scaling", unit=" rows", disable=None if progress else True) as bar:
+    with progress_bar(cells, desc="scaling", unit=" rows", enabled=progress) as bar:
         for n, rule, scheme in bar:
             bar.set_postfix_str(f"N={n} {rule} {scheme}")
             rows.append(measure(n, rule, scheme, poses=poses, seed=int(seed),
