@@ -49,3 +49,30 @@ def test_motors_saturate_at_tau_max(model):
     d.ctrl[:] = [5.0, -5.0]
     mujoco.mj_forward(model, d)
     np.testing.assert_allclose(d.actuator_force, [0.2, -0.1])
+
+
+@pytest.mark.parametrize("links, rule, name", [(3, "tapered", "twolink_3link.xml"),
+                                               (5, "copied", "twolink_5link_copied.xml")])
+def test_mjcf_command_writes_the_n_link_arm(tmp_path, capsys, links, rule, name):
+    import mujoco
+
+    from twolink.arm.parameters import chain
+    from twolink.cli import main
+
+    assert main(["mjcf", "--links", str(links), "--rule", rule, "-o", f"{tmp_path}/"]) == 0
+    path = tmp_path / name
+    assert path.read_text() == mjcf.model_xml(chain(links, rule))
+    model = mujoco.MjModel.from_xml_path(str(path))
+    assert model.nq == links and model.nu == links
+    assert np.allclose(model.body_mass[1:], chain(links, rule).masses)
+
+
+def test_mjcf_command_refuses_links_it_cannot_build_or_ship(tmp_path, capsys):
+    from twolink.cli import main
+
+    for argv, message in ((["--links", "7"], "--links must be a whole number from 2 to 6"),
+                          (["--links", "3", "--ship"], "--ship writes the committed two-link")):
+        assert main(["mjcf", *argv, *([] if "--ship" in argv else ["-o", f"{tmp_path}/"])]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err
+    assert list(tmp_path.iterdir()) == []
