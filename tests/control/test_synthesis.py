@@ -61,6 +61,46 @@ def test_ship_rewrites_a_registry_policy_into_the_checkout(tmp_path, monkeypatch
     assert json.loads(capsys.readouterr().out)[0]["path"].endswith("decentralized_full.npz")
 
 
+def _checkout_copy(tmp_path, monkeypatch, files: dict):
+    """A policies/ folder in tmp_path standing for the checkout's: ``{name: source}``."""
+    import shutil
+
+    import twolink.resources
+    folder = tmp_path / "policies"
+    folder.mkdir()
+    for name, source in files.items():
+        shutil.copyfile(_real_file(source), folder / f"{name}.npz")
+    monkeypatch.setattr(twolink.resources, "shipped_policy_dir", lambda: folder)
+    monkeypatch.setattr(synthesize_command, "source_checkout", lambda: tmp_path)
+    return folder
+
+
+def test_a_reship_of_an_unchanged_policy_keeps_the_file_byte_for_byte(tmp_path, monkeypatch,
+                                                                      capsys):
+    """The fresh synthesis equals the committed Q-tables bit for bit, so the file (its
+    timings and provenance included) is left as it is: git status stays clean."""
+    folder = _checkout_copy(tmp_path, monkeypatch, {"decentralized": "decentralized"})
+    before = (folder / "decentralized.npz").read_bytes()
+    stat = (folder / "decentralized.npz").stat()
+    assert main(["synthesize", "--ship", "decentralized"]) == 0
+    assert (folder / "decentralized.npz").read_bytes() == before
+    assert (folder / "decentralized.npz").stat().st_mtime_ns == stat.st_mtime_ns
+    assert "kept " in capsys.readouterr().out
+
+
+def test_a_reship_of_changed_q_tables_rewrites_the_file(tmp_path, monkeypatch, capsys):
+    """(The synthesis is stubbed by another shipped policy: its Q-tables differ.)"""
+    from twolink.policy.fuzzy_policy import same_tables
+
+    other = Policy.load(_real_file("decentralized_propagated"))
+    folder = _checkout_copy(tmp_path, monkeypatch, {"decentralized": "decentralized"})
+    monkeypatch.setattr(synthesize_command, "synthesize", lambda kind, **k: other)
+    assert main(["synthesize", "--ship", "decentralized", "--json"]) == 0
+    assert same_tables(Policy.load(folder / "decentralized.npz"), other)
+    assert not same_tables(Policy.load(_real_file("decentralized")), other)
+    assert "unchanged" not in json.loads(capsys.readouterr().out)[0]
+
+
 def _real_file(name):
     from twolink.resources import _package_dir
     return _package_dir("twolink._policies") / f"{name}.npz"

@@ -331,23 +331,39 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     return [(args.kind, opts, out)]
 
 
+def _unchanged(out: Path, policy) -> bool:
+    """Whether the shipped file ``out`` holds ``policy`` already (the same Q-tables bit for
+    bit, :func:`twolink.policy.fuzzy_policy.same_tables`): --ship then keeps the file as it
+    is, with its timings and provenance, so a re-ship of unchanged policies changes no byte."""
+    from twolink.policy.fuzzy_policy import Policy, same_tables
+
+    try:
+        return out.is_file() and same_tables(Policy.load(out), policy)
+    except (ValueError, OSError):          # a file Policy.load refuses is replaced
+        return False
+
+
 def run(args) -> int:
     jobs = _jobs(args)
     summary = []
     for kind, opts, out in jobs:
         policy = synthesize(kind, progress=not args.json, **opts)
-        out.parent.mkdir(exist_ok=True)      # -o DIR/: DIR passed check_outputs
-        policy.save(out)
+        kept = bool(args.ship) and _unchanged(out, policy)
+        if not kept:
+            out.parent.mkdir(exist_ok=True)      # -o DIR/: DIR passed check_outputs
+            policy.save(out)
         info = {a.name: a.info for a in policy.agents}
         arm = {} if policy.links == 2 else {"links": policy.links, "rule": policy.meta["rule"]}
-        summary.append({"path": str(out), "kind": policy.kind, **arm, "agents": info})
+        summary.append({"path": str(out), "kind": policy.kind, **arm, "agents": info,
+                        **({"unchanged": True} if kept else {})})
         if not args.json:
             for name, i in info.items():
                 over = f" ({i['robust']} case over {i['draws']} models)" if "robust" in i else ""
                 print(f"{name}: Q size {i['q_size']}, {i['iterations']} {i['sweeps']} "
                       f"sweeps{over}, {i['seconds']:.3f} s ({i['transition_seconds']:.3f} s "
                       f"transitions, {i['sweep_seconds']:.3f} s sweeps)")
-            print(f"wrote {out}")
+            print(f"kept {out}: its Q-tables are these bit for bit" if kept
+                  else f"wrote {out}")
     if args.json:
         print(json.dumps(summary[0] if len(summary) == 1 and not args.ship else summary,
                          indent=2))

@@ -140,6 +140,21 @@ def _content_hash(header: dict, q_tables: dict) -> str:
     return h.hexdigest()
 
 
+def same_tables(a: "Policy", b: "Policy") -> bool:
+    """Whether policies ``a`` and ``b`` act alike bit for bit: the same kind, links and
+    readout, and agent by agent the same name, grid, actions, outputs, tie tolerance and
+    Q-table (float64 bits). Their ``meta`` and ``info`` (timings, provenance) do not count."""
+    if (a.kind, a.links, a.readout.as_dict(), len(a.agents)) != \
+            (b.kind, b.links, b.readout.as_dict(), len(b.agents)):
+        return False
+    return all(x.name == y.name and x.grid.as_dict() == y.grid.as_dict()
+               and tuple(x.outputs) == tuple(y.outputs) and x.tie_tolerance == y.tie_tolerance
+               and np.array_equal(x.actions, y.actions) and x.q.shape == y.q.shape
+               and np.ascontiguousarray(x.q, dtype="<f8").tobytes()
+               == np.ascontiguousarray(y.q, dtype="<f8").tobytes()
+               for x, y in zip(a.agents, b.agents))
+
+
 def _torque_names(links: int) -> tuple:
     return tuple(f"tau{i}" for i in range(1, links + 1))
 
