@@ -23,15 +23,15 @@ MODES = {
               "central": (1, 2), "decentral": (1, 2, 3),
               "batch": 64, "frames": 10, "render_repeats": 1,
               "vector_samples": 20, "eval_states": 13,
-              "eval_horizon": 2.0},
+              "eval_horizon": 2.0, "mpc_quick": True},
     "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
              "central": (1, 2, 3, 4), "decentral": (1, 2, 3, 6),
              "batch": 256, "frames": 40, "render_repeats": 3,
              "vector_samples": 100, "eval_states": 65,
-             "eval_horizon": 5.0},
+             "eval_horizon": 5.0, "mpc_quick": False},
 }
 SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env",
-            "evaluation")
+            "evaluation", "mpc")
 
 
 def machine() -> dict:
@@ -88,6 +88,10 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
             r, summary[section] = evaluation.bench_evaluation(states=cfg["eval_states"],
                                                               horizon=cfg["eval_horizon"],
                                                               repeats=cfg["repeats"])
+        elif section == "mpc":
+            from benchmarks import mpc
+            r, summary[section] = (mpc.bench_mpc(states=mpc.QUICK_STATES, duration=1.0)
+                                   if cfg["mpc_quick"] else mpc.bench_mpc())
         else:
             raise ValueError(f"unknown benchmark section {section!r}; choose from "
                              f"{', '.join(SECTIONS)}")

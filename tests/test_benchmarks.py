@@ -271,3 +271,22 @@ def test_evaluation_rows_and_ratio_is_the_times():
     assert s["same_settle"] and s["mujoco_steps"] > 0
     _positive_finite(rows)
     assert "evaluation" in run.SECTIONS and run.MODES["quick"]["eval_states"] >= 1
+
+
+def test_mpc_rows_are_milliseconds_per_step():
+    """The MPC section: ms per step of every kind, the settle time at the limit."""
+    pytest.importorskip("casadi")
+    from benchmarks import mpc
+
+    rows, summary = mpc.bench_mpc(states=mpc.QUICK_STATES, duration=0.5, expand=False)
+    by = _by_name(rows)
+    sec = "mpc: x0 = [-0.175, 0.785, 0, 0], 10 steps"
+    for name in ("first step (search and plan)", "later steps: median",
+                 "later steps: 95th percentile", "later steps: most"):
+        assert by[(sec, name)].unit == "ms"
+    s = summary[str(mpc.QUICK_STATES[0])]
+    assert s["median_ms"] <= s["p95_ms"] <= s["max_ms"]
+    assert s["settle"] == pytest.approx(s["limit"]) == pytest.approx(0.25)
+    assert summary["real_time"] == (s["first_ms"] <= 50 and s["max_ms"] <= 50)
+    _positive_finite([r for r in rows if r.name != "steps over Ts"])
+    assert "mpc" in run.SECTIONS
