@@ -7,6 +7,7 @@ N = ``p.links`` links (N = 2: the paper's arm).
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable
 
@@ -159,25 +160,40 @@ MUJOCO_MIN_MASS = 1e-15
 
 
 def _check_poses(links: int) -> np.ndarray:
-    """Joint angles at which :func:`check_sampling` evaluates M(theta): theta2 over a fine
-    circle for two links; for more links every joint at 0 or pi and 256 fixed random poses."""
-    if links == 2:
-        return np.stack([np.zeros(129), np.linspace(-math.pi, math.pi, 129)], -1)
+    """Joint angles at which :func:`sampling_rate` evaluates M(theta) of an arm of three or
+    more links: every joint at 0 or pi, and 64 fixed random poses."""
     corners = np.array(np.meshgrid(*[[0.0, math.pi]] * links)).reshape(links, -1).T
     rng = np.random.default_rng(0)
-    return np.concatenate([corners, rng.uniform(-math.pi, math.pi, (256, links))])
+    return np.concatenate([corners, rng.uniform(-math.pi, math.pi, (64, links))])
 
 
 def sampling_rate(p: Parameters) -> tuple[float, int]:
     """(lambda, k): the fastest rate (1/s) of the damped arm's linear part, the largest
-    eigenvalue of M(theta)^-1 diag(b) over the poses of :func:`_check_poses`, and the link
-    whose joint alone (the others free) is fastest, b_k (M^-1)_kk. Infinity (and the
-    lightest link) where M(theta) is singular or not finite."""
-    from twolink.arm import dynamics
+    eigenvalue of M(theta)^-1 diag(b) (two links: over theta2 on a fine circle, in closed
+    form; more: over the poses of :func:`_check_poses`), and the link whose joint alone
+    (the others free) is fastest, b_k (M^-1)_kk. Infinity (and the lightest link) where
+    M(theta) is singular or not finite. Cached per parameter set."""
+    return _sampling_rate(as_chain(p))
 
-    c = as_chain(p)
-    b = np.sqrt(np.asarray(c.dampings))
+
+@functools.lru_cache(maxsize=1024)
+def _sampling_rate(c: ChainParameters) -> tuple[float, int]:
+    lightest = int(np.argmin(np.asarray(c.masses) + np.asarray(c.inertias))) + 1
     with np.errstate(all="ignore"):
+        if c.links == 2:
+            a = c.as_arm()
+            cos = np.cos(np.linspace(-math.pi, math.pi, 129))
+            m11, m12, m22 = a.P1 + a.P2 + 2.0 * a.P3 * cos, a.P2 + a.P3 * cos, a.P2
+            det = m11 * m22 - m12 * m12
+            tr = (m22 * a.b1 + m11 * a.b2) / det
+            rates = tr / 2.0 + np.sqrt(np.maximum(tr * tr / 4.0 - a.b1 * a.b2 / det, 0.0))
+            joint = np.array([(a.b1 * m22 / det).max(), (a.b2 * m11 / det).max()])
+            if not (np.all(det > 0) and np.all(np.isfinite(rates))):
+                return math.inf, lightest
+            return float(rates.max()), int(np.argmax(joint)) + 1
+        from twolink.arm import dynamics
+
+        b = np.sqrt(np.asarray(c.dampings))
         m = dynamics.chain_mass_matrix(c, _check_poses(c.links))
         try:
             if not np.all(np.isfinite(m)):
@@ -186,10 +202,9 @@ def sampling_rate(p: Parameters) -> tuple[float, int]:
             inv = np.linalg.inv(m)
             rates = np.linalg.eigvalsh(b[:, None] * inv * b[None, :])
         except np.linalg.LinAlgError:
-            rates = inv = None
-    masses = np.asarray(c.masses) + np.asarray(c.inertias)
-    if rates is None or not np.all(np.isfinite(rates)):
-        return math.inf, int(np.argmin(masses)) + 1
+            return math.inf, lightest
+    if not np.all(np.isfinite(rates)):
+        return math.inf, lightest
     joint = np.asarray(c.dampings) * np.diagonal(inv, axis1=-2, axis2=-1).max(0)
     return float(rates.max()), int(np.argmax(joint)) + 1
 
