@@ -33,3 +33,15 @@ def test_mpc_settles_at_the_limit_and_replans_every_sample():
     assert mpc.plans[0] is not None and mpc.plans[0].n == 1              # in the band: hold
     mpc.reset(2)
     assert mpc.plans == [None, None] and mpc.timings == [[], []]
+
+
+def test_a_row_out_of_reach_or_in_the_band_gets_zero_torque_and_no_more_searches():
+    from twolink.control.time_optimal.mpc import UNREACHABLE, TimeOptimalMPC
+
+    c = TimeOptimalMPC(expand=False, max_samples=2)        # x0 needs 18 samples
+    x = np.array([[-1.0, -3.0, 0.0, 0.0], [0.01, 0.0, 0.0, 0.0]])
+    assert np.array_equal(c(x), np.zeros((2, 2)))
+    assert c.plans == [UNREACHABLE, None]
+    solves = c.search_cache.solves + c.cache.solves
+    assert np.array_equal(c(x), np.zeros((2, 2)))
+    assert c.search_cache.solves + c.cache.solves == solves

@@ -5,9 +5,11 @@ the band can be reached and held from the measured state, and the hold answer's 
 (band at samples N..N+hold, at rest at N+hold; :mod:`.nlp`). At every later sample the
 same hold problem is solved again from the measured state, with N one sample shorter
 (at least 1), warm-started from the last plan shifted by one sample: one IPOPT solve per
-sample. The first torque of the answer is applied (clipped to +-tau_max). An answer that
-misses the band (slack s > 0, the plant not being the model) keeps N for the next sample
-instead of shortening it, and its torques still drive the arm as near as they can.
+sample. The first torque of the answer is applied (clipped to +-tau_max); a row that
+starts in the band, or for which the search finds no way into it, gets zero torque. An
+answer that misses the band (slack s > 0, the plant not being the model) keeps N for the
+next sample instead of shortening it, and its torques still drive the arm as near as
+they can.
 
 Each batch row has its own plan (a Python loop over the rows, one NLP each): this is a
 controller of the protocol of :mod:`twolink.sim.controller`, but a slow one; ``timings``
@@ -23,6 +25,7 @@ import time
 import numpy as np
 
 from twolink.arm.parameters import TABLE_I, ArmParameters
+from twolink.arm.task import in_goal_band
 from twolink.control.time_optimal.nlp import ProblemCache
 from twolink.control.time_optimal.search import search, targets_of, wrap_state
 from twolink.control.time_optimal.symbolic import check_model, require_casadi
@@ -42,6 +45,11 @@ class Plan:
     targets: np.ndarray
     states: np.ndarray
     torques: np.ndarray
+
+
+#: The plan of a row whose first search found no way into the band within
+#: ``max_samples``: it gets zero torque from then on.
+UNREACHABLE = "unreachable"
 
 
 def _fit(states: np.ndarray, torques: np.ndarray, k: int) -> tuple:
@@ -108,9 +116,13 @@ class TimeOptimalMPC:
 
     def _row(self, i: int, x: np.ndarray) -> np.ndarray:
         plan = self.plans[i]
+        if plan is UNREACHABLE:
+            return np.zeros(2)
         plan = self._first(x) if plan is None else self._again(plan, x)
+        if plan is None and not in_goal_band(x):
+            plan = UNREACHABLE                   # no plan in max_samples: search no more
         self.plans[i] = plan
-        if plan is None:
+        if plan is None or plan is UNREACHABLE:
             return np.zeros(2)
         return np.clip(plan.torques[0], -self.params.tau_max, self.params.tau_max)
 
