@@ -36,9 +36,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
-from scipy.ndimage import uniform_filter1d
-from scipy.signal import savgol_coeffs, savgol_filter
 
 from twolink.arm.parameter_file import DYNAMIC
 from twolink.arm.parameters import TABLE_I, ArmParameters
@@ -174,6 +171,8 @@ class _Design:
     joint 1 and joint 2, from the initial angles and momenta)."""
 
     def __init__(self, log: Log, q: np.ndarray):
+        from scipy.integrate import cumulative_trapezoid   # scipy loads with the first fit
+
         m, dt = log.readings_per_period, log.dt
         self.dt, self.q = dt, q
         self.t = np.arange(len(q)) * dt
@@ -190,6 +189,8 @@ class _Design:
 
     def rows(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(A, b, F) for speeds v (N + 1, 2) in the velocity-product term."""
+        from scipy.integrate import cumulative_trapezoid
+
         q, t, dt = self.q, self.t, self.dt
         f = np.sin(q[:, 1]) * v[:, 0] * (v[:, 0] + v[:, 1])
         F = cumulative_trapezoid(f, dx=dt, initial=0)
@@ -208,6 +209,8 @@ class _Design:
                              m12 * v_smooth[:, 0] + m22 * v_smooth[:, 1]], -1)
         p_model = np.stack([self.U[:, 0] - b1 * self.q[:, 0],
                             self.U[:, 1] - b2 * self.q[:, 1] - P3 * F], -1)
+
+        from scipy.ndimage import uniform_filter1d
 
         def low(x):
             return uniform_filter1d(x, self.blend, axis=0, mode="nearest")
@@ -251,6 +254,8 @@ def _check_physical(est: np.ndarray) -> None:
 
 def _solve(log: Log, q: np.ndarray, passes: int) -> tuple[np.ndarray, float, float]:
     """theta' of a log with unwrapped angles q; (theta', condition, residual rms)."""
+    from scipy.signal import savgol_filter
+
     design = _Design(log, q)
     v_smooth = savgol_filter(q, design.smooth, 3, deriv=1, delta=log.dt, axis=0)
     v = v_smooth
@@ -303,6 +308,8 @@ def fit(log: Log, *, bootstrap: int = 20, passes: int = REFINE_PASSES) -> Fit:
     check_bootstrap(bootstrap)
     if log.duration < MIN_DURATION - 1e-9:
         raise ValueError(f"a log of {log.duration:g} s is shorter than {MIN_DURATION:g} s")
+    from scipy.signal import savgol_coeffs, savgol_filter
+
     q = np.unwrap(log.angles, axis=0)
     # Noise level of the readings: what a smoothing leaves, corrected for its hat value.
     window = _odd(_SMOOTH_S / log.dt)
