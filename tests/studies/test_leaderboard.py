@@ -97,3 +97,34 @@ def test_evaluate_prints_the_score_against_the_limit(capsys):
     assert line.startswith("pd_deadzone under medium (plain): ") and "settle / T*" in line
     assert main(["evaluate", "nosuch"]) == 2
     assert "unknown controller 'nosuch'" in capsys.readouterr().err
+
+
+def test_merge_adds_rows_as_a_full_run_would_give_them(tmp_path, capsys):
+    both, merged = tmp_path / "both", tmp_path / "merged"
+    common = ["leaderboard", "--quick", "--levels", "none", "medium", "--plants", "2"]
+    assert main([*common, "--controllers", "pd", "lqr", "--out", str(both)]) == 0
+    assert main([*common, "--controllers", "pd", "--out", str(merged)]) == 0
+    capsys.readouterr()
+    assert main(["leaderboard", "--quick", "--merge", "--controllers", "lqr",
+                 "--out", str(merged)]) == 0
+    keys = ("controller", "level", "mode", "successes", "n", "median_settle",
+            "settle_ratio_median", "mean_abs_torque")
+
+    def rows(folder):
+        data = json.loads((folder / "leaderboard.json").read_text())
+        return sorted(tuple(r[k] for k in keys) for r in data["rows"])
+
+    assert rows(merged) == rows(both) and len(rows(both)) == 6
+    assert "lqr" in (merged / "leaderboard.md").read_text()
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--merge", "--controllers", "pd"], "does not exist; run the leaderboard once"),
+    (["--merge"], "--merge needs the controllers to add"),
+    (["--merge", "--controllers", "pd", "--plants", "3"], "takes the saved leaderboard's"),
+])
+def test_merge_refuses_what_it_cannot_join(tmp_path, capsys, argv, match):
+    assert main(["leaderboard", "--quick", "--out", str(tmp_path / "none"), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0], err
+    assert not (tmp_path / "none").exists()

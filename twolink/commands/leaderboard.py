@@ -52,6 +52,10 @@ def add_parser(sub):
     p.add_argument("--address", default=None,
                    help="Ray cluster address, HOST:PORT or ray://HOST:PORT (with --executor "
                         "ray; default: a new local Ray)")
+    p.add_argument("--merge", action="store_true",
+                   help="run only the given controllers with the settings of the leaderboard "
+                        "saved in --out and put their rows into it (replacing theirs), "
+                        "keeping every other row")
     p.add_argument("--no-save", action="store_true", help="only print the table")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     return p
@@ -95,7 +99,11 @@ def run(args) -> int:
     seed = SEED if args.seed is None else args.seed
     if not 0 <= seed < 2**63:
         raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {seed}")
-    levels = args.levels or (QUICK["levels"] if args.quick else tuple(LEVELS))
+    saved = _saved(args)
+    if saved is not None:
+        plants, seed = saved["plants"], saved["seed"]
+    levels = args.levels or (saved["levels"] if saved is not None else
+                             QUICK["levels"] if args.quick else tuple(LEVELS))
     levels = [challenge(n).name for n in levels]
     if args.address is not None and args.executor != "ray":
         raise ValueError("--address needs --executor ray")
@@ -108,7 +116,25 @@ def run(args) -> int:
     # Ray is connected before any file is made: an address that does not answer leaves none.
     with _ray(args):
         return _measure_and_write(args, controllers, specs, x0, limits, source, levels,
-                                  plants, seed)
+                                  plants, seed, saved)
+
+
+def _saved(args):
+    """The saved report --merge adds to (None without --merge), checked before any work."""
+    if not args.merge:
+        return None
+    from twolink.resources import output_dir
+    from twolink.studies.leaderboard.merge import saved_report
+
+    if args.no_save:
+        raise ValueError("--merge writes into the saved leaderboard; give no --no-save")
+    if args.controllers is None and not args.controller:
+        raise ValueError("--merge needs the controllers to add: --controllers or --controller")
+    if args.plants is not None or args.seed is not None:
+        raise ValueError("--merge takes the saved leaderboard's plants and seed; give no "
+                         "--plants or --seed")
+    out = args.out or output_dir() / ("leaderboard-quick" if args.quick else "leaderboard")
+    return saved_report(out / "leaderboard.json")
 
 
 def _ray(args):
@@ -121,7 +147,7 @@ def _ray(args):
 
 
 def _measure_and_write(args, controllers, specs, x0, limits, source, levels, plants,
-                       seed) -> int:
+                       seed, saved=None) -> int:
     """Run the rows and write or print the report (outputs checked first)."""
     from twolink.artifacts import check_outputs
     from twolink.resources import output_dir
@@ -141,6 +167,9 @@ def _measure_and_write(args, controllers, specs, x0, limits, source, levels, pla
     report = {"command": command, "states": len(x0), "plants": plants, "seed": seed,
               "horizon": 5.0, "limits": source, "levels": levels,
               "rows": [r.as_dict() for r in rows]}
+    if saved is not None:
+        from twolink.studies.leaderboard.merge import merged
+        report = merged(saved, report)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         paths = write(report, out)

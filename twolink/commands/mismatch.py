@@ -27,7 +27,7 @@ from twolink.commands._options import (
 )
 from twolink.envs.core import horizon
 from twolink.policy.fuzzy_policy import load_policy
-from twolink.policy.registry import TWO_LINK
+from twolink.policy.registry import PAPER_DESIGNS, TWO_LINK
 from twolink.resources import output_dir
 from twolink.sim.cell_store import SweepFile
 from twolink.sim.cells import EXECUTORS, ray_session
@@ -52,7 +52,7 @@ def add_parser(sub):
                         "one run at a time per folder, which resumes from its sweep.jsonl")
     p.add_argument("--policies", nargs="+", default=None, metavar="POLICY",
                    help=f"shipped policy names, reported in registry order "
-                        f"(default: {' '.join(TWO_LINK)}); with --links N: N-link policies, "
+                        f"(default: {' '.join(PAPER_DESIGNS)}); with --links N: N-link policies, "
                         f"shipped names or .npz files (default: the shipped one)")
     p.add_argument("--executor", choices=EXECUTORS, default="local",
                    help="where sweep cells run: this process, local worker processes "
@@ -173,7 +173,7 @@ def run(args) -> int:
     if links != 2:
         return _chain_section(args, links, params)
     if args.policies is None:
-        args.policies = list(TWO_LINK)
+        args.policies = list(PAPER_DESIGNS)
     chosen = plan(args.plan)
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")

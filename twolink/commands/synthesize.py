@@ -282,11 +282,12 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
                 or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA \
                 or args.robust or args.draws is not None or args.spread is not None \
                 or args.seed is not None or args.params is not None or links != 2 \
-                or args.rule != "tapered":
+                or args.rule != "tapered" or args.levels is not None \
+                or args.bins is not None or args.speed_dead_zone is not None:
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
                              "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
-                             "-o or --force with it")
+                             "--levels, --bins, --speed-dead-zone, -o or --force with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:

@@ -30,6 +30,10 @@ class ShippedPolicy:
     seed: int = 0                   # seed of the draws (twolink.control.problems.parameter_draws)
     links: int = 2                  # links of the arm (twolink.arm.parameters.chain beyond 2)
     rule: str = "tapered"           # how links beyond the second are made (links > 2 only)
+    levels: int = 3                 # torque levels per joint (twolink.arm.task.action_levels)
+    bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)
+    speed_dead_zone: float = 0.0    # read-out dead zone on the speeds, rad/s (policy.readout)
+    tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
     @property
     def file(self) -> Path:
@@ -46,15 +50,27 @@ class ShippedPolicy:
                         seed=self.seed)
         if self.links > 2:
             opts.update(links=self.links, rule=self.rule)
+        if self.levels != 3:
+            opts["levels"] = self.levels
+        if self.bins != "paper":
+            opts["bins"] = self.bins
+        if self.speed_dead_zone:
+            from twolink.policy.readout import Readout
+            opts["readout"] = Readout(speed_dead_zone=self.speed_dead_zone)
         return opts
 
 
 #: The seed of the shipped robust policies' parameter draws (fixed before any evaluation).
 ROBUST_SEED = 2006
 
+#: Seeds the tuned designs were chosen on (docs/studies/fuzzy_design.py): poses
+#: ``random_poses(2, 48, seed=9301)``, plants, noise and faults from 9302. No figure is
+#: reported on them.
+TUNING_SEEDS = (9301, 9302)
+
 #: Every shipped policy, in report order: the paper's three, the two on (6), the two
-#: robust ones (worst case over K = 8 models within +-20 %, on (6)), then the three-link
-#: agents.
+#: robust ones (worst case over K = 8 models within +-20 %, on (6)), the three-link
+#: agents, then the tuned designs (more torque levels, other bins, a read-out dead zone).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
                   "the centralized policy (16) on the simplified model (11)"),
@@ -78,11 +94,22 @@ SHIPPED = {p.name: p for p in (
                   "one agent per joint of the three-link tapered arm (twolink.control.links_decentralized) "
                   "on its full model: the middle agent holds joint 1, propagated context "
                   "with the neighbour's speed", links=3, rule="tapered"),
+    ShippedPolicy("centralized_tuned", "centralized", "full", None, False,
+                  "the centralized policy (16) on (6) with 5 torque levels per joint, bins "
+                  "concentrated at the goal band and a 0.08 rad/s dead zone on the speed "
+                  "readings", levels=5, bins="goal", speed_dead_zone=0.08, tuned=True),
+    ShippedPolicy("decentralized_tuned", "decentralized", "full", "propagated", False,
+                  "the decentralized agents (18) on (6) with 7 torque levels per joint, "
+                  "propagated context and a 0.04 rad/s dead zone on the speed readings",
+                  levels=7, speed_dead_zone=0.04, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
 #: The paper's policies (synthesised on (11)).
 PAPER_POLICIES = tuple(n for n, p in SHIPPED.items() if p.paper)
+#: The two-link policies of the paper's designs (three levels, the paper's bins), which
+#: the mismatch report studies by default.
+PAPER_DESIGNS = tuple(n for n in TWO_LINK if not SHIPPED[n].tuned)
 #: Which policy synthesised on (6) answers which paper policy.
 COUNTERPART = {"centralized": "centralized_full", "decentralized": "decentralized_full",
                "decentralized_propagated": "decentralized_full"}

@@ -1,0 +1,111 @@
+"""The synthesis design options: torque levels, bin layouts and the read-out dead zone,
+checked before any work and recorded in the policy file."""
+import math
+
+import numpy as np
+import pytest
+
+from twolink.arm.parameters import TABLE_I
+from twolink.arm.task import action_levels, check_levels
+from twolink.cli import main
+from twolink.control.problems import check_size, table_sizes
+from twolink.control.synthesis import synthesize
+from twolink.fqi import fuzzy
+from twolink.policy.fuzzy_policy import Policy
+from twolink.policy.readout import Readout
+from twolink.policy.registry import SHIPPED
+
+
+def test_levels_are_evenly_spaced_and_the_paper_keeps_its_three():
+    assert action_levels(0.2).tolist() == [-0.2, 0.0, 0.2]
+    assert np.allclose(action_levels(0.2, 5), [-0.2, -0.1, 0.0, 0.1, 0.2])
+    assert np.allclose(action_levels(0.1, 2), [-0.1, 0.1])
+    for bad in (1, 10, 2.5, True, "5"):
+        with pytest.raises(ValueError, match="levels must be a whole number from 2 to 9"):
+            check_levels(bad)
+
+
+def test_the_goal_layout_puts_centres_at_and_inside_the_band():
+    ang = np.rad2deg(fuzzy.angle_axis("a", "goal").centers)
+    spd = np.rad2deg(fuzzy.speed_axis("s", "goal").centers)
+    assert {-5.0, -2.0, 0.0, 2.0, 5.0} <= set(np.round(ang, 9))
+    assert np.all(np.abs(spd[np.abs(spd) <= 5.0]) <= math.degrees(0.1))
+    assert fuzzy.angle_axis("a").size == 12 and fuzzy.angle_axis("a", "goal").size == 16
+    with pytest.raises(ValueError, match="unknown bin layout 'fine'; choose one of paper, goal"):
+        fuzzy.angle_axis("a", "fine")
+
+
+def test_table_sizes_follow_levels_and_bins():
+    assert table_sizes("centralized") == {"centralized": 63504}
+    assert table_sizes("centralized", levels=5, bins="goal") == {"centralized": 16 ** 2 * 13 ** 2 * 25}
+    assert table_sizes("decentralized", levels=7) == {"agent2": 84 * 7, "agent1": 1008 * 7 * 7}
+    with pytest.raises(ValueError, match="Q-table would hold 396 MiB, over the 64 MiB"):
+        check_size("centralized", refine=2, levels=9, bins="goal")
+
+
+def test_a_designed_policy_records_its_design_and_reads_through_its_dead_zone(tmp_path):
+    policy = synthesize("decentralized", model="full", levels=5,
+                        readout=Readout(speed_dead_zone=0.05))
+    a2, a1 = policy.agents
+    assert a2.q.shape == (84, 5) and a1.q.shape == (1008 * 5, 5)
+    assert a1.grid.axes[-1].centers == tuple(action_levels(TABLE_I.tau2_max, 5))
+    assert policy.meta["levels"] == 5 and "bins" not in policy.meta
+    assert policy.meta["readout"] == {"speed_dead_zone": 0.05, "angle_dead_zone_deg": 0.0}
+    plain = Policy(policy.kind, policy.agents, {k: v for k, v in policy.meta.items()
+                                                 if k != "readout"})
+    x = np.array([[0.3, -0.2, 0.08, -0.04], [1.0, 2.0, -0.5, 0.3]])
+    shrunk = x.copy()
+    shrunk[:, 2:] = np.sign(x[:, 2:]) * np.maximum(np.abs(x[:, 2:]) - 0.05, 0.0)
+    assert np.array_equal(policy(x), plain(shrunk))
+    assert not np.array_equal(policy(x), plain(x))
+    loaded = Policy.load(policy.save(tmp_path / "p.npz"))
+    assert loaded.readout == policy.readout and np.array_equal(loaded(x), policy(x))
+
+
+def test_the_paper_design_leaves_meta_as_it_was():
+    policy = synthesize("decentralized", model="full")
+    assert not {"levels", "bins", "readout"} & set(policy.meta)
+
+
+@pytest.mark.parametrize("bad, match", [
+    ({"speed_dead_zone": 0.2}, r"speed dead zone must be a number in \[0, 0.1\]"),
+    ({"angle_dead_zone_deg": -1}, r"angle dead zone must be a number in \[0, 5"),
+    ({"speed_dead_zone": float("nan")}, "speed dead zone must be"),
+])
+def test_a_dead_zone_wider_than_the_band_is_refused(bad, match):
+    with pytest.raises(ValueError, match=match):
+        Readout(**bad)
+
+
+def test_design_options_are_two_link_only():
+    with pytest.raises(ValueError, match="levels, bins and readout are two-link options"):
+        synthesize("decentralized", links=3, levels=5)
+    with pytest.raises(TypeError, match="readout must be a twolink.policy.readout.Readout"):
+        synthesize("decentralized", readout={"speed_dead_zone": 0.1})
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["centralized", "--levels", "1"], "--levels must be a whole number from 2 to 9, got 1"),
+    (["centralized", "--levels", "x"], "--levels must be a whole number, got 'x'"),
+    (["centralized", "--bins", "fine"], "unknown bin layout 'fine'"),
+    (["centralized", "--speed-dead-zone", "0.5"], r"--speed-dead-zone must lie in \[0, 0.1\]"),
+    (["centralized", "--levels", "9", "--bins", "goal", "--refine", "2"], "over the 64 MiB"),
+    (["decentralized", "--links", "3", "--levels", "5"], "--levels: two-link options"),
+    (["--ship", "centralized_tuned", "--levels", "5"], "--ship takes everything"),
+])
+def test_bad_design_options_are_one_line_exit_2_and_nothing_written(tmp_path, capsys, argv,
+                                                                      match):
+    out = tmp_path / "p.npz"
+    extra = [] if "--ship" in argv else ["-o", str(out)]
+    assert main(["synthesize", *argv, *extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and __import__("re").search(match, err[0]), err
+    assert not out.exists()
+
+
+def test_the_tuned_designs_are_registered_with_their_options():
+    c, d = SHIPPED["centralized_tuned"], SHIPPED["decentralized_tuned"]
+    assert c.synthesis_options()["levels"] == 5 and c.synthesis_options()["bins"] == "goal"
+    assert c.synthesis_options()["readout"] == Readout(speed_dead_zone=0.08)
+    assert d.synthesis_options()["levels"] == 7 and d.context == "propagated"
+    assert not c.paper and not d.paper and c.tuned and d.tuned
