@@ -68,3 +68,16 @@ def test_a_file_that_fails_to_import_is_named(tmp_path):
     with pytest.raises(ControllerError, match=r"cannot import controller file .*broken.py: "
                                               r"SyntaxError"):
         resolve_controller(f"{bad}:f")
+
+
+def test_absolute_spec_names_the_same_file_from_anywhere(user_file, monkeypatch):
+    from twolink.control.controllers import absolute_spec
+
+    monkeypatch.chdir(user_file.parent)
+    assert absolute_spec("mine.py:pd") == f"{user_file}:pd"
+    assert absolute_spec("./sub/p.npz") == str(user_file.parent / "sub" / "p.npz")
+    for same in ("lqr", "centralized", "numpy.linalg:norm", "nope"):
+        assert absolute_spec(same) == same
+    monkeypatch.chdir("/")
+    c = resolve_controller(f"{user_file}:pd")
+    assert c(X).shape == (2, 2)

@@ -32,8 +32,27 @@ def _baseline(name: str):
     return baseline(name)
 
 
+def _is_file(where: str) -> bool:
+    """Whether the part of a spec before the colon names a file (not a module)."""
+    return where.endswith(".py") or "/" in where or where.startswith(".")
+
+
+def absolute_spec(spec):
+    """``spec`` with the file it names (a ``file.py:callable``'s file, a policy ``.npz``)
+    made absolute, so that it names the same file from another working directory (a
+    worker process, a Ray node sharing the file system); anything else unchanged."""
+    if not isinstance(spec, str) or spec in shipped_policies() or spec in baseline_names():
+        return spec
+    if spec.endswith(".npz"):
+        return str(Path(spec).resolve())
+    where, colon, attr = spec.rpartition(":")
+    if colon and where and _is_file(where):
+        return f"{Path(where).resolve()}:{attr}"
+    return spec
+
+
 def _import_module(where: str):
-    if where.endswith(".py") or "/" in where or where.startswith("."):
+    if _is_file(where):
         path = Path(where)
         if not path.is_file():
             raise ControllerError(f"controller file {where} does not exist"

@@ -184,8 +184,10 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
                 f"{entry.mode}: {s.successes}/{s.n} ({entry.seconds:.1f} s)")
 
     if executor == "ray":
-        tasks = [(specs.get(name, controllers[name]), name, level, mode, x0, limits, plants,
-                  seed) for name, level, mode in cells]
+        from twolink.control.controllers import absolute_spec
+
+        tasks = [(absolute_spec(specs.get(name, controllers[name])), name, level, mode, x0,
+                  limits, plants, seed) for name, level, mode in cells]
         return _ray_rows(tasks, done, address=address)
     rows = []
     for i, (name, level, mode) in enumerate(cells):
