@@ -1,4 +1,4 @@
-"""Rewards (15) and (17): 0 inside the goal band, -0.5 outside it.
+"""Rewards (15) and (17): 0 inside the goal band, -0.5 outside it; the discrete torque levels.
 
 For an arm of N links (states x = [theta_1..theta_N, dtheta_1..dtheta_N], shape (..., 2N))
 the goal band of (15) holds every link in its band, and agent i's reward (17) looks at
@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twolink.validate import whole
-
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, REWARD_GOAL, REWARD_OTHER
+from twolink.validate import whole
 
 
 def link_in_band(theta, dtheta) -> np.ndarray:

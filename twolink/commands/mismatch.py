@@ -27,7 +27,7 @@ from twolink.commands._options import (
 )
 from twolink.envs.core import horizon
 from twolink.policy.fuzzy_policy import load_policy
-from twolink.policy.registry import PAPER_DESIGNS, TWO_LINK
+from twolink.policy.registry import PAPER_DESIGNS
 from twolink.resources import output_dir
 from twolink.sim.cell_store import SweepFile
 from twolink.sim.cells import EXECUTORS, ray_session

@@ -21,7 +21,6 @@ import time
 from typing import Optional
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm import dynamics
 from twolink.arm.integrate import (
@@ -35,7 +34,12 @@ from twolink.arm.parameters import (
     TABLE_I,
     ArmParameters,
 )
-from twolink.arm.task import action_levels, agent_reward, centralized_reward, check_levels
+from twolink.arm.task import (
+    action_levels,
+    agent_reward,
+    centralized_reward,
+    check_levels,
+)
 from twolink.fqi import fuzzy
 from twolink.fqi.factored import (
     default_threads,
@@ -52,6 +56,7 @@ from twolink.fqi.iteration import (
 from twolink.fqi.tables import robust_table, transition_table
 from twolink.policy.fuzzy_policy import Agent
 from twolink.sim.perturbations import MAX_SPREAD, PHYSICAL, random_perturbation
+from twolink.sim.progress import progress_bar
 from twolink.validate import real, whole
 
 SYNTHESIS_MODELS = ("simplified", "full")
@@ -370,8 +375,8 @@ def solve(problem: Problem, *, gamma: float = GAMMA, delta: float = DELTA,
         trans = transition_table(problem.grid, problem.next_points)
         threads = 1
     build = problem.seconds + time.perf_counter() - t0
-    with tqdm(desc=f"Q-iteration {problem.name}", unit=" sweeps", disable=None if progress else True,
-              leave=False, mininterval=0.25) as bar:
+    with progress_bar(desc=f"Q-iteration {problem.name}", unit=" sweeps", enabled=progress,
+                      leave=False, mininterval=0.25) as bar:
         def tick(ell, change):
             bar.update(1)
             bar.set_postfix(change=f"{change:.3g}")
@@ -427,8 +432,8 @@ def solve_robust(problems: list, *, mode: str = "worst", gamma: float = GAMMA,
         threads = 1
     table_seconds = time.perf_counter() - t0
     model_seconds = sum(pr.seconds for pr in problems)
-    with tqdm(desc=f"robust Q-iteration {first.name}", unit=" sweeps",
-              disable=None if progress else True, leave=False, mininterval=0.25) as bar:
+    with progress_bar(desc=f"robust Q-iteration {first.name}", unit=" sweeps",
+                      enabled=progress, leave=False, mininterval=0.25) as bar:
         def tick(ell, change):
             bar.update(1)
             bar.set_postfix(change=f"{change:.3g}")

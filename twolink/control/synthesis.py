@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from typing import Optional
 
-from twolink.arm.integrate import SUBSTEPS
+from twolink.arm.integrate import SUBSTEPS, check_sampling
 from twolink.arm.parameters import (
     DELTA,
     GAMMA,
@@ -43,6 +43,7 @@ from twolink.arm.parameters import (
     chain,
     check_links,
 )
+from twolink.arm.task import PAPER_LEVELS, check_levels
 from twolink.artifacts import VERSION as __version__
 from twolink.control.links_decentralized import synthesize_chain
 from twolink.control.problems import (
@@ -62,7 +63,6 @@ from twolink.control.problems import (
     solve,
     solve_robust,
 )
-from twolink.arm.task import PAPER_LEVELS, check_levels
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.readout import Readout
@@ -132,6 +132,8 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     if kind == "decentralized" and context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
                          f"{', '.join(CONTEXTS)}")
+    if dynamics_of(model) == "full":
+        check_sampling(p)
     more = {"sweeps": sweeps, "refine": refine, **design}
     check_size(kind, refine, levels, bins)
     if model in IDENTIFIED_MODELS:
