@@ -62,6 +62,23 @@ def test_a_designed_policy_records_its_design_and_reads_through_its_dead_zone(tm
     assert loaded.readout == policy.readout and np.array_equal(loaded(x), policy(x))
 
 
+def test_beyond_the_argmax_angle_a_policy_acts_by_the_largest_interpolated_q():
+    base = synthesize("centralized", model="full", levels=5, bins="goal")
+    rule = Readout(argmax_beyond_deg=30.0)
+    policy = Policy(base.kind, base.agents, {**base.meta, "readout": rule.as_dict()})
+    agent = base.agents[0]
+    rng = np.random.default_rng(5)
+    x = np.c_[rng.uniform(-np.pi, np.pi, (400, 2)), rng.uniform(-3, 3, (400, 2))]
+    far = np.any(np.abs(x[:, :2]) > np.radians(30.0), axis=1)
+    assert 0 < far.sum() < len(x)
+    q = agent.q_values(x[far])
+    assert np.array_equal(policy(x)[far], agent.actions[np.argmax(q, axis=1)])
+    assert np.array_equal(policy(x)[~far], base(x)[~far])
+    # (14) averages opposite greedy torques to a small one somewhere; the argmax never does
+    assert np.min(np.abs(base(x)[far][:, 0])) < 0.05
+    assert set(np.round(np.abs(policy(x)[far][:, 0]), 9)) <= {0.0, 0.1, 0.2}
+
+
 def test_the_paper_design_leaves_meta_as_it_was():
     policy = synthesize("decentralized", model="full")
     assert not {"levels", "bins", "readout"} & set(policy.meta)
@@ -71,6 +88,7 @@ def test_the_paper_design_leaves_meta_as_it_was():
     ({"speed_dead_zone": 0.2}, r"speed dead zone must be a number in \[0, 0.1\]"),
     ({"angle_dead_zone_deg": -1}, r"angle dead zone must be a number in \[0, 5"),
     ({"speed_dead_zone": float("nan")}, "speed dead zone must be"),
+    ({"argmax_beyond_deg": 5.0}, r"argmax_beyond_deg must be a number in \[10, 180\]"),
 ])
 def test_a_dead_zone_wider_than_the_band_is_refused(bad, match):
     with pytest.raises(ValueError, match=match):
@@ -92,6 +110,7 @@ def test_design_options_are_two_link_only():
     (["centralized", "--levels", "9", "--bins", "goal", "--refine", "2"], "over the 64 MiB"),
     (["decentralized", "--links", "3", "--levels", "5"], "--levels: two-link options"),
     (["--ship", "centralized_tuned", "--levels", "5"], "--ship takes everything"),
+    (["centralized", "--argmax-beyond", "200"], r"--argmax-beyond must lie in \[10, 180\]"),
 ])
 def test_bad_design_options_are_one_line_exit_2_and_nothing_written(tmp_path, capsys, argv,
                                                                       match):
@@ -106,6 +125,7 @@ def test_bad_design_options_are_one_line_exit_2_and_nothing_written(tmp_path, ca
 def test_the_tuned_designs_are_registered_with_their_options():
     c, d = SHIPPED["centralized_tuned"], SHIPPED["decentralized_tuned"]
     assert c.synthesis_options()["levels"] == 5 and c.synthesis_options()["bins"] == "goal"
-    assert c.synthesis_options()["readout"] == Readout(speed_dead_zone=0.08)
+    assert c.synthesis_options()["readout"] == Readout(speed_dead_zone=0.08,
+                                                       argmax_beyond_deg=30.0)
     assert d.synthesis_options()["levels"] == 7 and d.context == "propagated"
     assert not c.paper and not d.paper and c.tuned and d.tuned

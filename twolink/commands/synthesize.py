@@ -45,7 +45,7 @@ from twolink.fqi.iteration import ROBUST_MODES
 from twolink.policy.fuzzy_policy import (
     MAX_Q_BYTES,  # what Policy.load accepts per Q-table
 )
-from twolink.policy.readout import Readout
+from twolink.policy.readout import MIN_ARGMAX_DEG, Readout
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.sim.perturbations import MAX_SPREAD
@@ -124,6 +124,11 @@ def add_parser(sub):
                    help=f"read every speed through a dead zone of W rad/s, 0 <= W <= "
                         f"{GOAL_SPEED} (twolink.policy.readout; default 0: none), recorded "
                         f"in the file")
+    p.add_argument("--argmax-beyond", default=None, metavar="DEG",
+                   help=f"where an agent reads an angle beyond DEG degrees ({MIN_ARGMAX_DEG:g} "
+                        f"to 180), act by the argmax of the interpolated Q instead of (14)'s "
+                        f"weighted greedy actions (twolink.policy.readout; default: (14) "
+                        f"everywhere), recorded in the file")
     p.add_argument("--robust", choices=ROBUST_MODES, default=None,
                    help="robust synthesis over --draws models: worst (Q = min over the "
                         "models of rho_k + gamma T_k V) or mean (their average)")
@@ -224,12 +229,19 @@ def _design_options(args) -> dict:
         opts["levels"] = whole(_number(args.levels, "--levels", int), "--levels", 2, MAX_LEVELS)
     if args.bins is not None:
         opts["bins"] = check_bins(args.bins)
+    width, beyond = 0.0, None
     if args.speed_dead_zone is not None:
         width = _number(args.speed_dead_zone, "--speed-dead-zone", float)
         if not 0.0 <= width <= GOAL_SPEED:
             raise ValueError(f"--speed-dead-zone must lie in [0, {GOAL_SPEED}] rad/s (the "
                              f"goal band's speed), got {args.speed_dead_zone}")
-        opts["readout"] = Readout(speed_dead_zone=width)
+    if args.argmax_beyond is not None:
+        beyond = _number(args.argmax_beyond, "--argmax-beyond", float)
+        if not MIN_ARGMAX_DEG <= beyond <= 180.0:
+            raise ValueError(f"--argmax-beyond must lie in [{MIN_ARGMAX_DEG:g}, 180] degrees, "
+                             f"got {args.argmax_beyond}")
+    if width or beyond is not None:
+        opts["readout"] = Readout(speed_dead_zone=width, argmax_beyond_deg=beyond)
     return opts
 
 
@@ -283,11 +295,13 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
                 or args.robust or args.draws is not None or args.spread is not None \
                 or args.seed is not None or args.params is not None or links != 2 \
                 or args.rule != "tapered" or args.levels is not None \
-                or args.bins is not None or args.speed_dead_zone is not None:
+                or args.bins is not None or args.speed_dead_zone is not None \
+                or args.argmax_beyond is not None:
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
                              "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
-                             "--levels, --bins, --speed-dead-zone, -o or --force with it")
+                             "--levels, --bins, --speed-dead-zone, --argmax-beyond, -o or "
+                             "--force with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
@@ -298,7 +312,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
     if links != 2:
         given = [o for o, v in (("--levels", args.levels), ("--bins", args.bins),
-                                ("--speed-dead-zone", args.speed_dead_zone)) if v is not None]
+                                ("--speed-dead-zone", args.speed_dead_zone),
+                                ("--argmax-beyond", args.argmax_beyond)) if v is not None]
         if given:
             raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "
                              f"the paper's levels and bins")

@@ -211,6 +211,10 @@ class Policy:
         for agent in self.agents:
             points = np.stack([signals[n] for n in agent.inputs], -1)
             out = agent.act(points)
+            far = self._readout.far(points, agent.inputs)
+            if far is not None and np.any(far):
+                q = agent.q_values(points[far])
+                out[far] = agent.actions[greedy_indices(q, agent.tie_tolerance)]
             for k, name in enumerate(agent.outputs):
                 signals[name] = out[..., k]
         return np.stack([signals[name] for name in self._outputs], -1)

@@ -10,13 +10,23 @@ zero before the agents see them, as the dead zone of ``pd_deadzone``
 
 for every speed (``speed_dead_zone``, rad/s) and every wrapped angle
 (``angle_dead_zone_deg``, degrees). A speed reading inside the dead zone reads as rest, so
-the policy's action at rest holds the arm still instead of answering the noise. A policy
-records its read-out in ``meta["readout"]``; without one it reads the states as they are.
+the policy's action at rest holds the arm still instead of answering the noise.
+
+Far from the goal a second rule may apply (``argmax_beyond_deg``): where an agent reads
+an angle beyond that many degrees, it takes the action of the largest interpolated Q (12),
+argmax_u sum_m mu_m(x) Q(m, u), instead of the membership-weighted greedy actions (14).
+Where neighbouring bins choose opposite torques (the two ways round a joint, near
++-180 deg) the weighted average of (14) cancels to almost no torque and the arm drifts;
+the argmax picks one of them. Near the goal (14) stays, so the torque stays smooth there.
+
+A policy records its read-out in ``meta["readout"]``; without one it reads the states
+as they are and acts by (14) everywhere.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -24,27 +34,52 @@ from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
 from twolink.validate import real
 
 
+#: The smallest angle of the argmax rule: beyond the goal band by a bin's width.
+MIN_ARGMAX_DEG = 10.0
+_FIELDS = ("speed_dead_zone", "angle_dead_zone_deg", "argmax_beyond_deg")
+
+
 @dataclasses.dataclass(frozen=True)
 class Readout:
     """Dead zones on the readings of a policy: speeds in rad/s, angles in degrees, each in
-    [0, the goal band's half-width] (a wider dead zone would hide the band's edge)."""
+    [0, the goal band's half-width] (a wider dead zone would hide the band's edge); the
+    argmax rule beyond ``argmax_beyond_deg`` degrees (None: off; else from
+    :data:`MIN_ARGMAX_DEG` to 180)."""
 
     speed_dead_zone: float = 0.0
     angle_dead_zone_deg: float = 0.0
+    argmax_beyond_deg: Optional[float] = None
 
     def __post_init__(self):
         object.__setattr__(self, "speed_dead_zone", real(
             self.speed_dead_zone, "speed dead zone", 0.0, GOAL_SPEED))
         object.__setattr__(self, "angle_dead_zone_deg", real(
             self.angle_dead_zone_deg, "angle dead zone", 0.0, math.degrees(GOAL_ANGLE)))
+        if self.argmax_beyond_deg is not None:
+            object.__setattr__(self, "argmax_beyond_deg", real(
+                self.argmax_beyond_deg, "argmax_beyond_deg", MIN_ARGMAX_DEG, 180.0))
 
     @property
     def active(self) -> bool:
+        """Whether the read-out changes anything."""
+        return self.shrinks or self.argmax_beyond_deg is not None
+
+    @property
+    def shrinks(self) -> bool:
         return self.speed_dead_zone > 0 or self.angle_dead_zone_deg > 0
+
+    def far(self, points: np.ndarray, inputs: tuple) -> Optional[np.ndarray]:
+        """Rows of an agent's ``points`` (..., d) (inputs named ``inputs``) that read an
+        angle beyond :attr:`argmax_beyond_deg` (None when the rule is off)."""
+        if self.argmax_beyond_deg is None:
+            return None
+        angles = [k for k, n in enumerate(inputs) if n.startswith("theta")]
+        theta = np.mod(points[..., angles] + math.pi, 2 * math.pi) - math.pi
+        return np.any(np.abs(theta) > math.radians(self.argmax_beyond_deg), axis=-1)
 
     def apply(self, x: np.ndarray, links: int) -> np.ndarray:
         """The readings x (..., 2N) the agents see (a new array; x itself when inactive)."""
-        if not self.active:
+        if not self.shrinks:
             return x
         x = np.array(x, dtype=float)
         if self.angle_dead_zone_deg > 0:
@@ -55,14 +90,17 @@ class Readout:
         return x
 
     def as_dict(self) -> dict:
-        return {"speed_dead_zone": self.speed_dead_zone,
-                "angle_dead_zone_deg": self.angle_dead_zone_deg}
+        out = {"speed_dead_zone": self.speed_dead_zone,
+               "angle_dead_zone_deg": self.angle_dead_zone_deg}
+        if self.argmax_beyond_deg is not None:
+            out["argmax_beyond_deg"] = self.argmax_beyond_deg
+        return out
 
     @classmethod
     def from_dict(cls, data) -> "Readout":
-        if not isinstance(data, dict) or set(data) - {"speed_dead_zone", "angle_dead_zone_deg"}:
-            raise ValueError(f"a policy's readout must be a dict of speed_dead_zone and "
-                             f"angle_dead_zone_deg, got {data!r}")
+        if not isinstance(data, dict) or set(data) - set(_FIELDS):
+            raise ValueError(f"a policy's readout must be a dict of {', '.join(_FIELDS)}, "
+                             f"got {data!r}")
         return cls(**data)
 
 

@@ -33,6 +33,7 @@ class ShippedPolicy:
     levels: int = 3                 # torque levels per joint (twolink.arm.task.action_levels)
     bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)
     speed_dead_zone: float = 0.0    # read-out dead zone on the speeds, rad/s (policy.readout)
+    argmax_beyond_deg: Optional[float] = None  # read-out: argmax of Q beyond this angle
     tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
     @property
@@ -54,9 +55,10 @@ class ShippedPolicy:
             opts["levels"] = self.levels
         if self.bins != "paper":
             opts["bins"] = self.bins
-        if self.speed_dead_zone:
+        if self.speed_dead_zone or self.argmax_beyond_deg is not None:
             from twolink.policy.readout import Readout
-            opts["readout"] = Readout(speed_dead_zone=self.speed_dead_zone)
+            opts["readout"] = Readout(speed_dead_zone=self.speed_dead_zone,
+                                      argmax_beyond_deg=self.argmax_beyond_deg)
         return opts
 
 
@@ -96,12 +98,14 @@ SHIPPED = {p.name: p for p in (
                   "with the neighbour's speed", links=3, rule="tapered"),
     ShippedPolicy("centralized_tuned", "centralized", "full", None, False,
                   "the centralized policy (16) on (6) with 5 torque levels per joint, bins "
-                  "concentrated at the goal band and a 0.08 rad/s dead zone on the speed "
-                  "readings", levels=5, bins="goal", speed_dead_zone=0.08, tuned=True),
+                  "concentrated at the goal band, a 0.08 rad/s dead zone on the speed "
+                  "readings and the argmax of Q beyond 30 deg", levels=5, bins="goal",
+                  speed_dead_zone=0.08, argmax_beyond_deg=30.0, tuned=True),
     ShippedPolicy("decentralized_tuned", "decentralized", "full", "propagated", False,
                   "the decentralized agents (18) on (6) with 7 torque levels per joint, "
-                  "propagated context and a 0.04 rad/s dead zone on the speed readings",
-                  levels=7, speed_dead_zone=0.04, tuned=True),
+                  "propagated context, a 0.04 rad/s dead zone on the speed readings and "
+                  "the argmax of Q beyond 30 deg", levels=7, speed_dead_zone=0.04,
+                  argmax_beyond_deg=30.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
