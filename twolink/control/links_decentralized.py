@@ -29,6 +29,11 @@ How an agent reads its transitions (:class:`Construction`, recorded in the polic
 * ``beyond`` - the links i + 2..N start each transition at rest at angle 0 and either
   move freely without torque (``rest``) or are held rigid to link i + 1 (``locked``).
 
+What every agent is made of (:class:`Design`, recorded in the policy when it is not the
+paper's): ``levels`` torque levels per joint (the paper's three by default; the context's
+torque axis carries the neighbour's levels) and the bin layout ``bins`` of the agents' own
+angle and speed axes (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`).
+
 For two links the default construction (frozen context, no speed context, no extra bins,
 nothing locked) is the paper's pair (18) on the full model (6), bit for bit: its
 transitions go through :func:`twolink.control.problems.model_step` exactly as
@@ -49,15 +54,11 @@ from typing import Optional, Sequence
 import numpy as np
 
 from twolink.arm import dynamics
-from twolink.arm.integrate import SUBSTEPS, sample_step, wrap_angle
+from twolink.arm.integrate import SUBSTEPS, sample_step
 from twolink.arm.parameters import (
     DELTA,
     GAMMA,
-    GOAL_ANGLE,
-    GOAL_SPEED,
     LINK_RULES,
-    REWARD_GOAL,
-    REWARD_OTHER,
     TABLE_I,
     TS,
     ArmParameters,
@@ -114,31 +115,23 @@ class Construction:
 @dataclasses.dataclass(frozen=True)
 class Design:
     """What every agent is made of, beside how it reads its transitions: ``levels``
-    torque levels per joint (:func:`twolink.arm.task.action_levels`; the context's torque
-    axis carries the neighbour's levels), the bin layout ``bins`` of the agents' own angle
-    and speed axes (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`; the context axes keep the
-    paper's bins) and ``band``, the fraction of the goal band (5 deg, 0.1 rad/s) inside
-    which the synthesis rewards a link with (17)'s 0 (1: the band itself). A band below 1
-    makes the value of resting exactly at the band's edge -0.5 a step, so an agent does
-    not stall there. The default is the paper's: three levels, its bins, its band."""
+    torque levels per joint (:func:`twolink.arm.task.action_levels`; agent i's torque
+    context axis carries link i + 1's levels) and the bin layout ``bins`` of the agents'
+    own angle and speed axes (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`; the context axes keep
+    the paper's bins). The default is the paper's: three levels and its bins."""
 
     levels: int = PAPER_LEVELS
     bins: str = "paper"
-    band: float = 1.0
 
     def __post_init__(self):
         object.__setattr__(self, "levels", check_levels(self.levels))
         fuzzy.check_bins(self.bins)
-        b = self.band
-        if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 < b <= 1.0:
-            raise ValueError(f"band must be a fraction of the goal band in (0, 1], got {b!r}")
-        object.__setattr__(self, "band", float(b))
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
 
 
-#: The paper's design: three torque levels, its bins and goal band.
+#: The paper's design: three torque levels and its bins.
 PAPER_DESIGN = Design()
 
 #: The default construction for two links: the paper's pair (18) on the full model (6).
@@ -192,18 +185,9 @@ def agent_grid(i: int, p: ChainParameters, c: Construction,
         if c.speed_context:
             axes.append(_speed_axis(f"dtheta{i + 1}",
                                     extra in ("context", "both", "base", "neighbour")))
-        axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i]), design.levels))
+        axes.append(fuzzy.torque_axis(f"tau{i + 1}", float(p.tau_max[i]),
+                                      design.levels))
     return fuzzy.Grid(tuple(axes))
-
-
-def _reward(x: np.ndarray, i: int, band: float) -> np.ndarray:
-    """(17) of link i on the states x, its goal band scaled by ``band`` (1: (17) itself)."""
-    if band == 1.0:
-        return agent_reward(x, i)
-    n = x.shape[-1] // 2
-    inside = (np.abs(wrap_angle(x[..., i - 1])) <= band * GOAL_ANGLE) & \
-        (np.abs(x[..., n + i - 1]) <= band * GOAL_SPEED)
-    return np.where(inside, REWARD_GOAL, REWARD_OTHER)
 
 
 def locked_joints(i: int, links: int, c: Construction) -> tuple:
@@ -281,7 +265,7 @@ def agent_problem(i: int, p: ChainParameters, c: Construction,
         else:
             columns.append(_outer_torque(outer, nxt, n, i))
     return Problem(f"agent{i}", grid, actions, (f"tau{i}",), np.stack(columns, -1),
-                   _reward(nxt, i, design.band), time.perf_counter() - start)
+                   agent_reward(nxt, i), time.perf_counter() - start)
 
 
 def transition_bytes(p: ChainParameters, c: Construction,
@@ -311,22 +295,23 @@ def check_size(p: ChainParameters, c: Construction, max_bytes: int = MAX_BYTES,
     return need
 
 
-def design(levels: int = PAPER_LEVELS, bins: str = "paper", band: float = 1.0) -> Design:
-    """The :class:`Design` of these options, checked (a ValueError naming the bad one)."""
-    return Design(levels, bins, band)
+def design(levels: int = PAPER_LEVELS, bins: str = "paper") -> Design:
+    """The :class:`Design` of these options, checked: a ValueError naming a level count
+    outside 2-9 or an unknown bin layout."""
+    return Design(levels, bins)
 
 
 def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                      context: Optional[str] = None, speed_context: Optional[bool] = None,
                      extra_speed_bins: Optional[str] = None, lock_inner: Optional[str] = None,
                      beyond: Optional[str] = None, levels: int = PAPER_LEVELS,
-                     bins: str = "paper", band: float = 1.0, gamma: float = GAMMA,
+                     bins: str = "paper", gamma: float = GAMMA,
                      delta: float = DELTA, sweeps: str = "synchronous",
                      max_bytes: int = MAX_BYTES, progress: bool = False) -> Policy:
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
     take the default for N links and the rule of ``p`` (:func:`construction`: the paper's
-    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond); ``levels``, ``bins`` and ``band`` make
+    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond); ``levels`` and ``bins`` make
     the :class:`Design` (the paper's by default). Every option and the memory the
     transitions take (refused over ``max_bytes``) are checked before any work. The
     policy's ``meta`` records the links, the rule, the parameters, the construction (and
@@ -336,7 +321,7 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
     n = p.links
     c = construction(n, p.rule, context=context, speed_context=speed_context,
                      extra_speed_bins=extra_speed_bins, lock_inner=lock_inner, beyond=beyond)
-    made = design(levels, bins, band)
+    made = design(levels, bins)
     check_sweeps(sweeps)
     if not (isinstance(gamma, (int, float)) and 0.0 < gamma < 1.0):
         raise ValueError(f"gamma must lie in (0, 1), got {gamma!r}")
