@@ -28,9 +28,9 @@ def test_horizons_grow_past_two_links():
 
 def test_plan_measures_two_links_once_and_quick_stops_at_four():
     cells = scaling.plan([3, 2], ["tapered", "copied"])
-    assert cells == [(2, "tapered", "centralized"), (2, "tapered", "decentralized"),
-                     (3, "tapered", "centralized"), (3, "tapered", "decentralized"),
-                     (3, "copied", "centralized"), (3, "copied", "decentralized")]
+    three = ["centralized", "decentralized", "decentralized_levels", "pd"]
+    assert cells == [(2, "tapered", "centralized"), (2, "tapered", "decentralized")] + \
+        [(3, r, s) for r in ("tapered", "copied") for s in three]
     with pytest.raises(ValueError, match="quick runs go up to 4 links"):
         scaling.plan([2, 5], ["tapered"], quick=True)
     with pytest.raises(ValueError, match="unknown link rule 'diagonal'"):
@@ -120,6 +120,32 @@ def test_report_files_and_targets(two_link_rows, tmp_path):
     assert got == {"tapered N = 3 >= 95 % at 8 s": True, "tapered N = 3 >= 90 % at 5 s": False}
     assert "**missed**: tapered N = 3 >= 90 % at 5 s: 57/64 = 89.1 %" in markdown(
         {**report, "rows": report["rows"] + [row3]}, "x")
+
+
+def test_pd_row_is_the_tuned_per_joint_pd_on_the_evaluation_poses():
+    row = scaling.measure(3, "copied", "pd", poses=2)
+    assert row.status == "run" and row.synthesis is None and row.estimate is None
+    assert "sat 57 deg, zeta 1.4" in row.note and "random_poses(3, 64, 7100 + 3)" in row.note
+    assert row.evaluation.seed == scaling.EVAL_SEED + 3
+    assert row.evaluation.horizons["8"]["successes"] == 2     # both poses settle
+    line = tables({"options": {"rules": ["copied"], "horizon_short": 5.0,
+                               "horizon_long": 8.0}, "rows": [row.as_dict()]})
+    assert "| 3 | per-joint PD | — | — | — | — | — | " in line
+    with pytest.raises(ValueError, match="the pd rows are for three links and more"):
+        scaling.measure(2, "copied", "pd")
+    with pytest.raises(ValueError, match="unknown scheme 'lqr'"):
+        scaling.measure(3, "copied", "lqr")
+
+
+def test_targets_of_the_five_level_rows():
+    def row(scheme, k):
+        return {"scheme": scheme, "rule": "tapered", "links": 5, "status": "run",
+                "evaluation": {"horizons": {"8": {"successes": k, "n": 256,
+                                                  "rate": k / 256}}}}
+    got = {t["target"]: t["met"] for t in scaling.targets(
+        {"rows": [row("decentralized", 230), row("decentralized_levels", 245)]})}
+    assert got == {"tapered N = 5 >= 95 % at 8 s": False,
+                   "tapered N = 5 >= 95 % at 8 s (5 levels)": True}
 
 
 def test_peak_measured_in_a_fresh_process():

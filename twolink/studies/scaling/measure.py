@@ -11,6 +11,11 @@ schemes, the centralized policy (16) and one decentralized agent per joint (18):
   :data:`EVAL_SEED` + N, at the horizon of :func:`horizon` (and at the paper's 5 s
   beside it for N >= 3).
 
+For N >= 3 two more rows stand beside them (:data:`CHAIN_SCHEMES`): the decentralized
+agents with :data:`LEVER_LEVELS` torque levels per joint, and the per-joint saturated PD
+of :mod:`twolink.control.links_pd` with the gains it was tuned to on its own seeds (the
+control only: a PD has no synthesis).
+
 The centralized problem is estimated for every N before any work
 (:func:`twolink.control.links_centralized.estimate`) and synthesised only where its estimated peak
 fits under the memory cap; otherwise its row is a refusal carrying the estimate. For
@@ -49,6 +54,7 @@ from twolink.sim.plants import make_plant
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import Trajectory, rollout
 from twolink.studies.scaling.synthesis import (
+    LEVER_LEVELS,
     ProcessDied,
     Synthesis,
     cell_policy,
@@ -62,6 +68,12 @@ from twolink.studies.scaling.synthesis import (
 EVAL_SEED = 20061122
 #: The two schemes of the paper, in table order.
 SCHEMES = ("centralized", "decentralized")
+#: Rows measured beside them for N >= 3, in table order: the decentralized agents with
+#: :data:`LEVER_LEVELS` torque levels per joint, and the per-joint saturated PD
+#: (:mod:`twolink.control.links_pd`, gains tuned off the evaluation seeds).
+CHAIN_SCHEMES = ("decentralized_levels", "pd")
+#: Every row kind of the table.
+ALL_SCHEMES = SCHEMES + CHAIN_SCHEMES
 #: Horizon for N >= 3 links (:data:`twolink.arm.parameters.CHAIN_HORIZON`).
 LONG_HORIZON = CHAIN_HORIZON
 #: Random poses per arm by default (about +-5 points of 95 % interval at 95 % success).
@@ -206,12 +218,14 @@ def estimate(links: int) -> dict:
             for k, v in dataclasses.asdict(e).items()}
 
 
-def decentralized_estimate(links: int, rule: str) -> dict:
+def decentralized_estimate(links: int, rule: str, levels: int = 3) -> dict:
     """The decentralized agents' largest transition memory, known before any work
-    (:func:`twolink.control.links_decentralized.transition_bytes` of the default construction)."""
-    from twolink.control.links_decentralized import construction, transition_bytes
+    (:func:`twolink.control.links_decentralized.transition_bytes` of the default
+    construction with ``levels`` torque levels per joint)."""
+    from twolink.control.links_decentralized import construction, design, transition_bytes
     p = as_chain(params_of(links, rule))
-    return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule)))}
+    return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule),
+                                               design(levels)))}
 
 
 def refusal(est: dict, max_bytes: int) -> Optional[str]:
@@ -260,6 +274,15 @@ def evaluate(policy, links: int, rule: str, *, poses: int = DEFAULT_POSES,
     return Evaluation(poses, seed + links, out)
 
 
+def pd_note(links: int, rule: str) -> str:
+    """How the ``pd`` row's controller is made: its gains and where they were tuned."""
+    from twolink.control.links_pd import TUNED, TUNING_POSES, TUNING_SEED
+    t = TUNED[(links, rule)]
+    return (f"per-joint saturated PD (twolink.control.links_pd): sat "
+            f"{t['sat_deg']:g} deg, zeta {t['zeta']:g} on every joint, tuned on "
+            f"random_poses({links}, {TUNING_POSES}, {TUNING_SEED} + {links})")
+
+
 def _cell(links: int, rule: str, scheme: str, poses: int, seed: int, max_bytes: int,
           peak: str, warm_up: bool) -> tuple:
     """Synthesis and evaluation of one cell (run in a fresh process by :func:`measure`)."""
@@ -278,12 +301,22 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
     (:data:`~twolink.studies.scaling.synthesis.PEAK_METHODS`)."""
     links = check_links(links)
     check_rules([rule])
-    if scheme not in SCHEMES:
-        raise ValueError(f"unknown scheme {scheme!r}; choose from {', '.join(SCHEMES)}")
+    if scheme not in ALL_SCHEMES:
+        raise ValueError(f"unknown scheme {scheme!r}; choose from {', '.join(ALL_SCHEMES)}")
+    if scheme in CHAIN_SCHEMES and links == 2:
+        raise ValueError(f"the {scheme} rows are for three links and more, got 2")
     max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
     check_peak_method(peak)
     row = Row(links, rule if links > 2 else "Table I", scheme, "run")
-    if scheme == "decentralized":
+    if scheme == "pd":
+        from twolink.control.links_pd import tuned
+        row.note = pd_note(links, rule)
+        row.evaluation = evaluate(tuned(chain(links, rule)), links, rule, poses=poses,
+                                  seed=seed)
+        return row
+    if scheme == "decentralized_levels":
+        row.estimate = decentralized_estimate(links, rule, LEVER_LEVELS)
+    elif scheme == "decentralized":
         row.estimate = decentralized_estimate(links, rule)
     else:
         row.estimate = estimate(links)
@@ -309,13 +342,14 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
 def plan(links=tuple(range(MIN_LINKS, MAX_LINKS + 1)), rules=LINK_RULES, *,
          quick: bool = False) -> list:
     """The cells (links, rule, scheme) in table order. Two links are Table I whatever the
-    rule, so they are measured once."""
+    rule, so they are measured once, in the two schemes; from three links on every row
+    kind of :data:`ALL_SCHEMES`."""
     links, rules = check_link_list(links), check_rules(rules)
     if quick and links[-1] > QUICK_MAX_LINKS:
         raise ValueError(f"quick runs go up to {QUICK_MAX_LINKS} links, got "
                          f"{links[-1]}; drop the quick option for more")
     cells = [(2, rules[0], s) for s in SCHEMES] if 2 in links else []
-    return cells + [(n, r, s) for r in rules for n in links if n > 2 for s in SCHEMES]
+    return cells + [(n, r, s) for r in rules for n in links if n > 2 for s in ALL_SCHEMES]
 
 
 def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
@@ -346,9 +380,9 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
     return Scaling(rows, options)
 
 
-#: The targets the table measures: (what, rule, links, scheme, check).
-#: ``check`` is ("success", horizon s, least rate) or ("synthesis", most seconds, most
-#: bytes).
+#: The targets the table measures: (what, rule, links, check[, scheme]), on the
+#: ``decentralized`` row unless a scheme is named. ``check`` is ("success", horizon s,
+#: least rate) or ("synthesis", most seconds, most bytes).
 TARGETS = (
     ("decentralized N = 6 synthesis <= 60 s and <= 2 GiB (tapered)", "tapered", 6,
      ("synthesis", 60.0, 2 * 2**30)),
@@ -358,19 +392,29 @@ TARGETS = (
     ("tapered N = 3 >= 90 % at 5 s", "tapered", 3, ("success", HORIZON, 0.90)),
     ("tapered N = 4 >= 95 % at 8 s", "tapered", 4, ("success", LONG_HORIZON, 0.95)),
     ("copied N = 3 >= 95 % at 8 s", "copied", 3, ("success", LONG_HORIZON, 0.95)),
+    ("tapered N = 5 >= 95 % at 8 s", "tapered", 5, ("success", LONG_HORIZON, 0.95)),
+    ("tapered N = 6 >= 90 % at 8 s", "tapered", 6, ("success", LONG_HORIZON, 0.90)),
+    ("copied N = 4 >= 90 % at 8 s", "copied", 4, ("success", LONG_HORIZON, 0.90)),
+    ("tapered N = 5 >= 95 % at 8 s (5 levels)", "tapered", 5,
+     ("success", LONG_HORIZON, 0.95), "decentralized_levels"),
+    ("tapered N = 6 >= 90 % at 8 s (5 levels)", "tapered", 6,
+     ("success", LONG_HORIZON, 0.90), "decentralized_levels"),
+    ("copied N = 4 >= 90 % at 8 s (5 levels)", "copied", 4,
+     ("success", LONG_HORIZON, 0.90), "decentralized_levels"),
+    ("decentralized N = 6 synthesis <= 60 s (tapered, 5 levels)", "tapered", 6,
+     ("synthesis", 60.0, 2 * 2**30), "decentralized_levels"),
 )
 
 
 def targets(report: dict) -> list:
-    """Each target of :data:`TARGETS` whose decentralized row the report holds: the
-    target, the measured value (a line, or the successes and poses at the horizon) and
-    whether it is met (on the point estimate,
-    from the evaluation seed nobody tuned on)."""
-    rows = {(r["rule"], r["links"]): r for r in report["rows"]
-            if r["scheme"] == "decentralized" and r["status"] == "run"}
+    """Each target of :data:`TARGETS` whose row the report holds: the target, the
+    measured value (a line, or the successes and poses at the horizon) and whether it is
+    met (on the point estimate, from the evaluation seed nobody tuned on)."""
+    rows = {(r["scheme"], r["rule"], r["links"]): r for r in report["rows"]
+            if r["status"] == "run"}
     out = []
-    for what, rule, links, check in TARGETS:
-        row = rows.get((rule, links))
+    for what, rule, links, check, *scheme in TARGETS:
+        row = rows.get((scheme[0] if scheme else "decentralized", rule, links))
         if row is None:
             continue
         if check[0] == "synthesis":

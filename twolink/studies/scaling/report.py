@@ -12,12 +12,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from twolink.artifacts import atomic_path, write_json, write_text  # noqa: E402
-from twolink.studies.scaling.measure import SCHEMES, targets  # noqa: E402
+from twolink.studies.scaling.measure import ALL_SCHEMES, LEVER_LEVELS, targets  # noqa: E402
 from twolink.viz.formatting import format_rate  # noqa: E402
 
 #: The files :func:`write` writes into its folder.
 FILES = {"markdown": "scaling.md", "figure": "scaling.png", "json": "scaling.json"}
-_COLORS = {"centralized": "C0", "decentralized": "C1"}
+_COLORS = {"centralized": "C0", "decentralized": "C1", "decentralized_levels": "C2",
+           "pd": "C3"}
+#: How the table names each row kind.
+LABELS = {"centralized": "centralized", "decentralized": "decentralized",
+          "decentralized_levels": f"decentralized, {LEVER_LEVELS} levels",
+          "pd": "per-joint PD"}
 _RULE_STYLES = {"Table I": "-", "tapered": "-", "copied": "--"}
 
 
@@ -59,8 +64,10 @@ def _settle(row: dict) -> str:
 
 def _line(row: dict, short: float, long: float) -> list:
     s, est = row.get("synthesis"), row.get("estimate") or {}
-    n, scheme = row["links"], row["scheme"]
-    if s:
+    n, scheme = row["links"], LABELS.get(row["scheme"], row["scheme"])
+    if row["scheme"] == "pd":
+        q = nnz = peak = time = sweeps = "—"
+    elif s:
         q, nnz = count(s["q_values"]), count(s["nnz"])
         peak = size(s["peak_bytes"])
         if est.get("peak_bytes"):
@@ -131,8 +138,19 @@ def _constructions(report: dict) -> list:
             how.setdefault(r["rule"], s["construction"])
     if not how:
         return []
-    return ["- **Decentralized agents, N ≥ 3**: "
-            + "; ".join(f"{rule} links: {text}" for rule, text in how.items()) + "."]
+    out = ["- **Decentralized agents, N ≥ 3**: "
+           + "; ".join(f"{rule} links: {text}" for rule, text in how.items()) + "."]
+    if any(r["scheme"] == "decentralized_levels" for r in report["rows"]):
+        out.append(f"- **Decentralized, {LEVER_LEVELS} levels**: the same agents with "
+                   f"{LEVER_LEVELS} torque levels per joint instead of three (the "
+                   "`levels` option of `synthesize_chain`).")
+    pd = [f"N = {r['links']} {r['rule']}: {r['note'].split(': ', 1)[-1]}"
+          for r in report["rows"] if r["scheme"] == "pd" and r.get("note")]
+    if pd:
+        out.append("- **Per-joint PD** (`twolink.control.links_pd`, a saturated "
+                   "PD per joint seeing only its own angle and speed; no synthesis): "
+                   + "; ".join(pd) + ".")
+    return out
 
 
 def _load(o: dict) -> str:
@@ -241,7 +259,7 @@ def figure(report: dict, path) -> Path:
     o = report["options"]
     rule0 = o["rules"][0]
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(15, 4.6))
-    for scheme in SCHEMES:
+    for scheme in ("centralized", "decentralized"):
         _plot_log(a, report, rule0, scheme, _q, "o", "Q-values")
         _plot_log(a, report, rule0, scheme, _nnz, "s", "nnz(T)")
         _plot_log(b, report, rule0, scheme, _mem, "^", "peak memory")
@@ -255,8 +273,9 @@ def figure(report: dict, path) -> Path:
         ax.legend(fontsize=7)
     markers = ("o", "s", "D")
     for ri, rule in enumerate(o["rules"]):
-        for si, scheme in enumerate(SCHEMES):
-            shift = 0.05 * (2 * si - 1) + 0.025 * ri
+        for si, scheme in enumerate(s for s in ALL_SCHEMES
+                                    if any(r["scheme"] == s for r in report["rows"])):
+            shift = 0.05 * (si - 1) + 0.025 * ri
             for long, style in ((True, _RULE_STYLES[rule]), (False, ":")):
                 pts = []
                 for r in _rows(report, rule):
@@ -276,7 +295,8 @@ def figure(report: dict, path) -> Path:
                 c.errorbar(n + shift, rate, yerr=err if long else None,
                            fmt=markers[ri % len(markers)] if long else "x", ls=style,
                            color=_COLORS[scheme], capsize=3, ms=5, lw=1,
-                           alpha=1.0 if long else 0.6, label=f"{scheme}, {rule}, {what}")
+                           alpha=1.0 if long else 0.6,
+                           label=f"{LABELS.get(scheme, scheme)}, {rule}, {what}")
     c.set_ylim(-0.03, 1.05)
     c.set_ylabel("success rate [95 % Wilson]")
     c.set_title(f"success on MuJoCo, {o['poses']} poses ({o['horizon_short']:g} s for "

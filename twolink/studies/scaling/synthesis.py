@@ -16,6 +16,9 @@ from tqdm import tqdm
 from twolink.arm.parameters import TABLE_I, chain
 from twolink.policy.registry import SHIPPED
 
+#: The torque levels per joint of the ``decentralized_levels`` cells.
+LEVER_LEVELS = 5
+
 #: How the peak memory of one synthesis is measured: ``"process"`` runs it in a fresh
 #: process, after the imports and a warm-up (the two-link decentralized synthesis, which
 #: loads the compiled kernels: about 125 MiB of numba's own), gives freed heap back
@@ -78,10 +81,12 @@ def cell_policy(links: int, rule: str, scheme: str, max_bytes: int):
         return (synthesize(entry.kind, TABLE_I, **entry.synthesis_options()),
                 f"{name} (registry): {entry.description}")
     p = chain(links, rule)
-    if scheme == "decentralized":
+    if scheme in ("decentralized", "decentralized_levels"):
         from twolink.control.links_decentralized import synthesize_chain
-        policy = synthesize_chain(p)
+        levels = {"levels": LEVER_LEVELS} if scheme == "decentralized_levels" else {}
+        policy = synthesize_chain(p, **levels)
         c = ", ".join(f"{k}={v}" for k, v in policy.meta.get("construction", {}).items())
+        c += "".join(f", {k}={v}" for k, v in policy.meta.get("design", {}).items())
         return policy, f"one agent per joint on the full N-link model " \
                        f"(twolink.control.links_decentralized.synthesize_chain; {c})"
     from twolink.control.links_centralized import synthesize_centralized
