@@ -144,15 +144,18 @@ def test_rollout_cli_entry_point_exit_status(tmp_path):
 
 
 def test_rollout_output_directory_gets_the_default_names(tmp_path, capsys):
+    """An existing folder, or DIR/ (a trailing slash) made when missing, gets rollout.*;
+    DIR/ under a missing folder is one line, and nothing is made."""
     (tmp_path / "results").mkdir()
     for prefix in (tmp_path / "results", f"{tmp_path / 'new'}/"):
-        if str(prefix).endswith("/"):
-            (tmp_path / "new").mkdir()
-        code, _, _ = _run(capsys, "--plant", "simplified", "--duration", 0.2, "-o", prefix)
-        assert code == 0
+        code, _, err = _run(capsys, "--plant", "simplified", "--duration", 0.2, "-o", prefix)
+        assert code == 0, err
     for d in ("results", "new"):
         assert sorted(p.name for p in (tmp_path / d).iterdir()) == [
             "rollout.csv", "rollout.npz", "rollout_fig3.png"]
+    code, _, err = _run(capsys, "--plant", "simplified", "--duration", 0.2,
+                        "-o", f"{tmp_path / 'missing' / 'new'}/")
+    assert code == 2 and err.count("\n") == 1 and "does not exist" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["new", "results"]
 
 

@@ -59,3 +59,21 @@ def test_a_command_logs_its_progress_when_stderr_is_a_file(tmp_path, monkeypatch
     lines = log.read_text().splitlines()
     assert lines[0].startswith("3-link agents:   0%") and "0/3" in lines[0], lines
     assert any(line.startswith("3-link agents: 100%") and "3/3" in line for line in lines)
+
+
+def test_two_link_synthesis_logs_its_q_iterations_when_stderr_is_a_file(tmp_path,
+                                                                        monkeypatch):
+    """`twolink synthesize decentralized -o X` (the real two-link synthesis, about 1 s)
+    with stderr to a file prints each agent's Q-iteration bar as lines."""
+    from twolink.cli import main
+
+    log = tmp_path / "log.txt"
+    with open(log, "w") as fh:
+        monkeypatch.setattr("sys.stderr", fh)
+        assert main(["synthesize", "decentralized", "-o", str(tmp_path / "d.npz")]) == 0
+    lines = log.read_text().splitlines()
+    for agent in ("agent1", "agent2"):
+        mine = [line for line in lines if line.startswith(f"Q-iteration {agent}: ")]
+        assert mine and mine[-1].split(": ")[1].split()[0].isdigit(), lines
+        assert int(mine[-1].split(": ")[1].split()[0]) > 0, lines     # sweeps counted
+    assert (tmp_path / "d.npz").exists()

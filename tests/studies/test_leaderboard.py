@@ -62,8 +62,12 @@ def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
     assert main(["leaderboard", "--quick", "--controllers", "lqr", "--controller",
                  f"{mine}:pd", "--levels", "none", "medium", "--plants", "2",
                  "--out", str(out)]) == 0
-    text = capsys.readouterr().out
+    captured = capsys.readouterr()
+    text = captured.out
     assert "| lqr | compensated |" in text and "| pd | plain |" in text
+    rows = captured.err.splitlines()                # one line per row, no bar besides
+    assert len(rows) == 5 and all(line.startswith(f"[{k}/5] ")
+                                  for k, line in enumerate(rows, 1)), rows
     report = json.loads((out / "leaderboard.json").read_text())
     assert {(r["controller"], r["level"], r["mode"]) for r in report["rows"]} == {
         ("lqr", "none", "plain"), ("lqr", "medium", "plain"), ("lqr", "medium", "compensated"),
@@ -88,7 +92,9 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, match)
 
 def test_evaluate_prints_the_score_against_the_limit(capsys):
     assert main(["evaluate", "lqr", "--states", "quick", "--json"]) == 0
-    r = json.loads(capsys.readouterr().out)
+    out, err = capsys.readouterr()
+    r = json.loads(out)
+    assert err == ""                                 # --json: no progress bar
     assert (r["controller"], r["challenge"], r["mode"], r["n"]) == ("lqr", "none", "plain", 5)
     assert r["successes"] == 5 and r["settle_ratio_median"] >= 1.0
     assert main(["evaluate", "pd_deadzone", "--challenge", "medium", "--plants", "2",
@@ -97,6 +103,18 @@ def test_evaluate_prints_the_score_against_the_limit(capsys):
     assert line.startswith("pd_deadzone under medium (plain): ") and "settle / T*" in line
     assert main(["evaluate", "nosuch"]) == 2
     assert "unknown controller 'nosuch'" in capsys.readouterr().err
+
+
+def test_evaluate_logs_its_progress_unless_json(tmp_path, monkeypatch):
+    """With stderr a file `twolink evaluate` prints its bar as lines, the last at 100 %
+    (the 100 samples Ts of 5 s); with --json it prints none (the test above)."""
+    log = tmp_path / "log.txt"
+    with open(log, "w") as fh:
+        monkeypatch.setattr("sys.stderr", fh)
+        assert main(["evaluate", "lqr", "--states", "quick"]) == 0
+    lines = log.read_text().splitlines()
+    assert lines and all(line.startswith("evaluate lqr:") for line in lines), lines
+    assert "100%" in lines[-1] and "100/100" in lines[-1], lines
 
 
 def test_merge_adds_rows_as_a_full_run_would_give_them(tmp_path, capsys):

@@ -313,3 +313,32 @@ def test_missing_egl_vendor_is_named_in_one_line(tmp_path):
 def test_diagnose_names_a_wrong_backend(monkeypatch):
     monkeypatch.setenv("MUJOCO_GL", "glx")
     assert "MUJOCO_GL='glx'" in diagnose() and "egl" in diagnose()
+
+
+def test_render_takes_a_folder_with_a_trailing_slash(tmp_path, capsys):
+    """-o DIR/ writes the default name in DIR, made for it; under a missing folder it is
+    one line and nothing is made."""
+    folder = tmp_path / "videos"
+    code, text, err = _render(capsys, "--duration", 0.2, "--size", "64x48", "--no-ghost",
+                              "--json", "-o", f"{folder}/")
+    assert code == 0, err
+    assert json.loads(text)["path"] == str(folder / "centralized_mujoco.mp4")
+    assert [p.name for p in folder.iterdir()] == ["centralized_mujoco.mp4"]
+    code, _, err = _render(capsys, "--duration", 0.2, "-o", f"{tmp_path / 'no' / 'v'}/")
+    assert code == 2 and err.count("\n") == 1 and "does not exist" in err
+    assert [p.name for p in tmp_path.iterdir()] == ["videos"]
+
+
+def test_render_logs_its_progress_when_stderr_is_a_file(tmp_path, monkeypatch):
+    """With stderr a file the frame loop's bar is printed as lines, the last one at 100 %;
+    --no-progress prints none."""
+    log = tmp_path / "log.txt"
+    with open(log, "w") as fh:
+        monkeypatch.setattr("sys.stderr", fh)
+        assert main(["render", "--duration", "0.3", "--size", "64x48", "--no-ghost",
+                     "-o", str(tmp_path / "v.mp4")]) == 0
+        assert main(["render", "--duration", "0.3", "--size", "64x48", "--no-ghost",
+                     "--no-progress", "-o", str(tmp_path / "w.mp4")]) == 0
+    lines = log.read_text().splitlines()
+    assert lines and all(line.startswith("render v.mp4:") for line in lines), lines
+    assert "100%" in lines[-1] and "7/7" in lines[-1], lines

@@ -5,7 +5,8 @@ or ``path/to/file.py:callable`` (a callable mapping states (n, 4) to torques (n,
 twolink.sim.controller). Prints k/n with the 95 % Wilson interval, the worst plant, the
 median settle time and settle / T*, the settle time over the time-optimal limit of each
 initial state. The controller runs plain (it reads the challenge's readings as they are)
-unless --compensate puts the delay predictor and observer in front of it.
+unless --compensate puts the delay predictor and observer in front of it. A progress bar
+(samples Ts simulated) goes to stderr, as lines when it is not a terminal, unless --json.
 """
 from __future__ import annotations
 
@@ -36,13 +37,16 @@ def add_parser(sub):
     p.add_argument("--states", choices=STATE_SETS, default="full",
                    help="initial states: the 65 of the evaluation set (full) or every 13th "
                         "(quick)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the result as JSON (and no progress bar)")
     return p
 
 
 def result(controller: str, *, challenge: str = "none", compensate: bool = False,
-           plants: int = 32, seed: int = 2026, states: str = "full") -> dict:
-    """The JSON of ``twolink evaluate``."""
+           plants: int = 32, seed: int = 2026, states: str = "full",
+           progress: bool = False) -> dict:
+    """The JSON of ``twolink evaluate``; ``progress`` shows the evaluation's bar
+    (:func:`twolink.sim.progress.progress_bar`) on stderr."""
     import numpy as np
 
     from twolink.control.controllers import resolve_controller
@@ -61,7 +65,8 @@ def result(controller: str, *, challenge: str = "none", compensate: bool = False
     x0 = states_of(states)
     limits, source = state_limits(x0)
     ev = evaluate(c, x0=x0, challenge=ch, seed=seed, compensate=compensate,
-                  count=plants if ch.perturbs_plant() else 1, label=c.name)
+                  count=plants if ch.perturbs_plant() else 1, label=c.name,
+                  progress=progress)
     out = {"controller": c.name, "challenge": ch.name,
            "mode": "compensated" if compensate else "plain", "states": len(x0),
            "plants": len(ev.params), "seed": seed, **ev.score.as_dict(), "limits": source}
@@ -77,7 +82,8 @@ def run(args) -> int:
     from twolink.viz.formatting import format_rate
 
     r = result(args.controller, challenge=args.challenge, compensate=args.compensate,
-               plants=args.plants, seed=args.seed, states=args.states)
+               plants=args.plants, seed=args.seed, states=args.states,
+               progress=not args.json)
     if args.json:
         print(json.dumps(r, indent=2))
         return 0

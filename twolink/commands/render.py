@@ -16,13 +16,11 @@ import argparse
 import json
 import re
 import time
-from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON, TS
-from twolink.artifacts import check_outputs
+from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
 from twolink.commands._controllers import add_controller_option
 from twolink.commands._controllers import controllers_of as command_controllers
@@ -41,6 +39,7 @@ from twolink.resources import output_dir
 from twolink.sim.challenges import challenge
 from twolink.sim.evaluation import challenged_rollouts
 from twolink.sim.plants import PLANTS
+from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import MAX_DURATION, rollout_grid, steps_for
 from twolink.viz.video import (
     MAX_FRAMES,
@@ -88,10 +87,13 @@ def add_parser(sub):
                    help="draw time, torques and reward on the frames (default on)")
     p.add_argument("--antialias", action="store_true",
                    help="4x multisample anti-aliasing (about 3x slower without a GPU)")
-    p.add_argument("-o", "--output", type=Path, default=None,
-                   help="video to write, .mp4 (H.264) or .gif "
-                        "(default renders/<policy>[_vs_<policy>]_<plant>.mp4)")
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("-o", "--output", default=None,
+                   help="video to write, .mp4 (H.264) or .gif; DIR/ (a trailing /) writes "
+                        "the default name in DIR, made if missing (default "
+                        "renders/<policy>[_vs_<policy>]_<plant>.mp4)")
+    p.add_argument("--no-progress", action="store_true",
+                   help="hide the progress bar (printed as lines when stderr is not a "
+                        "terminal; --json hides it too)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     return p
 
@@ -123,11 +125,12 @@ def run(args) -> int:
     policies = command_controllers(args, links, most=2)
     labels = list(policies)
     default = output_dir(create=False)
-    out = args.output or default / f"{'_vs_'.join(labels)}_{args.plant}.mp4"
+    name = f"{'_vs_'.join(labels)}_{args.plant}.mp4"
+    out, folders = output_file(args.output, name) if args.output else (default / name, [])
     fmt = video_format(out)
     check_size(width * len(labels), height, fmt)
     check_budget(args.duration / args.speed * args.fps + 1, width * len(labels), height)
-    check_outputs({"--output": out}, creatable=[default])
+    check_outputs({"--output": out}, creatable=[default, *folders])
 
     ghost = "simplified" if links == 2 else "full"
     shown = [args.plant] + ([ghost] if args.ghost else [])
@@ -154,9 +157,10 @@ def run(args) -> int:
                   samples=4 if args.antialias else 0, params=params) as r:
         frames = trajectory_frames(r, panels, fps=args.fps, speed=args.speed,
                                    duration=args.duration)
-        bar = tqdm(frames, total=n, unit="frame", desc=f"render {out.name}",
-                   disable=args.no_progress or args.json, leave=False)
-        count = write_video(out, bar, args.fps)
+        make_folders(folders)                    # -o DIR/: once the renderer is up
+        with progress_bar(frames, total=n, unit=" frames", desc=f"render {out.name}",
+                          enabled=not (args.no_progress or args.json), leave=False) as bar:
+            count = write_video(out, bar, args.fps)
     seconds = time.perf_counter() - t0
     result = {"path": str(out), "frames": count, "fps": args.fps, "width": width * len(labels),
               "height": height, "video_seconds": count / args.fps,

@@ -13,13 +13,12 @@ full N-link model; the simplified model (11) and the challenges are the two-link
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from twolink.arm.parameters import (
     HORIZON,
 )
-from twolink.artifacts import check_outputs
+from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
 from twolink.commands._controllers import add_controller_option, context_of, kind_of
 from twolink.commands._controllers import controllers_of as command_controllers
@@ -72,7 +71,8 @@ def add_parser(sub):
     add_challenge_options(p)
     p.add_argument("-o", "--output", default=None, metavar="PREFIX",
                    help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png; a directory "
-                        "writes DIR/rollout.* (default renders/rollout)")
+                        "writes DIR/rollout.*, and DIR/ (a trailing /) makes DIR if "
+                        "missing (default renders/rollout)")
     p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
     p.add_argument("--npz", type=Path, help="trajectory NPZ path (overrides the prefix)")
     p.add_argument("--figure", type=Path, help="Fig. 3 PNG path (overrides the prefix)")
@@ -81,21 +81,26 @@ def add_parser(sub):
     return p
 
 
-def _outputs(args) -> dict:
-    """The files to write, keyed by kind, all checked before any work."""
+def _outputs(args) -> tuple[dict, list]:
+    """(the files to write keyed by kind, the folders to make first), all checked before
+    any work: ``-o DIR/`` (a trailing slash) writes ``DIR/rollout.*``, ``DIR`` among the
+    folders made (:func:`twolink.artifacts.make_folders`) once the run succeeded."""
     if args.no_save:
-        return {}
+        return {}, []
     default = output_dir(create=False)
-    prefix = Path(args.output) if args.output else default / "rollout"
-    if prefix.is_dir() or (args.output or "").endswith(("/", os.sep)):
+    prefix, folders = output_file(args.output, "rollout")
+    if not args.output:
+        prefix = default / "rollout"
+    elif not folders and prefix.is_dir():
         prefix = prefix / "rollout"
     out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
            "npz": args.npz or prefix.with_name(prefix.name + ".npz"),
            "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}
     if out["figure"].suffix.lower() not in (".png", ".pdf", ".svg"):
         raise ValueError(f"--figure {out['figure']}: use a .png, .pdf or .svg file name")
-    checked = check_outputs({f"--{k}": v for k, v in out.items()}, creatable=[default])
-    return {k: checked[f"--{k}"] for k in out}
+    checked = check_outputs({f"--{k}": v for k, v in out.items()},
+                            creatable=[default, *folders])
+    return {k: checked[f"--{k}"] for k in out}, folders
 
 
 def run(args) -> int:
@@ -109,7 +114,7 @@ def run(args) -> int:
                   speed_max=params.speed_max)
     steps_for(args.duration)
     ch = challenge_of(args)
-    outputs = _outputs(args)
+    outputs, folders = _outputs(args)
     reference = "simplified" if links == 2 else "full"
 
     if ch is None and not args.compensate:
@@ -130,6 +135,7 @@ def run(args) -> int:
     if outputs:
         if any(p.parent == output_dir(create=False) for p in outputs.values()):
             output_dir()                         # the default folder, made on demand
+        make_folders(folders)
         meta = {"x0": x0.tolist(), "duration": args.duration, "seed": args.seed, **arm,
                 "challenge": report["challenge"], "compensate": args.compensate,
                 "policies": {k: (kind_of(v), context_of(v)) for k, v in policies.items()}}

@@ -253,6 +253,9 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     (it predicts with the model the controller names in ``meta["model"]``). Off by
     default: a comparison of controllers scores each as it is; the result records the
     choice (``compensated``).
+    ``progress``: a bar of the samples simulated on stderr
+    (:func:`twolink.sim.progress.progress_bar`: lines when stderr is not a terminal);
+    off by default.
     """
     ch = _challenge(challenge, delay, angle_noise_deg)
     horizon = real(horizon, "horizon")

@@ -15,7 +15,10 @@ The rows run one after another in this process (``executor="local"``) or as task
 Ray cluster (``executor="ray"``, :func:`twolink.sim.cells.ray_session`): every row is one
 deterministic :func:`measure_row` of the same inputs, so both give the same numbers (only
 ``seconds`` differs). A controller given by its spec (a string) is resolved again in the
-worker; a controller object travels pickled.
+worker; a controller object travels pickled. Progress is one ``log`` line per finished
+row; ``progress=True`` adds each local row's evaluation bar
+(:func:`twolink.sim.progress.progress_bar`), off by default so that a log holds the
+row lines only.
 """
 from __future__ import annotations
 
@@ -118,10 +121,11 @@ EXECUTORS = ("local", "ray")
 
 
 def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
-                limits: np.ndarray, plants: int, seed: int, nthread=None) -> Entry:
+                limits: np.ndarray, plants: int, seed: int, nthread=None,
+                progress: bool = False) -> Entry:
     """One row: ``controller`` (a controller, or a spec for
     :func:`twolink.control.controllers.resolve_controller`) under ``level`` in ``mode``,
-    evaluated from ``x0`` against ``limits``."""
+    evaluated from ``x0`` against ``limits``; ``progress`` shows the evaluation's bar."""
     if isinstance(controller, str):
         from twolink.control.controllers import resolve_controller
         controller = resolve_controller(controller)
@@ -130,7 +134,8 @@ def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
     t0 = time.perf_counter()
     ev = evaluate(meter, x0=x0, challenge=ch, seed=seed,
                   count=plants if ch.perturbs_plant() else 1,
-                  compensate=mode == "compensated", label=name, nthread=nthread)
+                  compensate=mode == "compensated", label=name, nthread=nthread,
+                  progress=progress)
     ratio = settle_ratios(ev.settle, ev.success, limits)
     return Entry(name, level, mode, ev.score, float(np.median(ratio)), float(ratio.max()),
                  meter.mean, time.perf_counter() - t0)
@@ -157,13 +162,16 @@ def _ray_rows(tasks, done, *, address) -> list:
 
 def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(LEVELS),
         plants: int = 32, seed: int = SEED, log=None, executor: str = "local",
-        address: str | None = None, specs: dict | None = None) -> list[Entry]:
+        address: str | None = None, specs: dict | None = None,
+        progress: bool = False) -> list[Entry]:
     """Every controller (``{name: controller}``) x level x mode (:func:`modes_for`) from
     the states ``x0`` (n, 4) whose limits are ``limits`` (n,) seconds; ``plants`` plants
     per level that perturbs the plant. ``log(line)`` hears of every finished row.
     ``executor``: ``local`` (this process) or ``ray`` (the cluster at ``address``, an
     initialised Ray or a new local one); ``specs`` (``{name: spec}``) sends those
-    controllers to Ray by spec instead of pickled (a file's callable then imports there)."""
+    controllers to Ray by spec instead of pickled (a file's callable then imports there).
+    ``progress``: each local row's evaluation bar besides the ``log`` lines (Ray rows
+    have none)."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     levels = [challenge(name).name for name in levels]
@@ -192,6 +200,6 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
     rows = []
     for i, (name, level, mode) in enumerate(cells):
         rows.append(measure_row(controllers[name], name, level, mode, x0, limits, plants,
-                                seed))
+                                seed, progress=progress))
         done(i, rows[-1])
     return rows
