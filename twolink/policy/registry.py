@@ -106,6 +106,11 @@ SHIPPED = {p.name: p for p in (
                   "propagated context, a 0.04 rad/s dead zone on the speed readings and "
                   "the argmax of Q beyond 30 deg", levels=7, speed_dead_zone=0.04,
                   argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("centralized_robust_tuned", "centralized", "full", None, False,
+                  "centralized_robust's synthesis (worst case over 8 models within +-20 %) "
+                  "read through a 0.04 rad/s dead zone on the speeds and the argmax of Q "
+                  "beyond 30 deg", robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED,
+                  speed_dead_zone=0.04, argmax_beyond_deg=30.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
