@@ -1,0 +1,258 @@
+"""The levers of the tuned fuzzy designs, each measured on tuning seeds only.
+
+``python docs/studies/fuzzy_design.py [--only LABEL ...] [--json FILE] [--markdown FILE]``
+synthesises every variant of :data:`VARIANTS` on the full model (6) and scores it on
+MuJoCo with :func:`twolink.sim.evaluation.evaluate` on states and plants that no reported
+figure uses (:data:`twolink.policy.registry.TUNING_SEEDS`):
+
+* nominal: 48 random poses at rest, ``random_poses(2, 48, seed=9301)``;
+* ``medium`` and ``hard``: the first 32 of those poses on 8 plants of the level drawn from
+  seed 9302 (its noise and faults too), plain and compensated.
+
+Each cell is k/n with the 95 % Wilson interval and the median settle time (failures
+never settle). The shipped designs ``centralized_tuned`` and ``decentralized_tuned`` were
+chosen from this table (so was ``centralized_robust_tuned``); the leaderboard (``twolink leaderboard``) reports them on the
+evaluation set and the leaderboard's own seed. Beside the levers the package offers
+(``levels``, ``bins``, ``readout``) two that it does not ship are measured here as
+prototypes: the expectation over the reading noise inside the transition model
+(:func:`noise_expectation`) and agents that know their torque is one sample late
+(:func:`delay_aware`). About 15 minutes on two cores.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+import numpy as np  # noqa: E402
+
+from twolink.arm.parameters import TABLE_I  # noqa: E402
+from twolink.arm.task import action_levels, agent_reward, centralized_reward  # noqa: E402
+from twolink.control import problems as P  # noqa: E402
+from twolink.control.synthesis import synthesize  # noqa: E402
+from twolink.fqi import fuzzy  # noqa: E402
+from twolink.policy.fuzzy_policy import Policy  # noqa: E402
+from twolink.policy.readout import Readout  # noqa: E402
+from twolink.policy.registry import ROBUST_SEED, TUNING_SEEDS  # noqa: E402
+from twolink.sim.evaluation import evaluate  # noqa: E402
+from twolink.sim.metrics import random_poses, wilson_interval  # noqa: E402
+
+POSE_SEED, PLANT_SEED = TUNING_SEEDS
+POSES = random_poses(2, 48, seed=POSE_SEED)
+CHALLENGE_POSES, CHALLENGE_PLANTS = 32, 8
+#: Seed of the noise offsets of :func:`noise_expectation`.
+NOISE_SEED = 9303
+
+
+def _dz(width: float, argmax=None):
+    return Readout(speed_dead_zone=width, argmax_beyond_deg=argmax) \
+        if width or argmax is not None else None
+
+
+def _policy(kind, levels=3, bins="paper", context=None, dead_zone=0.0, argmax=None,
+            robust=False):
+    worst = {"robust": "worst", "draws": 8, "spread": 0.2, "seed": ROBUST_SEED} if robust \
+        else {}
+    return lambda: synthesize(kind, model="full", levels=levels, bins=bins, context=context,
+                              readout=_dz(dead_zone, argmax), **worst)
+
+
+def noise_expectation(levels=5, bins="goal", draws=8, angle_deg=1.0, speed=0.02,
+                      dead_zone=0.0) -> Policy:
+    """The centralized policy of the mean over ``draws`` transition models, model k
+    starting from the bin centres shifted by a reading error (angles uniform in
+    +-``angle_deg``, speeds in +-``speed``; model 0 unshifted): Q(m, u) = mean_k
+    [rho(f(c_m + e_k, u)) + gamma V(f(c_m + e_k, u))]."""
+    rng = np.random.default_rng(NOISE_SEED)
+    shifts = [np.zeros(4)] + [np.r_[rng.uniform(-1, 1, 2) * np.deg2rad(angle_deg),
+                                    rng.uniform(-1, 1, 2) * speed] for _ in range(draws - 1)]
+    axes = (fuzzy.angle_axis("theta1", bins), fuzzy.angle_axis("theta2", bins),
+            fuzzy.speed_axis("dtheta1", bins), fuzzy.speed_axis("dtheta2", bins))
+    grid, actions = fuzzy.Grid(axes), P.centralized_actions(TABLE_I, levels)
+    problems = []
+    for shift in shifts:
+        c = grid.centers() + shift
+        nxt = P.model_step("full", TABLE_I, c[:, None, :], actions[None], compiled=True,
+                           theta1_bins=grid.axes[0].size)
+        problems.append(P.Problem("centralized", grid, actions, ("tau1", "tau2"), nxt,
+                                  centralized_reward(nxt)))
+    agent = P.solve_robust(problems, mode="mean", layout="factored")
+    meta = {"model": "full", "parameters": TABLE_I.as_dict()}
+    if dead_zone:
+        meta["readout"] = _dz(dead_zone).as_dict()
+    return Policy("centralized", [agent], meta)
+
+
+class DelayAware:
+    """Agents whose state holds the torque they sent one sample before (the torque acting
+    now under a one-sample actuation delay): agent 2 over (theta2, dtheta2, tau2_prev),
+    agent 1 over (theta1, dtheta1, theta2, tau2, tau1_prev) with link 2 frozen; the
+    transition applies the previous torque and the action becomes the next previous one.
+    A controller with state: ``reset(n)`` forgets the torques."""
+
+    def __init__(self, levels: int):
+        p = TABLE_I
+        self.meta = {"model": "full", "parameters": p.as_dict()}
+        self.name, self.prev = f"delay_aware_{levels}", None
+        g2 = fuzzy.Grid((fuzzy.angle_axis("theta2"), fuzzy.speed_axis("dtheta2"),
+                         fuzzy.torque_axis("tau2_prev", p.tau2_max, levels)))
+        u2 = action_levels(p.tau2_max, levels)[:, None]
+        c = g2.centers()
+        x = np.zeros((len(c), 4))
+        x[:, 1], x[:, 3] = c[:, 0], c[:, 1]
+        tau = np.zeros((len(c), 1, 2))
+        tau[:, 0, 1] = c[:, 2]
+        nxt = np.broadcast_to(P.model_step("full", p, x[:, None], tau, compiled=True),
+                              (len(c), len(u2), 4))
+        pts = np.concatenate([nxt[..., [1, 3]], np.broadcast_to(u2[None], (len(c), len(u2), 1))], -1)
+        a2 = P.solve(P.Problem("agent2", g2, u2, ("tau2",), np.ascontiguousarray(pts),
+                               agent_reward(nxt, 2)))
+        g1 = fuzzy.Grid((fuzzy.angle_axis("theta1"), fuzzy.speed_axis("dtheta1"),
+                         fuzzy.angle_axis("theta2"), fuzzy.torque_axis("tau2", p.tau2_max, levels),
+                         fuzzy.torque_axis("tau1_prev", p.tau1_max, levels)))
+        u1 = action_levels(p.tau1_max, levels)[:, None]
+        c = g1.centers()
+        x = np.zeros((len(c), 4))
+        x[:, 0], x[:, 1], x[:, 2] = c[:, 0], c[:, 2], c[:, 1]
+        tau = np.zeros((len(c), 1, 2))
+        tau[:, 0, 0], tau[:, 0, 1] = c[:, 4], c[:, 3]
+        nxt = np.broadcast_to(P.model_step("full", p, x[:, None], tau, compiled=True,
+                                           freeze_link2=True), (len(c), len(u1), 4))
+        shape = nxt.shape[:-1]
+        pts = np.stack([nxt[..., 0], nxt[..., 2], nxt[..., 1],
+                        np.broadcast_to(c[:, None, 3], shape),
+                        np.broadcast_to(u1[None, :, 0], shape)], -1)
+        a1 = P.solve(P.Problem("agent1", g1, u1, ("tau1",), np.ascontiguousarray(pts),
+                               agent_reward(nxt, 1)))
+        self.agents = [a2, a1]
+
+    def reset(self, n: int) -> None:
+        self.prev = np.zeros((n, 2))
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        if self.prev is None or len(self.prev) != len(x):
+            self.reset(len(x))
+        theta = np.mod(x[:, :2] + np.pi, 2 * np.pi) - np.pi
+        signals = {"theta1": theta[:, 0], "theta2": theta[:, 1], "dtheta1": x[:, 2],
+                   "dtheta2": x[:, 3], "tau1_prev": self.prev[:, 0],
+                   "tau2_prev": self.prev[:, 1]}
+        for agent in self.agents:
+            out = agent.act(np.stack([signals[n] for n in agent.inputs], -1))
+            for k, name in enumerate(agent.outputs):
+                signals[name] = out[:, k]
+        self.prev = np.stack([signals["tau1"], signals["tau2"]], -1)
+        return self.prev.copy()
+
+
+def delay_aware(levels: int = 3) -> DelayAware:
+    return DelayAware(levels)
+
+
+#: label -> a function building the controller.
+VARIANTS = {
+    "centralized_full (paper design on (6))": _policy("centralized"),
+    "centralized 5 levels": _policy("centralized", levels=5),
+    "centralized goal bins": _policy("centralized", bins="goal"),
+    "centralized 5 levels, goal bins": _policy("centralized", levels=5, bins="goal"),
+    "centralized 5 levels, goal bins, dead zone 0.05": _policy("centralized", 5, "goal",
+                                                               dead_zone=0.05),
+    "centralized 5 levels, goal bins, dead zone 0.08":
+        _policy("centralized", 5, "goal", dead_zone=0.08),
+    "centralized 5 levels, goal bins, dead zone 0.08, argmax beyond 30 deg (centralized_tuned)":
+        _policy("centralized", 5, "goal", dead_zone=0.08, argmax=30.0),
+    "centralized 7 levels, goal bins, dead zone 0.08": _policy("centralized", 7, "goal",
+                                                               dead_zone=0.08),
+    "centralized 7 levels, goal bins, dead zone 0.08, argmax beyond 30 deg":
+        _policy("centralized", 7, "goal", dead_zone=0.08, argmax=30.0),
+    "centralized 5 levels, goal bins, noise expectation": noise_expectation,
+    "centralized_robust (worst of 8 models within +-20 %)": _policy("centralized", robust=True),
+    "centralized_robust, argmax beyond 30 deg": _policy("centralized", argmax=30.0, robust=True),
+    "centralized_robust, dead zone 0.04, argmax beyond 30 deg (centralized_robust_tuned)":
+        _policy("centralized", dead_zone=0.04, argmax=30.0, robust=True),
+    "centralized_robust, 5 levels, dead zone 0.05, argmax beyond 30 deg":
+        _policy("centralized", 5, dead_zone=0.05, argmax=30.0, robust=True),
+    "decentralized_full (paper design on (6))": _policy("decentralized"),
+    "decentralized 5 levels": _policy("decentralized", levels=5),
+    "decentralized 5 levels, goal bins": _policy("decentralized", levels=5, bins="goal"),
+    "decentralized 5 levels, propagated": _policy("decentralized", 5, context="propagated"),
+    "decentralized 7 levels, propagated": _policy("decentralized", 7, context="propagated"),
+    "decentralized 7 levels, propagated, dead zone 0.04":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.04),
+    "decentralized 7 levels, propagated, dead zone 0.04, argmax beyond 30 deg "
+    "(decentralized_tuned)":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.04, argmax=30.0),
+    "decentralized 9 levels, propagated, dead zone 0.02":
+        _policy("decentralized", 9, context="propagated", dead_zone=0.02),
+    "decentralized 7 levels, propagated, worst of 8 models, dead zone 0.04, argmax 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.04, argmax=30.0,
+                robust=True),
+    "decentralized_robust, argmax beyond 30 deg": _policy("decentralized", argmax=30.0,
+                                                          robust=True),
+    "decentralized delay-aware, 3 levels": delay_aware,
+}
+
+
+def _cell(e) -> dict:
+    s = e.score
+    return {"successes": s.successes, "n": s.n, "wilson_95": list(s.wilson_95),
+            "median_settle": s.median_settle if np.isfinite(s.median_settle) else None}
+
+
+def measure(label: str) -> dict:
+    t0 = time.perf_counter()
+    controller = VARIANTS[label]()
+    row = {"variant": label, "synthesis_seconds": time.perf_counter() - t0}
+    row["none"] = _cell(evaluate(controller, x0=POSES))
+    for level in ("medium", "hard"):
+        for compensate in (False, True):
+            e = evaluate(controller, x0=POSES[:CHALLENGE_POSES], challenge=level,
+                         seed=PLANT_SEED, count=CHALLENGE_PLANTS, compensate=compensate)
+            row[level + (" compensated" if compensate else "")] = _cell(e)
+    return row
+
+
+COLUMNS = ("none", "medium", "medium compensated", "hard", "hard compensated")
+
+
+def markdown(rows: list) -> str:
+    def fmt(c):
+        lo, hi = wilson_interval(c["successes"], c["n"])
+        settle = "never" if c["median_settle"] is None else f"{c['median_settle']:.2f} s"
+        return f"{c['successes']}/{c['n']} [{100 * lo:.0f}, {100 * hi:.0f}] {settle}"
+    lines = ["| variant | " + " | ".join(COLUMNS) + " |", "|---" * (len(COLUMNS) + 1) + "|"]
+    lines += [f"| {r['variant']} | " + " | ".join(fmt(r[c]) for c in COLUMNS) + " |"
+              for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--only", nargs="+", default=None, choices=list(VARIANTS),
+                        metavar="LABEL")
+    parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--markdown", type=Path, default=None)
+    args = parser.parse_args(argv)
+    rows = []
+    for k, label in enumerate(args.only or VARIANTS, 1):
+        rows.append(measure(label))
+        print(f"[{k}/{len(args.only or VARIANTS)}] {label}: nominal "
+              f"{rows[-1]['none']['successes']}/{rows[-1]['none']['n']}", file=sys.stderr,
+              flush=True)
+    table = markdown(rows)
+    print(table)
+    if args.json:
+        args.json.write_text(json.dumps({"poses": len(POSES), "seeds": list(TUNING_SEEDS),
+                                         "rows": rows}, indent=2))
+    if args.markdown:
+        args.markdown.write_text(table + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
