@@ -103,8 +103,8 @@ SHIPPED = {p.name: p for p in (
                   speed_dead_zone=0.08, argmax_beyond_deg=30.0, tuned=True),
     ShippedPolicy("decentralized_tuned", "decentralized", "full", "propagated", False,
                   "the decentralized agents (18) on (6) with 7 torque levels per joint, "
-                  "propagated context, a 0.04 rad/s dead zone on the speed readings and "
-                  "the argmax of Q beyond 30 deg", levels=7, speed_dead_zone=0.04,
+                  "propagated context, a 0.06 rad/s dead zone on the speed readings and "
+                  "the argmax of Q beyond 30 deg", levels=7, speed_dead_zone=0.06,
                   argmax_beyond_deg=30.0, tuned=True),
     ShippedPolicy("centralized_robust_tuned", "centralized", "full", None, False,
                   "centralized_robust's synthesis (worst case over 8 models within +-20 %) "
