@@ -14,9 +14,12 @@ from twolink.policy.registry import SHIPPED
 
 def test_default_names_are_the_registry_names():
     for name, entry in SHIPPED.items():
-        if entry.robust is None and entry.links == 2:
+        if entry.robust is None and entry.links == 2 and not entry.tuned:
             assert default_file_name(entry.kind, entry.model, entry.context or "frozen") \
                 == f"{name}.npz"
+    # a tuned design's file name says its levels and bins (its registry name is its own)
+    assert default_file_name("centralized", "full", levels=5, bins="goal") \
+        == "centralized_full_5levels_goalbins.npz"
     assert default_file_name("decentralized", "full", "propagated") \
         == "decentralized_full_propagated.npz"
     # robust files say so (the shipped robust ones keep their short registry names)
