@@ -28,8 +28,10 @@ system-deps:
 demo: venv system-deps
 	$(VENV)/bin/twolink reproduce
 
+# PYTEST_ARGS narrows a run (CI's second interpreter: -m "not slow"); empty: the whole suite.
+PYTEST_ARGS ?=
 test: venv-test system-deps
-	$(PY) -m pytest -q -n 2
+	$(PY) -m pytest -q -n 2 $(PYTEST_ARGS)
 
 # Benchmarks (benchmarks/run.py): full mode writes the README's figures to
 # benchmarks/results.json; quick mode is the CI form (well under two minutes).

@@ -56,6 +56,7 @@ def _cli(*argv, cwd=None, env=None):
                           env=None if env is None else {**os.environ, **env})
 
 
+@pytest.mark.slow
 def test_rollout_runs_a_file_controller_and_a_baseline(user, tmp_path):
     """The file's pd and the lqr baseline run beside a shipped policy; the saved runs are
     the library rollout of the same controller from the same x0."""
@@ -79,6 +80,7 @@ def test_rollout_runs_a_file_controller_and_a_baseline(user, tmp_path):
                                rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_rollout_module_controller_under_a_challenge_compensated(user, tmp_path):
     """module:callable from PYTHONPATH; a baseline behind the compensator under medium is
     the closed loop of twolink.sim.evaluation, not the plain one."""

@@ -35,6 +35,7 @@ def test_short_run_writes_a_loadable_checkpoint_figure_and_json(tmp_path, capsys
     assert policy([[-1.0, -3.0, 0.0, 0.0]]).shape == (1, 2)
 
 
+@pytest.mark.slow
 def test_warm_start_begins_at_half_the_given_q_unless_told(tmp_path, capsys):
     init = load_policy("decentralized")
     for extra, scale in (([], 0.5), (["--init-scale", "1", "--force"], 1.0)):
@@ -46,6 +47,7 @@ def test_warm_start_begins_at_half_the_given_q_unless_told(tmp_path, capsys):
     assert 0 < np.abs(q - init.agents[0].q).max() < 5
 
 
+@pytest.mark.slow
 def test_resume_continues_to_the_new_total(tmp_path, capsys):
     assert _learn(tmp_path, "--json") == 0
     capsys.readouterr()
@@ -61,6 +63,7 @@ def test_an_output_that_is_a_directory_is_named(tmp_path, capsys):
     assert f"-o {tmp_path} is a directory" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_resume_refuses_new_settings_and_a_forged_iteration_count(tmp_path, capsys):
     assert _learn(tmp_path, "--json") == 0
     capsys.readouterr()
@@ -120,6 +123,7 @@ def test_task_required_and_independent_only_decentralized(capsys):
     assert "--independent applies to --task decentralized" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_sigterm_keeps_the_last_complete_checkpoint_and_it_resumes(tmp_path):
     import signal
     import subprocess

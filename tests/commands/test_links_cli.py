@@ -187,6 +187,7 @@ def test_tip_positions_are_mujocos_sites(links, rng):
     assert goal_tip_radius(p) > 0
 
 
+@pytest.mark.slow
 def test_mismatch_section_counts_are_the_plants(three_link, tmp_path, capsys):
     out = tmp_path / "m"
     code, stdout, err = _run(capsys, "mismatch", "--links", 3, "--plan", "quick",

@@ -110,6 +110,7 @@ def _plain_run(config, **kw):
         return [a.theta.copy() for a in learner.agents], learner.curve
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("learner", LEARNERS)
 def test_same_seed_same_theta_bit_for_bit(learner):
     cfg = _short(learner=learner, update="discrete" if learner == "independent" else "fuzzy")

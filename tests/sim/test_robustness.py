@@ -192,6 +192,7 @@ def _consistent(ev_count, runs, target):
     return wilson_interval(ev_count, runs)[1] >= target
 
 
+@pytest.mark.slow
 @pytest.mark.robustness
 def test_centralized_robust_meets_its_targets():
     nominal = evaluate("centralized_robust")
@@ -205,6 +206,7 @@ def test_centralized_robust_meets_its_targets():
     assert ev.median_settle <= 1.5, ev.median_settle
 
 
+@pytest.mark.slow
 @pytest.mark.robustness
 def test_decentralized_robust_meets_its_targets():
     nominal = evaluate("decentralized_robust")

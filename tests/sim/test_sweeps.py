@@ -96,6 +96,7 @@ def test_local_processes_equal_serial(tmp_path):
     assert serial == local and len(serial) == len(cells)
 
 
+@pytest.mark.slow
 def test_ray_equals_local(tmp_path):
     ray = pytest.importorskip("ray")
     cells = _cells(duration=0.5)

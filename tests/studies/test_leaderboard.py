@@ -117,6 +117,7 @@ def test_evaluate_logs_its_progress_unless_json(tmp_path, monkeypatch):
     assert "100%" in lines[-1] and "100/100" in lines[-1], lines
 
 
+@pytest.mark.slow
 def test_merge_adds_rows_as_a_full_run_would_give_them(tmp_path, capsys):
     both, merged = tmp_path / "both", tmp_path / "merged"
     common = ["leaderboard", "--quick", "--levels", "medium", "--plants", "1"]

@@ -21,6 +21,7 @@ def _rows(capsys, argv) -> list:
     return report["rows"]
 
 
+@pytest.mark.slow
 def test_ray_rows_equal_local_rows(tmp_path, capsys):
     pytest.importorskip("ray")
     mine = tmp_path / "mine.py"

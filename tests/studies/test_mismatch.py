@@ -92,6 +92,7 @@ def test_joint_margin_by_wilson_lower_bound_tells_neighbouring_sizes_apart():
     assert few["joint_lower_bound"] == 0.1 and many["joint_lower_bound"] == 0.2
 
 
+@pytest.mark.slow
 def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     out = tmp_path / "report"
     rc = main(["mismatch", "--quick", "--json", "--out", str(out), "--executor", "serial",

@@ -147,6 +147,7 @@ def test_reproduce_reports_serial_sweeps_beside_the_shipped_synchronous_ones(rep
             assert info["iterations"] <= s[n]["agents"][agent]["iterations"]
 
 
+@pytest.mark.slow
 def test_reproduce_table_is_printed(tmp_path, capsys):
     assert main(["reproduce", "--duration", "2", "--figure", str(tmp_path / "f.png")]) == 0
     out = capsys.readouterr().out

@@ -276,6 +276,7 @@ def test_gif_frames_are_streamed_not_kept(plain, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["clip.gif"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ext", ["mp4", "gif"])
 def test_sigterm_during_render_leaves_no_file(tmp_path, ext):
     out = tmp_path / f"v.{ext}"
