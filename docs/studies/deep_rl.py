@@ -1,7 +1,7 @@
 """Deep RL on the MuJoCo arm: SB3's SAC or PPO, scored by the paper's success metric.
 
 ``python docs/studies/deep_rl.py --algo sac|ppo --steps 1e6 --seed 0 [--minutes M]
-[--out renders/deep_rl/sac_seed0.json]`` trains one Stable-Baselines3 learner with the one
+[--out renders/deep_rl/sac_seed0.json] [--save renders/deep_rl/sac_seed0.zip]`` trains one Stable-Baselines3 learner with the one
 hyperparameter set of :data:`HYPERPARAMETERS` on the arm through
 :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` (all arms in one ``mujoco.rollout`` call per
 Ts): the shaped reward (:func:`twolink.envs.core.shaped_reward`), normalized actions
@@ -12,7 +12,10 @@ first and after the last) the deterministic policy is scored by
 paper's metric (settled in the goal band 1 s before the end of 5 s); the learning curve
 (steps, successes/65, Wilson 95 % interval, wall time, steps/s) goes to ``--out`` as JSON,
 rewritten whole after every point. ``--minutes`` caps the wall time of training (the run
-stops at the first step past it and records where it stopped).
+stops at the first step past it and records where it stopped). ``--save`` writes the
+final model (the one at the end of the step or minute budget, never a checkpoint picked
+by its score: the curve is measured on the evaluation set) as an SB3 ``.zip`` that
+``twolink leaderboard --controller FILE.zip`` (:mod:`twolink.control.sb3_agent`) runs.
 
 Needs the rl extras: ``pip install 'twolink[rl]'`` (on Python 3.11:
 ``scripts/install-rl-extras.sh .venv``).
@@ -106,6 +109,8 @@ def main(argv=None) -> int:
                    help=f"environment steps between evaluations (default {EVAL_EVERY})")
     p.add_argument("--minutes", type=float, default=None,
                    help="stop training after this much wall time (default: no cap)")
+    p.add_argument("--save", type=Path, default=None, metavar="FILE.zip",
+                   help="save the final model there (default: not saved)")
     p.add_argument("--threads", type=int, default=1,
                    help="torch threads (default 1: the networks are small, and on 2 "
                         "shared cores 2 threads made a gradient step 40 times slower)")
@@ -117,6 +122,8 @@ def main(argv=None) -> int:
                 "--seed non-negative")
     out = args.out or Path("renders/deep_rl") / f"{args.algo}_seed{args.seed}.json"
     out.parent.mkdir(parents=True, exist_ok=True)
+    if args.save is not None and args.save.suffix != ".zip":
+        p.error("--save must name a .zip file")
     try:
         import stable_baselines3
         import torch
@@ -183,6 +190,10 @@ def main(argv=None) -> int:
     record.update(done=True, steps=int(model.num_timesteps), wall_s=round(wall, 1),
                   train_wall_s=round(train, 1), eval_wall_s=round(clock["eval"], 1),
                   steps_per_s=round(model.num_timesteps / train, 1))
+    if args.save is not None:
+        args.save.parent.mkdir(parents=True, exist_ok=True)
+        model.save(args.save)            # the final model: no checkpoint is selected
+        record["saved"] = str(args.save)
     _write(out, record)
     venv.close()
     print(f"{args.algo} seed {args.seed}: {model.num_timesteps} steps in {train:.0f} s of "

@@ -1,13 +1,14 @@
 """``twolink leaderboard``: every controller under every challenge level, in one table.
 
-The shipped fuzzy policies, the classical baselines and any --controller of yours
-(module:callable or path/to/file.py:callable), under the levels none, easy, medium and
-hard, plain and (for controllers that name their model) compensated, on MuJoCo from the
-65 states of the evaluation set: k/n with the 95 % Wilson interval, the worst plant, the
-median settle time, settle / T* (median and worst, failures as never settled) and the
-mean torque. Writes Markdown, JSON and a figure (success against settle / T*). With
---executor ray the rows run as tasks on a Ray cluster (--address, or a new local Ray),
-with the same numbers as a local run.
+The shipped fuzzy policies, the classical baselines, the trained deep-RL agents saved in
+renders/deep_rl/*.zip (where Stable-Baselines3 imports) and any --controller of yours
+(module:callable, path/to/file.py:callable, a policy .npz or an SB3 agent .zip), under
+the levels none, easy, medium and hard, plain and (for controllers that name their
+model) compensated, on MuJoCo from the 65 states of the evaluation set: k/n with the
+95 % Wilson interval, the worst plant, the median settle time, settle / T* (median and
+worst, failures as never settled) and the mean torque. Writes Markdown, JSON and a
+figure (success against settle / T*). With --executor ray the rows run as tasks on a Ray
+cluster (--address, or a new local Ray), with the same numbers as a local run.
 """
 from __future__ import annotations
 
@@ -27,11 +28,11 @@ def add_parser(sub):
     p = sub.add_parser("leaderboard", help=SUMMARIES["leaderboard"],
                        description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     p.add_argument("--controllers", nargs="+", default=None, metavar="NAME",
-                   help="which controllers (default: every shipped two-link policy and "
-                        "every baseline)")
+                   help="which controllers (default: every shipped two-link policy, "
+                        "every baseline and every SB3 agent in renders/deep_rl/*.zip)")
     p.add_argument("--controller", action="append", default=[], metavar="SPEC",
-                   help="add a controller: module:callable, path/to/file.py:callable or a "
-                        "policy .npz (repeatable)")
+                   help="add a controller: module:callable, path/to/file.py:callable, a "
+                        "policy .npz or an SB3 agent .zip (repeatable)")
     p.add_argument("--levels", nargs="+", default=None, metavar="LEVEL",
                    help=f"challenge levels (default: {' '.join(LEVELS)})")
     p.add_argument("--plants", type=int, default=None, metavar="K",
@@ -62,13 +63,21 @@ def add_parser(sub):
 
 
 def chosen_specs(names, specs) -> list:
-    """The specs a leaderboard runs: ``names`` (default every shipped two-link policy and
-    every baseline), then the extra ``specs``."""
+    """The specs a leaderboard runs: ``names`` (default every shipped two-link policy,
+    every baseline and every SB3 agent saved in the output folder's deep_rl/*.zip where
+    Stable-Baselines3 imports), then the extra ``specs`` (an agent already among the
+    defaults is not added twice)."""
     from twolink.control.controllers import baseline_names
+    from twolink.control.sb3_agent import saved_agents
     from twolink.policy.registry import TWO_LINK
+    from twolink.resources import output_dir
 
-    chosen = list(names) if names is not None else [*TWO_LINK, *baseline_names()]
-    return [*chosen, *specs]
+    if names is not None:
+        return [*names, *specs]
+    agents = saved_agents(output_dir(create=False) / "deep_rl")
+    given = {str(Path(s).resolve()) for s in specs if s.endswith(".zip")}
+    agents = [a for a in agents if str(Path(a).resolve()) not in given]
+    return [*TWO_LINK, *baseline_names(), *agents, *specs]
 
 
 def controllers_of(names, specs) -> dict:
@@ -107,8 +116,10 @@ def run(args) -> int:
     levels = [challenge(n).name for n in levels]
     if args.address is not None and args.executor != "ray":
         raise ValueError("--address needs --executor ray")
-    controllers = controllers_of(args.controllers, args.controller)
-    specs = dict(zip(controllers, chosen_specs(args.controllers, args.controller)))
+    # --merge runs only the controllers given (--controller alone: just those).
+    names = [] if args.merge and args.controllers is None else args.controllers
+    controllers = controllers_of(names, args.controller)
+    specs = dict(zip(controllers, chosen_specs(names, args.controller)))
     x0 = states_of(states)
     limits, source = state_limits(x0)
     if limits is None:

@@ -1,4 +1,5 @@
-"""Every controller by one name: shipped fuzzy policies, classical baselines, policy files
+"""Every controller by one name: shipped fuzzy policies, classical baselines, policy files,
+saved Stable-Baselines3 agents (a PPO or SAC ``.zip``, :mod:`twolink.control.sb3_agent`)
 and a user's own ``module:callable`` or ``path/to/file.py:callable``.
 
 :func:`resolve_controller` turns such a name into a controller of the protocol of
@@ -43,7 +44,7 @@ def absolute_spec(spec):
     worker process, a Ray node sharing the file system); anything else unchanged."""
     if not isinstance(spec, str) or spec in shipped_policies() or spec in baseline_names():
         return spec
-    if spec.endswith(".npz"):
+    if spec.endswith((".npz", ".zip")):
         return str(Path(spec).resolve())
     where, colon, attr = spec.rpartition(":")
     if colon and where and _is_file(where):
@@ -106,8 +107,9 @@ def _from_spec(spec: str):
 
 def resolve_controller(spec, *, links: int = 2) -> Checked:
     """The controller ``spec`` names, checked: a shipped policy (:func:`shipped_policies`),
-    a baseline (:func:`baseline_names`), a policy ``.npz`` file, ``module:callable`` or
-    ``file.py:callable``; or a controller object itself. One-line ControllerError (a
+    a baseline (:func:`baseline_names`), a policy ``.npz`` file, a saved SB3 agent ``.zip``
+    (labelled by its file's stem), ``module:callable`` or ``file.py:callable``; or a
+    controller object itself. One-line ControllerError (a
     ValueError) for anything else."""
     if not isinstance(spec, str):
         return checked(spec, links=links)
@@ -119,8 +121,12 @@ def resolve_controller(spec, *, links: int = 2) -> Checked:
         return checked(_baseline(spec), name=spec, links=links)
     if spec.endswith(".npz"):
         return checked(load_policy(spec), name=Path(spec).stem, links=links)
+    if spec.endswith(".zip"):
+        from twolink.control.sb3_agent import sb3_agent
+
+        return checked(sb3_agent(spec), name=Path(spec).stem, links=links)
     if ":" in spec:
         return checked(_from_spec(spec), name=spec.rpartition(":")[2], links=links)
     known = ", ".join((*shipped_policies(), *baseline_names()))
     raise ControllerError(f"unknown controller {spec!r}; give one of {known}, a policy .npz, "
-                          f"module:callable or path/to/file.py:callable")
+                          f"an SB3 agent .zip, module:callable or path/to/file.py:callable")

@@ -2,8 +2,9 @@
 
 :class:`Arms` keeps N arms under one :class:`twolink.sim.plants.MujocoPlant` (one
 ``mujoco.rollout`` call per Ts): their options and spaces, the checks of actions and
-x0, resets, observations and steps; :func:`features` and :func:`joint_actions` are the
-observations and the discrete joint actions they use.
+x0, resets, observations and steps; :func:`joint_actions` are the discrete joint actions
+they use, and :func:`features` (re-exported from :mod:`twolink.arm.observations`) their
+observations.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import itertools
 import numpy as np
 from gymnasium import spaces
 
+from twolink.arm.observations import OBSERVATIONS, features
 from twolink.arm.parameters import SUCCESS_MARGIN, TS, ArmParameters, ChainParameters
 from twolink.arm.task import action_levels, in_goal_band
 from twolink.control.problems import centralized_actions
@@ -28,7 +30,6 @@ from twolink.envs.core import (
     default_x0,
     horizon,
     initial_state,
-    observe,
     perturbed_params,
     reward_of,
     state_bounds,
@@ -38,7 +39,6 @@ from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MujocoPlant, check_states
 from twolink.validate import choice, is_real, real, real_array
 
-OBSERVATIONS = ("state", "cos_sin")
 #: ``'box'``: torques in +-tau_max (float64); ``'discrete'``: the 3^N joint actions;
 #: ``'normalized'``: a float32 Box [-1, 1]^N scaled to +-tau_max (what deep RL libraries
 #: expect; Stable-Baselines3's checker warns about any other Box).
@@ -72,19 +72,6 @@ def joint_actions(params) -> np.ndarray:
 
 def _hold(u):
     return np.array(u, dtype=np.float64)     # a copy: the delay keeps it
-
-
-def features(x: np.ndarray, observation: str = "state") -> np.ndarray:
-    """The observation of (measured) states x (..., 2N): ``'state'`` as given, or
-    ``'cos_sin'`` = [cos theta1, sin theta1, .., cos thetaN, sin thetaN, dtheta1 ..
-    dthetaN] (for two links [cos theta1, sin theta1, cos theta2, sin theta2, dtheta1,
-    dtheta2])."""
-    if observation == "state":
-        return observe(x, "state")
-    x = np.asarray(x)
-    n = x.shape[-1] // 2
-    trig = [f(x[..., k]) for k in range(n) for f in (np.cos, np.sin)]
-    return np.stack(trig + [x[..., n + k] for k in range(n)], -1)
 
 
 class Arms:
