@@ -3,7 +3,11 @@
 # Debian/Ubuntu, as root. Idempotent: does nothing when the libraries are present.
 set -euo pipefail
 need=()
-have_lib() { ldconfig -p 2>/dev/null | grep -q "$1"; }
+# The linker cache is read once into a variable: `ldconfig -p | grep -q` under pipefail
+# fails when grep exits early and ldconfig dies of SIGPIPE (a large cache), which made a
+# present library look missing.
+cache="$(ldconfig -p 2>/dev/null || true)"
+have_lib() { grep -qF -- "$1" <<<"$cache"; }
 have_lib 'libEGL.so.1 ' || need+=(libegl1)
 have_lib 'libEGL_mesa.so.0 ' || need+=(libegl-mesa0)
 have_lib 'libGL.so.1 ' || need+=(libgl1)

@@ -18,6 +18,20 @@ def test_installer_is_silent_when_the_libraries_are_present():
     assert res.returncode == 0 and res.stderr == "" and res.stdout == ""
 
 
+def test_installer_sees_libraries_listed_early_in_a_large_linker_cache(tmp_path):
+    # A cache far larger than a pipe buffer, the libraries on its first lines: a reader
+    # that stops at the first match must not make them look missing.
+    libs = "\n".join(f"\t{name} (libc6,x86-64) => /usr/lib/{name}" for name in (
+        "libEGL.so.1", "libEGL_mesa.so.0", "libGL.so.1", "libOpenGL.so.0"))
+    filler = tmp_path / "filler.txt"
+    filler.write_text("\tlibfiller.so.0 (libc6,x86-64) => /usr/lib/libfiller.so.0\n" * 20000)
+    _fake_bin(tmp_path, "ldconfig", f"printf '%s\\n' '{libs}'\ncat {filler}")
+    _fake_bin(tmp_path, "id", "echo 1000")
+    env = dict(os.environ, PATH=f"{tmp_path}:{os.environ['PATH']}")
+    res = subprocess.run(["bash", str(SCRIPT)], capture_output=True, text=True, env=env)
+    assert res.returncode == 0 and res.stderr == "" and res.stdout == ""
+
+
 def test_installer_names_every_missing_library_when_it_cannot_install(tmp_path):
     # A machine whose linker cache lists no EGL/GL library, as a non-root user.
     _fake_bin(tmp_path, "ldconfig", "exit 0")
