@@ -37,7 +37,6 @@ from twolink.control.problems import (
     check_robust,
     check_robust_size,
     check_size,
-    table_sizes,
 )
 from twolink.control.synthesis import synthesize
 from twolink.fqi.fuzzy import BIN_LAYOUTS, check_bins
@@ -327,11 +326,6 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     robust = _robust_options(args)
     design = _design_options(args)
     levels, bins = design.get("levels", PAPER_LEVELS), design.get("bins", "paper")
-    biggest = max(table_sizes(args.kind, refine, levels, bins).values())
-    if biggest * 8 > MAX_Q_BYTES:
-        raise ValueError(f"--refine {refine}: a {args.kind} Q-table of {biggest} values "
-                         f"({biggest * 8 / 2**20:.0f} MiB) is over the {MAX_Q_BYTES >> 20} "
-                         f"MiB a policy file may hold")
     check_size(args.kind, refine, levels, bins)
     if robust:
         check_robust_size(args.kind, refine, robust["draws"], levels, bins)

@@ -33,6 +33,7 @@ from twolink.arm.parameters import (
     as_chain,
     chain,
 )
+from twolink.validate import real
 
 #: Seed of the tuning poses: random_poses(N, TUNING_POSES, TUNING_SEED + N). Apart from
 #: the scaling study's evaluation seed (20061122 + N) and the development seeds of the
@@ -105,9 +106,8 @@ class ChainPD:
 def chain_pd(p: ChainParameters, sat_deg: float, zeta: float, *, name: str = "pd") -> ChainPD:
     """The PD of ``p`` with gains from ``sat_deg`` (> 0) and ``zeta`` (> 0)."""
     for what, v in (("sat_deg", sat_deg), ("zeta", zeta)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or \
-                not math.isfinite(v) or v <= 0:
-            raise ValueError(f"{what} must be a positive number, got {v!r}")
+        real(v, what, 0.0, open_low=True, numpy=False,
+             message="{what} must be a positive number, got {value!r}")
     c = as_chain(p)
     kp = c.tau_max / math.radians(sat_deg)
     kd = 2.0 * zeta * np.sqrt(kp * joint_inertias(c))

@@ -292,9 +292,9 @@ def check_size(kind: str, refine: int = 1, levels: int = 3, bins: str = "paper")
     from twolink.policy.fuzzy_policy import MAX_Q_BYTES
     for agent, size in table_sizes(kind, refine, levels, bins).items():
         if 8 * size > MAX_Q_BYTES:
-            raise ValueError(f"--levels {levels} --bins {bins} --refine {refine}: {agent}'s "
-                             f"Q-table would hold {8 * size / 2**20:.0f} MiB, over the "
-                             f"{MAX_Q_BYTES >> 20} MiB a policy file may hold")
+            raise ValueError(f"--levels {levels} --bins {bins} --refine {refine}: the {agent} "
+                             f"Q-table of {size} values ({8 * size / 2**20:.0f} MiB) is over "
+                             f"the {MAX_Q_BYTES >> 20} MiB a policy file may hold")
     need = robust_bytes(kind, refine, 1, levels, bins)
     if need > MAX_ROBUST_BYTES:
         raise ValueError(f"--levels {levels} --bins {bins} --refine {refine}: the "

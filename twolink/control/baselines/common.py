@@ -16,6 +16,7 @@ import numpy as np
 
 from twolink.arm.integrate import wrap_angle
 from twolink.arm.parameters import TABLE_I, ArmParameters
+from twolink.validate import is_real
 
 #: The model every baseline declares in its ``meta`` (a name of twolink.arm.dynamics.MODELS).
 DESIGN_MODEL = "full"
@@ -41,7 +42,7 @@ def check_vector(name: str, value, *, size: int = 2, minimum: float = 0.0,
 def check_number(name: str, value, *, minimum: float = 0.0, maximum: float = math.inf,
                  strict: bool = False) -> float:
     """``value`` as a float in [minimum, maximum) (or (minimum, ...) when ``strict``)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if not is_real(value):
         raise ValueError(f"{name} must be a number, got {value!r}")
     v = float(value)
     low_ok = v > minimum if strict else v >= minimum

@@ -60,6 +60,7 @@ from twolink.control.time_optimal.table import (
     tables_from_json,
     tables_to_json,
 )
+from twolink.validate import whole
 
 __all__ = ["INSTALL_HINT", "MODELS", "CasadiMissing", "FORMAT", "Limit", "LimitTable",
            "OpenLoop", "limit", "limit_table", "shipped_limits", "shipped_tables",
@@ -108,10 +109,7 @@ def check_states(states, params: ArmParameters = TABLE_I) -> np.ndarray:
 
 
 def _check_count(name: str, value, top: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or not 1 <= value <= top:
-        raise ValueError(f"{name} must be a whole number from 1 to {top}, got {value!r}")
-    return int(value)
+    return whole(value, name, 1, top)
 
 
 #: The winding sets :func:`limit` takes: every winding of :func:`.search.windings`, or
