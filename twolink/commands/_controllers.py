@@ -6,7 +6,8 @@ from twolink.commands._options import check_policy_links, default_policy, policy
 
 CONTROLLER_HELP = ("any controller: module:callable, path/to/file.py:callable (a callable "
                    "mapping states (n, 2N) to torques (n, N)), a baseline name, a shipped "
-                   "policy or a policy .npz; labelled by the callable's name")
+                   "policy, a policy .npz or a saved Stable-Baselines3 agent .zip (PPO or SAC); "
+                   "labelled by the callable's name")
 
 
 def add_controller_option(p, *, extra: str = "") -> None:
