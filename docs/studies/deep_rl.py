@@ -37,7 +37,7 @@ if __package__ in (None, ""):
 import numpy as np  # noqa: E402
 
 from twolink.arm.parameters import TABLE_I  # noqa: E402
-from twolink.envs.gym_arms import features  # noqa: E402
+from twolink.control.sb3_agent import model_torques  # noqa: E402
 
 #: What the agent sees and does (the options of TwoLinkSB3VecEnv).
 ENV = dict(observation="cos_sin", actions="normalized", reward="shaped", x0="random")
@@ -66,9 +66,7 @@ class Controller:
         self.name = "sb3"
 
     def __call__(self, x):
-        x = np.asarray(x, dtype=float)
-        action, _ = self.model.predict(features(x, self.observation), deterministic=True)
-        return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.tau_max
+        return model_torques(self.model, x, self.observation, self.tau_max)
 
 
 def _write(path: Path, record: dict) -> None:

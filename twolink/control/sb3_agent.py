@@ -85,6 +85,16 @@ def _observation(data: dict, path) -> str:
     return by_size[shape]
 
 
+def model_torques(model, x, observation: str, tau_max) -> np.ndarray:
+    """Torques (..., 2) of an SB3 ``model`` (in memory) at states x (..., 4): its
+    deterministic action on the features ``observation`` of x
+    (:func:`twolink.arm.observations.features`), clipped to [-1, 1] and scaled to
+    +-``tau_max``."""
+    obs = features(np.asarray(x, dtype=float), observation)
+    action, _ = model.predict(obs, deterministic=True)
+    return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * np.asarray(tau_max, dtype=float)
+
+
 class SB3Agent:
     """The SB3 agent saved at ``path`` as a controller: states (n, 4) -> torques (n, 2)
     (see the module docstring); ``name`` the file's stem unless given."""
@@ -119,9 +129,7 @@ class SB3Agent:
     def __call__(self, x) -> np.ndarray:
         """Torques (..., 2) of states x (..., 4): the clipped deterministic action scaled
         to +-tau_max."""
-        obs = features(np.asarray(x, dtype=float), self.observation)
-        action, _ = self.model.predict(obs, deterministic=True)
-        return np.clip(np.asarray(action, dtype=float), -1.0, 1.0) * self.tau_max
+        return model_torques(self.model, x, self.observation, self.tau_max)
 
     def __reduce__(self):
         """Pickled as its file and name (a worker loads the file again)."""
