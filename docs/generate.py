@@ -225,9 +225,39 @@ def api_pages() -> dict:
 
 
 # --------------------------------------------------------------------------- results
-def _load(rel: str):
+class DataError(ValueError):
+    """A data file the results pages cannot be written from (one line)."""
+
+
+def _load(rel: str, schema=None):
+    """The JSON of ``rel`` (None when it does not exist). ``schema`` is what the file must
+    be: ``(name, version)`` for a file that says what it is (its ``"schema"`` and
+    ``"version"`` keys), or the top-level keys a file of the older, unnamed reports must
+    have (and then it may name no schema). A DataError (one line) for anything else."""
     path = ROOT / rel
-    return json.loads(path.read_text()) if path.is_file() else None
+    if not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DataError(f"{rel} is not readable JSON ({exc})") from None
+    if schema is None:
+        return data
+    said = (data.get("schema"), data.get("version")) if isinstance(data, dict) else (None, None)
+    if isinstance(schema, tuple):
+        if said != schema:
+            got = ("no schema" if said == (None, None)
+                   else f"schema {said[0]!r} version {said[1]!r}")
+            raise DataError(f"{rel} has {got}, not {schema[0]!r} version {schema[1]}: "
+                            "re-create it with the command its results page names")
+        return data
+    missing = sorted(set(schema) - set(data)) if isinstance(data, dict) else ["(not an object)"]
+    if said != (None, None) or missing:
+        what = (f"schema {said[0]!r} version {said[1]!r}" if said != (None, None)
+                else "no key " + ", ".join(map(repr, missing)))
+        raise DataError(f"{rel} has {what}, not the report its results page reads: "
+                        "re-create it with the command that page names")
+    return data
 
 
 def _machine(p: dict) -> str:
@@ -543,7 +573,7 @@ def fuzzy_designs_page(report: dict) -> str:
                              f"`{f['controller']}` " + format_rate(f["successes"], f["n"]),
                              verdict))
     out += [_table(("level", "mode", "kind", "best", "best fuzzy", "fuzzy is"), body), "\n"]
-    design = _load("renders/fuzzy_design/design.json")
+    design = _load("renders/fuzzy_design/design.json", SCHEMAS["renders/fuzzy_design/design.json"])
     if design is not None:
         out.append("\n## The tuning table\n\n`python docs/studies/fuzzy_design.py --json "
                    "renders/fuzzy_design/design.json`: every lever on the tuning seeds "
@@ -563,6 +593,272 @@ def fuzzy_designs_page(report: dict) -> str:
     return "".join(out)
 
 
+# ------------------------------------------------------------ the development studies
+def _wilson(k: int, n: int) -> str:
+    from twolink.sim.metrics import wilson_interval
+    lo, hi = wilson_interval(k, n)
+    return f"[{100 * lo:.0f}, {100 * hi:.0f}] %"
+
+
+def _k_n(k: int, n: int) -> str:
+    """``k/n [lo, hi] %``: a count with its 95 % Wilson interval."""
+    return f"{k}/{n} {_wilson(k, n)}"
+
+
+def _overlap(a, b) -> bool:
+    """Whether the 95 % Wilson intervals of ``(k, n)`` pairs ``a`` and ``b`` overlap."""
+    from twolink.sim.metrics import wilson_interval
+    (alo, ahi), (blo, bhi) = wilson_interval(*a), wilson_interval(*b)
+    return alo <= bhi and blo <= ahi
+
+
+def _never(t) -> bool:
+    """Whether settle time ``t`` says the arm never settled (None, or inf in older data)."""
+    return t is None or t == float("inf")
+
+
+def _seconds(t) -> str:
+    return "never" if _never(t) else f"{t:.2f} s"
+
+
+def _sci(x: float) -> str:
+    """``x`` as 1e-9, 1.5e-14, 0.0096: no padded exponents."""
+    return re.sub(r"e([+-])0*(\d)", lambda m: "e" + m.group(1).lstrip("+") + m.group(2),
+                  f"{x:.2g}")
+
+
+def _duration(t: float) -> str:
+    return f"{t:.0f} s" if t < 120 else f"{t // 60:.0f} min {t % 60:.0f} s"
+
+
+def round_off_page(data: dict) -> str:
+    """docs/studies/tie_sensitivity.py's runs: the greedy rule's variants and the ties."""
+    src = "renders/tie_sensitivity/tie_sensitivity.json"
+    runs = sorted(data["runs"], key=lambda r: (r["states"], r["seed"]))
+    main, others = runs[0], runs[1:]
+    tol, eps = data["tie_tolerance"], data["epsilons"]
+    rows = {(r["policy"], r["variant"]): r for r in main["rows"]}
+    shipped = next(v for p, v in rows if v.startswith("shipped rule (tolerance"))
+    plain = "plain argmax"
+
+    def noisy(rule, e):
+        return f"{'argmax' if rule == 'argmax' else 'shipped rule'}, Q +- {e:.0e}"
+
+    ties = {(t["policy"], t["agent"]): t for t in main["ties"]}
+    policies = main["policies"]
+    genuine = min(t["smallest_genuine_gap"] for t in main["ties"]
+                  if t["smallest_genuine_gap"] is not None)
+    text = [_stamp(src), "# Round-off and ties: how sensitive the paper's policies are\n\n"]
+    text.append(
+        "Policy (14) takes the greedy action of every bin, and the "
+        "[conventions](../conventions.md) break ties to the first action. A plain `argmax` "
+        "only does that for exact ties. `twolink.policy.fuzzy_policy.TIE_TOLERANCE` = "
+        f"{_sci(tol)} counts Q-values within {_sci(tol)} of the best as tied (the first wins); the "
+        "constant's docstring says why, and the policy files record it. "
+        "`docs/studies/tie_sensitivity.py` rebuilds the paper's policies under other greedy "
+        "rules and runs them on the simplified plant (11) from x0 and from random states at "
+        "rest. *moved* counts the greedy bins that differ from the shipped rule's; *edge* "
+        "counts the failures that are arms at rest within "
+        f"{_sci(data['edge_slack_deg'])}° of the 5° band edge.\n\n")
+    text.append("## The ties\n\nPer agent: bins whose best two Q-values are exactly equal, "
+                f"closer than {_sci(data['round_off'])} (round-off of the sweeps' sums), within "
+                f"the tolerance {_sci(tol)}, and the smallest gap above it.\n\n")
+    text += [_table(("policy", "agent", "bins", "exactly equal", "round-off",
+                     "within the tolerance", "smallest genuine gap"),
+                    [(f"`{t['policy']}`", t["agent"], t["bins"], t["exact_ties"],
+                      t["round_off_ties"], t["within_tolerance"],
+                      "-" if t["smallest_genuine_gap"] is None
+                      else _sci(t["smallest_genuine_gap"])) for t in main["ties"]]), "\n\n"]
+    frozen = ties.get(("decentralized", "agent1"))
+    if frozen:
+        text.append(
+            f"Agent 1 of `decentralized` (frozen context) has {frozen['exact_ties']} bins "
+            f"whose best two Q-values are exactly equal and {frozen['round_off_ties']} more "
+            f"whose best two differ by less than {_sci(data['round_off'])}: round-off, so the "
+            "summation order of the sweep would pick their action. The genuine gaps between "
+            f"the best two actions of any of these agents are at least {_sci(genuine)}, so the "
+            f"tolerance {_sci(tol)} lies well above the round-off and well below every genuine "
+            "gap.\n\n")
+    text.append(f"## The greedy rule's variants\n\n{main['states']} random states at rest "
+                f"(seed {main['seed']}), 5 s; x0 θ1 is where link 1 ends from x0 "
+                f"({_duration(main['seconds'])} for the run).\n\n")
+    body = [(f"`{r['policy']}`", _cell(r["variant"]), r["changed_bins"],
+             f"{r['successes']}/{r['states']}", _wilson(r["successes"], r["states"]),
+             f"{r['edge_stalls']}/{r['states'] - r['successes']}", _seconds(r["x0_settle"]),
+             f"{r['x0_final_deg'][0]:+.7f}°") for r in main["rows"]]
+    text += [_table(("policy", "variant", "moved", "success", "Wilson 95 %", "edge",
+                     "x0 settle", "x0 θ1"), body), "\n\n## What the data shows\n\n"]
+    d = "decentralized"
+    if (d, shipped) in rows and (d, plain) in rows:
+        a, b = rows[d, shipped], rows[d, plain]
+        e0 = eps[0]
+        n_a, n_s = rows[d, noisy("argmax", e0)], rows[d, noisy("shipped", e0)]
+        safe = [e for e in eps if all(rows[p, noisy("shipped", e)]["changed_bins"] == 0
+                                      for p in policies)]
+        broken = next((e for e in eps if e not in safe), None)
+        quiet = [p for p in policies if p != d and rows[p, noisy("shipped", e0)]["changed_bins"] == 0]
+        near = ", ".join(f"`{p}` has {sum(t['within_tolerance'] for (q, _), t in ties.items() if q == p)}"
+                         for p in quiet)
+        line = (f"- **Round-off would decide the decentralized policy.** A plain `argmax` and "
+                f"the shipped rule differ in {b['changed_bins']} of its {b['bins']} bins. "
+                f"±{_sci(e0)} on Q moves {n_a['changed_bins']} bins under `argmax` and "
+                f"{n_s['changed_bins']} under the tolerance. From x0 that changes where link 1 "
+                f"stops: {b['x0_final_deg'][0]:.2f}° (`argmax`), "
+                f"{n_a['x0_final_deg'][0]:.2f}° (`argmax`, ±{_sci(e0)}) or "
+                f"{a['x0_final_deg'][0]:.7f}° (the shipped rule).")
+        if near:
+            line += (f" Of the other policies {near} bins within the tolerance; under it, "
+                     f"±{_sci(e0)} moves none of them.")
+        if safe:
+            line += f" Under the tolerance, noise up to ±{_sci(max(safe))} moves no bin of any policy"
+            line += (f"; at ±{_sci(broken)} the exact ties break at random again "
+                     f"({rows[d, noisy('shipped', broken)]['changed_bins']} bins of the "
+                     "decentralized policy).\n" if broken else ".\n")
+        else:
+            line += "\n"
+        text.append(line)
+        cmp = []
+        for run in runs:
+            r = {(x["policy"], x["variant"]): x for x in run["rows"]}
+            if (d, shipped) in r and (d, plain) in r:
+                s_, p_ = r[d, shipped], r[d, plain]
+                cmp.append((run, s_, p_, _overlap((s_["successes"], s_["states"]),
+                                                  (p_["successes"], p_["states"]))))
+        if cmp:
+            said = "; ".join(
+                f"seed {run['seed']}, {run['states']} states: {_k_n(s_['successes'], s_['states'])}"
+                f" against {_k_n(p_['successes'], p_['states'])}"
+                f"{'' if ov else ' (the intervals do not overlap)'}" for run, s_, p_, ov in cmp)
+            verdict = ("the intervals overlap in every run, so the change is inside the "
+                       "sampling noise" if all(c[3] for c in cmp) else
+                       "in some runs the intervals do not overlap")
+            text.append(f"- **Success from random states, shipped rule against `argmax`** "
+                        f"(decentralized): {said}; {verdict}.\n")
+    ctx = []
+    for run in runs:
+        r = {(x["policy"], x["variant"]): x for x in run["rows"]}
+        if (d, shipped) in r and (d + "_propagated", shipped) in r:
+            f_, p_ = r[d, shipped], r[d + "_propagated", shipped]
+            ctx.append(f"seed {run['seed']}, {run['states']} states: "
+                       f"{_k_n(f_['successes'], f_['states'])} against "
+                       f"{_k_n(p_['successes'], p_['states'])}"
+                       + ("" if _overlap((f_["successes"], f_["states"]),
+                                         (p_["successes"], p_["states"]))
+                          else " (the intervals do not overlap)"))
+    if ctx:
+        text.append("- **Agent 1's context, frozen (`decentralized`) against propagated "
+                    "(`decentralized_propagated`)**, both under the shipped rule: "
+                    + "; ".join(ctx) + ".\n")
+    stalls = [(p, rows[p, shipped]) for p in policies if (p, shipped) in rows]
+    if stalls:
+        parts = ", ".join(f"{r['edge_stalls']}/{r['states'] - r['successes']} (`{p}`)"
+                          for p, r in stalls)
+        line = f"- **Edge stalls.** Of the shipped rule's failures from random states, {parts} are arms parked within {_sci(data['edge_slack_deg'])}° of the band edge."
+        x0_edge = [p for p, r in stalls if _never(r["x0_settle"])
+                   and 0 < abs(r["x0_final_deg"][0]) - 5 < data["edge_slack_deg"]]
+        if x0_edge:
+            line += (" The x0 rollout of " + ", ".join(f"`{p}`" for p in x0_edge)
+                     + f" is one of them: link 1 parks at {rows[x0_edge[0], shipped]['x0_final_deg'][0]:.7f}°.")
+        text.append(line + " The success rates of the paper's policies rest on that "
+                    "knife-edge of the metric as much as on the policies.\n")
+    text.append(f"\nMachine: {_machine(data['provenance'])}. Re-create the data with "
+                + "; ".join(f"`python docs/studies/tie_sensitivity.py --seed {r['seed']} "
+                            f"--states {r['states']} --json {src}`" for r in runs)
+                + " (each run is merged into the file by states, seed and policies), then "
+                "`python docs/generate.py`.\n")
+    return "".join(text)
+
+
+def identification_page(data: dict) -> str:
+    """docs/studies/identification_study.py's runs: parameter errors over hidden plants
+    and the policies synthesised on the identified parameters."""
+    from twolink.viz.formatting import format_rate
+
+    src = "renders/identification/identification.json"
+    runs = sorted(data["runs"], key=lambda r: r["options"]["first_seed"])
+    text = [_stamp(src), "# Identification: how well `twolink identify` does\n\n",
+            "`docs/studies/identification_study.py` runs `twolink identify`'s experiment on "
+            "hidden MuJoCo plants (every physical parameter changed jointly within the "
+            "spread of Table I, drawn from the plant's seed), fits P1, P2, P3, b1, b2 and "
+            "compares them with the truth: the largest, median and 95th-percentile relative "
+            "error over the plants, and how often the error lies within 2 bootstrap "
+            "standard errors (whether the standard errors are honest). Then, on the first "
+            "plants of each run, it synthesises the centralized full-model policy on the "
+            "identified parameters, on the true ones and on Table I, and runs each on a "
+            "MuJoCo plant with the true parameters from the 65 states of the evaluation "
+            "set. The plants' seeds were not used to choose the method or its settings. "
+            "How the fit works: [Identification](../guides/identification.md).\n\n"]
+    for run in runs:
+        o, ident, pol = run["options"], run["identification"], run["policies"]
+        last = o["first_seed"] + o["plants"] - 1
+        per = ident["per_parameter"]
+        text.append(f"## Seeds {o['first_seed']}–{last}\n\n{ident['plants']} hidden plants "
+                    f"(±{100 * o['spread']:g} %), {o['duration']:g} s of data each with "
+                    f"{o['angle_noise_deg']:g}° angle noise, {o['bootstrap']} bootstrap "
+                    f"replicates; {_duration(run['seconds'])} for the run, "
+                    f"{ident['median_seconds']:.2f} s per identification (median).\n\n")
+        text += [_table(("parameter", "largest error", "median", "95th percentile",
+                         "within 2 standard errors"),
+                        [(k, f"{v['max_abs_percent']:.2f} %", f"{v['median_abs_percent']:.2f} %",
+                          f"{v['p95_abs_percent']:.2f} %",
+                          f"{v['within_2_std_errors']}/{ident['plants']}")
+                         for k, v in per.items()]), "\n\n"]
+        meds = [v["median_abs_percent"] for v in per.values()]
+        worst = max(per, key=lambda k: per[k]["max_abs_percent"])
+        text.append(f"The largest error of any parameter was {per[worst]['max_abs_percent']:.2f} % "
+                    f"({worst}; medians {min(meds):.2f}–{max(meds):.2f} %); all five within 2 % "
+                    f"on {format_rate(ident['all_within_2_percent'], ident['plants'])} of "
+                    "the plants.\n\n")
+        if pol:
+            n = pol["runs"]
+            same = sum(r["successes"]["identified"] == r["successes"]["true"]
+                       for r in run["policy_runs"])
+            text.append(f"The centralized full-model policy on the true MuJoCo plants "
+                        f"({pol['plants']} plants × 65 states), synthesised on\n\n")
+            text += [f"- {label}: {format_rate(pol['successes'][key], n)}\n"
+                     for key, label in (("identified", "the identified parameters"),
+                                        ("true", "the true parameters"),
+                                        ("table_i", "Table I"))]
+            verdict = ("overlapping" if _overlap((pol["successes"]["identified"], n),
+                                                 (pol["successes"]["true"], n))
+                       else "not overlapping")
+            text.append(f"\nIdentified − true: {pol['identified_minus_true_points']:+.2f} "
+                        f"points (intervals {verdict}; worst plant "
+                        f"{pol['worst_plant_points']:+.2f} points); the two reach the same "
+                        f"count on {same} of the {pol['plants']} plants. Per plant "
+                        "(identified / true / Table I):\n\n")
+            text += [_table(("seed", "identified", "true", "Table I"),
+                            [(r["seed"], *(f"{r['successes'][k]}/{r['states']}"
+                                           for k in ("identified", "true", "table_i")))
+                             for r in run["policy_runs"]]), "\n\n"]
+    text.append(f"Machine: {_machine(data['provenance'])}. Re-create the data with "
+                + "; ".join(f"`python docs/studies/identification_study.py --plants "
+                            f"{r['options']['plants']} --policy-plants "
+                            f"{r['options']['policy_plants']} --first-seed "
+                            f"{r['options']['first_seed']} --json {src}`" for r in runs)
+                + " (each run is merged into the file by its options), then "
+                "`python docs/generate.py`.\n")
+    return "".join(text)
+
+
+#: The data files of the results pages and what each must be (see :func:`_load`):
+#: ``(schema, version)``, or the keys of an older report that names no schema.
+SCHEMAS = {
+    "docs/data/reproduce.json": {"duration", "evaluation_set", "paper", "provenance", "x0"},
+    "renders/mismatch/report.json": {"closed_loop", "command", "open_loop", "plants",
+                                     "policies", "robustness"},
+    "renders/learning/learning.json": {"baselines", "machine", "runs"},
+    "renders/scaling/scaling.json": {"command", "provenance", "rows"},
+    "benchmarks/results.json": {"command", "machine", "mode", "rows", "seconds"},
+    "renders/leaderboard/leaderboard.json": {"command", "levels", "plants", "rows", "seed",
+                                             "states"},
+    "renders/fuzzy_design/design.json": {"poses", "rows", "seeds"},
+    "renders/tie_sensitivity/tie_sensitivity.json": ("twolink.tie_sensitivity", 1),
+    "renders/grid_study/grid_study.json": ("twolink.grid_study", 1),
+    "renders/identification/identification.json": ("twolink.identification_study", 1),
+}
+
+
 #: Results pages: (page, title in the nav, data file, writer).
 RESULTS = (
     ("results/reproduction.md", "Reproduction", "docs/data/reproduce.json", reproduction_page),
@@ -575,12 +871,16 @@ RESULTS = (
      leaderboard_page),
     ("results/fuzzy-designs.md", "Fuzzy designs", "renders/leaderboard/leaderboard.json",
      fuzzy_designs_page),
+    ("results/round-off.md", "Round-off and ties",
+     "renders/tie_sensitivity/tie_sensitivity.json", round_off_page),
+    ("results/identification.md", "Identification",
+     "renders/identification/identification.json", identification_page),
 )
 
 
 def result_pages() -> dict:
     return {page: write(data) for page, _, rel, write in RESULTS
-            if (data := _load(rel)) is not None}
+            if (data := _load(rel, SCHEMAS[rel])) is not None}
 
 
 # --------------------------------------------------------------------------- blocks
@@ -616,7 +916,8 @@ def policies_table(link_prefix: str = "") -> str:
 def leaderboard_headline() -> str:
     """Each controller's success on MuJoCo (k/n with its interval, plain unless marked) nominal and under
     every level, and its median settle / T* nominal, from the committed leaderboard."""
-    report = _load("renders/leaderboard/leaderboard.json")
+    report = _load("renders/leaderboard/leaderboard.json",
+                   SCHEMAS["renders/leaderboard/leaderboard.json"])
     if report is None:
         return "(no leaderboard data: run `twolink leaderboard`, then `python docs/generate.py`)"
     from twolink.viz.formatting import format_rate
@@ -733,7 +1034,11 @@ def main(argv=None) -> int:
     p.add_argument("--check", action="store_true",
                    help="write nothing; exit 1 naming the files that are out of date")
     args = p.parse_args(argv)
-    out = outputs()
+    try:
+        out = outputs()
+    except DataError as exc:
+        print(f"docs/generate.py: error: {exc}", file=sys.stderr)
+        return 2
     bad = stale(out)
     if args.check:
         for rel in bad:
@@ -746,7 +1051,9 @@ def main(argv=None) -> int:
         path = ROOT / rel
         if not path.is_file() or path.read_text() != text:
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text)
+            tmp = path.with_name(f".{path.name}.tmp")      # never half a page: rename whole
+            tmp.write_text(text)
+            tmp.replace(path)
             print(f"wrote {rel}")
     return 0
 

@@ -13,7 +13,13 @@ the identified model is worth to a policy.
    identified - true in points.
 
 The evaluation seeds (default 10000 on) were not used to choose the method or its
-settings (those were chosen on other seeds). Prints tables, or JSON with --json.
+settings (those were chosen on other seeds). Prints tables; ``--json PATH`` also merges
+the run into PATH (schema ``twolink.identification_study``, version 1: one entry of
+``runs`` per set of options, a rerun with the same options replaces its entry), from
+which ``python docs/generate.py`` writes docs/results/identification.md.
+
+Run: .venv/bin/python docs/studies/identification_study.py [--plants 48] [--policy-plants 8]
+     [--first-seed 10000] [--json renders/identification/identification.json]
 """
 from __future__ import annotations
 
@@ -21,11 +27,13 @@ import argparse
 import json
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from twolink.arm.parameters import TABLE_I
+from twolink.artifacts import check_outputs, provenance, write_json
 from twolink.control.synthesis import synthesize
 from twolink.sim import excitation, identify
 from twolink.sim.metrics import evaluation_set, success, wilson_interval
@@ -36,6 +44,8 @@ from twolink.viz.formatting import format_rate
 MAX_PLANTS = 1000
 MAX_POLICY_PLANTS = 64
 TARGET = 0.02
+#: What the --json file calls itself; docs/generate.py refuses any other.
+SCHEMA, VERSION = "twolink.identification_study", 1
 
 
 def measure_identification(seeds, *, spread, duration, noise, bootstrap, progress=True):
@@ -138,9 +148,13 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=10.0)
     parser.add_argument("--angle-noise-deg", type=float, default=1.0)
     parser.add_argument("--bootstrap", type=int, default=20)
-    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument("--json", default=None, metavar="PATH",
+                        help="also merge the run into PATH (versioned JSON)")
     args = parser.parse_args(argv)
     try:
+        if args.json:
+            check_outputs({"--json": args.json})
+            old = _read(args.json)
         if not 1 <= args.plants <= MAX_PLANTS:
             raise ValueError(f"--plants must lie in [1, {MAX_PLANTS}]")
         if not 0 <= args.policy_plants <= min(args.plants, MAX_POLICY_PLANTS):
@@ -150,25 +164,46 @@ def main(argv=None) -> int:
                                     seed=args.first_seed, excitation="bang-bang",
                                     spread=args.spread)
         identify.check_bootstrap(args.bootstrap)
-    except ValueError as exc:
+    except (OSError, ValueError) as exc:
         print(f"identification_study: error: {exc}", file=sys.stderr)
         return 2
+    start = time.perf_counter()
     seeds = range(args.first_seed, args.first_seed + args.plants)
     rows = measure_identification(seeds, spread=args.spread, duration=args.duration,
                                   noise=args.angle_noise_deg, bootstrap=args.bootstrap,
-                                  progress=not args.json)
+                                  progress=True)
     ident = summarise_identification(rows)
-    runs = measure_policies(rows[:args.policy_plants], progress=not args.json) \
+    runs = measure_policies(rows[:args.policy_plants], progress=True) \
         if args.policy_plants else []
     pol = summarise_policies(runs) if runs else None
+    _print(ident, pol, runs, args)
     if args.json:
         plain = [{k: v for k, v in r.items() if k not in ("params", "truth_params")}
                  for r in rows]
-        print(json.dumps({"options": vars(args), "identification": ident, "plants": plain,
-                          "policies": pol, "policy_runs": runs}, indent=2))
-    else:
-        _print(ident, pol, runs, args)
+        options = {k: v for k, v in vars(args).items() if k != "json"}
+        run = {"options": options, "identification": ident, "plants": plain,
+               "policies": pol, "policy_runs": runs,
+               "seconds": time.perf_counter() - start}
+        kept = [r for r in old["runs"] if r["options"] != options]
+        write_json(args.json, {"schema": SCHEMA, "version": VERSION,
+                               "provenance": provenance(), "runs": kept + [run]})
+        print(f"wrote {args.json}")
     return 0
+
+
+def _read(path) -> dict:
+    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
+    not a file this script wrote."""
+    if not Path(path).is_file():
+        return {"runs": []}
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not JSON ({exc})") from None
+    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
+        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
+                         "give another --json PATH")
+    return data
 
 
 if __name__ == "__main__":

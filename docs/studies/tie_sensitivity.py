@@ -8,10 +8,16 @@ Each variant is run on the simplified plant (11) from the paper's x0 and from ra
 states (angles uniform in [-pi, pi), at rest, as ``twolink rollout --x0 random``) drawn
 from ``--seed``. Printed per variant: greedy bins that differ from the shipped rule,
 success k/n with a 95 % Wilson interval, and how many failures are arms parked at rest
-within 1e-5 deg of the 5 deg band edge.
+within 1e-5 deg of the 5 deg band edge. Also measured per policy: the bins whose best two
+Q-values are exactly equal or closer than 1.5e-14 (round-off), and the smallest gap
+between the best two above the tie tolerance (the genuine gaps).
 
-Run: .venv/bin/python docs/studies/tie_sensitivity.py [--states 100] [--seed 0] [--json]
-Used in docs/findings/round-off.md and docs/concepts/agents.md.
+``--json PATH`` also merges the run into PATH (schema ``twolink.tie_sensitivity``,
+version 1: one entry of ``runs`` per states, seed and policies; a rerun replaces its
+entry), from which ``python docs/generate.py`` writes docs/results/round-off.md.
+
+Run: .venv/bin/python docs/studies/tie_sensitivity.py [--states 100] [--seed 0]
+     [--json renders/tie_sensitivity/tie_sensitivity.json]
 """
 from __future__ import annotations
 
@@ -19,10 +25,14 @@ import argparse
 import dataclasses
 import json
 import math
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 
 from twolink.arm.parameters import PAPER_X0
+from twolink.artifacts import check_outputs, provenance, write_json
 from twolink.policy.fuzzy_policy import (
     TIE_TOLERANCE,
     Agent,
@@ -43,6 +53,10 @@ from twolink.sim.rollout import rollout
 #: How close to the band edge (degrees) a parked arm counts as "on the edge".
 EDGE_SLACK_DEG = 1e-5
 EPSILONS = (1e-12, 1e-10, 1e-8, 1e-6)
+#: A gap between the best two Q-values below this is round-off of the sweeps' sums.
+ROUND_OFF = 1.5e-14
+#: What the --json file calls itself; docs/generate.py refuses any other.
+SCHEMA, VERSION = "twolink.tie_sensitivity", 1
 
 
 @dataclasses.dataclass
@@ -82,6 +96,24 @@ def rebuilt(policy: Policy, change, rng) -> tuple[Policy, int, int]:
     return Policy(policy.kind, agents, policy.meta), moved, bins
 
 
+def gaps(names) -> list[dict]:
+    """Per agent of each policy: its bins, how many have their best two Q-values exactly
+    equal, how many closer than :data:`ROUND_OFF` (not equal), and the smallest gap
+    between the best two above ``TIE_TOLERANCE``."""
+    out = []
+    for name in names:
+        for a in load_policy(name).agents:
+            top = np.sort(a.q, axis=1)[:, -2:]
+            gap = top[:, 1] - top[:, 0]
+            genuine = gap[gap > TIE_TOLERANCE]
+            out.append({"policy": name, "agent": a.name, "bins": int(a.q.shape[0]),
+                        "exact_ties": int(np.count_nonzero(gap == 0)),
+                        "round_off_ties": int(np.count_nonzero((gap > 0) & (gap < ROUND_OFF))),
+                        "within_tolerance": int(np.count_nonzero(gap <= TIE_TOLERANCE)),
+                        "smallest_genuine_gap": float(genuine.min()) if len(genuine) else None})
+    return out
+
+
 def measure(names, *, states: int = 100, seed: int = 0) -> list[Row]:
     rng = np.random.default_rng(seed)
     x0s = np.zeros((states, 4))
@@ -109,15 +141,22 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
     parser.add_argument("--policy", action="append", choices=list(SHIPPED), default=None,
                         help="policy to measure, repeatable (default: the paper's three)")
-    parser.add_argument("--json", action="store_true", help="print the rows as JSON")
+    parser.add_argument("--json", default=None, metavar="PATH",
+                        help="also write the rows to PATH (versioned JSON)")
     args = parser.parse_args(argv)
     if args.states < 1:
         parser.error("--states must be at least 1")
-    names = args.policy or [n for n, e in SHIPPED.items() if e.paper]
-    rows = measure(names, states=args.states, seed=args.seed)
     if args.json:
-        print(json.dumps([dataclasses.asdict(r) for r in rows], indent=2))
-        return
+        try:
+            check_outputs({"--json": args.json})
+            old = _read(args.json)
+        except (OSError, ValueError) as exc:
+            parser.error(str(exc))
+    names = args.policy or [n for n, e in SHIPPED.items() if e.paper]
+    start = time.perf_counter()
+    rows = measure(names, states=args.states, seed=args.seed)
+    ties = gaps(names)
+    seconds = time.perf_counter() - start
     print(f"simplified plant (11), {args.states} random states at rest (seed {args.seed}), 5 s; "
           f"moved: greedy bins unlike the shipped rule's; edge: failures at rest within "
           f"{EDGE_SLACK_DEG:g} deg of the 5 deg band edge; x0 theta1: final angle [deg]")
@@ -130,6 +169,43 @@ def main(argv=None):
               f"{f'{r.successes}/{r.states}':>9}{f'[{100 * lo:.0f}, {100 * hi:.0f}] %':>12}"
               f"{f'{r.edge_stalls}/{r.states - r.successes}':>7}{st:>10}"
               f"{f'{r.x0_final_deg[0]:+.7f}':>13}")
+    print(f"\nbest two Q-values per bin: exactly equal, closer than {ROUND_OFF:g} (round-off), "
+          f"within the tolerance {TIE_TOLERANCE:g}; smallest gap above it")
+    for t in ties:
+        g = t["smallest_genuine_gap"]
+        print(f"{t['policy']:<25}{t['agent']:<10}{t['bins']:>6} bins{t['exact_ties']:>6} equal"
+              f"{t['round_off_ties']:>6} round-off{t['within_tolerance']:>6} tied   "
+              f"{'-' if g is None else f'{g:.2g}'}")
+    if args.json:
+        run = {"states": args.states, "seed": args.seed, "policies": names,
+               "seconds": seconds,
+               "rows": [dict(dataclasses.asdict(r), x0_settle=r.x0_settle
+                             if math.isfinite(r.x0_settle) else None) for r in rows],
+               "ties": ties}
+        key = ("states", "seed", "policies")
+        kept = [r for r in old["runs"] if [r[k] for k in key] != [run[k] for k in key]]
+        write_json(args.json, {
+            "schema": SCHEMA, "version": VERSION, "tie_tolerance": TIE_TOLERANCE,
+            "round_off": ROUND_OFF, "edge_slack_deg": EDGE_SLACK_DEG,
+            "epsilons": list(EPSILONS), "provenance": provenance(), "runs": kept + [run]})
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _read(path) -> dict:
+    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
+    not a file this script wrote."""
+    if not Path(path).is_file():
+        return {"runs": []}
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not JSON ({exc})") from None
+    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
+        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
+                         "give another --json PATH")
+    return data
+
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
