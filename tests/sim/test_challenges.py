@@ -1,5 +1,6 @@
 """Challenge levels: the table, the plant draws (held against their own loop), bad input."""
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -14,9 +15,10 @@ from twolink.sim.challenges import (
     challenge,
     draw_plants,
 )
-from twolink.sim.perturbations import PHYSICAL
+from twolink.sim.perturbations import PHYSICAL, random_perturbation, torque_limited
 
-_NUMBERS = [f.name for f in dataclasses.fields(Challenge) if f.name not in ("name", "description")]
+_NUMBERS = [f.name for f in dataclasses.fields(Challenge)
+            if f.name not in ("name", "description", "offsets")]
 
 
 def test_medium_is_exactly_the_combined_challenge_of_the_issue():
@@ -24,6 +26,7 @@ def test_medium_is_exactly_the_combined_challenge_of_the_issue():
     assert (m.spread, m.action_delay, m.angle_noise_deg, m.speed_noise) == (0.2, 1, 1.0, 0.02)
     assert (m.torque_limit, m.observation_delay, m.dropout, m.stuck) == (0, 0, 0, 0)
     assert all(getattr(LEVELS["none"], k) == 0 for k in _NUMBERS)
+    assert all(c.offsets == () for c in LEVELS.values())
 
 
 def test_levels_grow_harder_field_by_field():
@@ -83,6 +86,39 @@ def test_challenge_plants_add_the_torque_limit():
     rng = np.random.default_rng(0)
     state = rng.bit_generator.state
     assert LEVELS["none"].plant(rng) == TABLE_I and rng.bit_generator.state == state
+
+
+def test_offsets_change_named_parameters_before_the_draws():
+    ch = Challenge("o", offsets={"m2": 0.2, "tau1_max": -0.5})
+    assert ch.offsets == (("m2", 0.2), ("tau1_max", -0.5))       # PERTURBABLE's order
+    assert ch.perturbs_plant() and ch.plants(2, seed=0) == [TABLE_I.scaled(m2=1.2,
+                                                                          tau1_max=0.5)] * 2
+    joint = Challenge("j", spread=0.2, offsets={"m2": 0.2}, torque_limit=-0.1)
+    assert joint.plants(3, seed=4) == [
+        dataclasses.replace(q, tau1_max=0.9 * q.tau1_max, tau2_max=0.9 * q.tau2_max)
+        for q in draw_plants(0.2, 3, seed=4, base=TABLE_I.scaled(m2=1.2))]
+    assert joint.plant(np.random.default_rng(5)) == torque_limited(random_perturbation(
+        np.random.default_rng(5), 0.2, TABLE_I.scaled(m2=1.2), PHYSICAL), -0.1)
+    d = joint.as_dict()
+    assert d["offsets"] == {"m2": 0.2} and Challenge(**d) == joint
+    assert json.loads(json.dumps(d)) == d
+
+
+@pytest.mark.parametrize("offsets, message", [
+    ({"zz": 0.1}, "unknown parameter 'zz' in offsets; perturbable: l1, m1,"),
+    ({"l2": 0.1}, "unknown parameter 'l2' in offsets"),
+    ({"m1": 1.5}, "offset of m1 must be a relative change in (-0.9, 1], got 1.5"),
+    ({"m1": -0.9}, "offset of m1 must be a relative change in (-0.9, 1]"),
+    ({"m1": math.inf}, "offset of m1 must be a relative change"),
+    ({"m1": "x"}, "offset of m1 must be a relative change"),
+    ((("m1", 0.1), ("m1", 0.2)), "offsets name a parameter twice: m1, m1"),
+    (3, "offsets must map Table I parameter names to relative changes, got 3"),
+    ("m1", "offsets must map Table I parameter names"),
+    ([("m1", 0.1, 2)], "offsets must map Table I parameter names"),
+])
+def test_bad_offsets_refused(offsets, message):
+    with pytest.raises(ValueError, match=__import__("re").escape(message)):
+        Challenge("bad", offsets=offsets)
 
 
 @pytest.mark.parametrize("kwargs, message", [

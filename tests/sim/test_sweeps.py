@@ -1,5 +1,5 @@
-"""Sweeps: batched path bit-for-bit against the one-rollout loop, Ray == local, resume,
-locking, torn lines, workers that die with their run."""
+"""Sweeps: batched path bit-for-bit against the one-rollout loop and the evaluation call,
+Ray == local, resume, locking, torn lines, workers that die with their run."""
 import json
 import os
 import signal
@@ -15,6 +15,8 @@ from twolink.arm.parameters import TABLE_I
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.sim.cell_store import SweepFile, SweepLocked
 from twolink.sim.cells import Cell, load_results, run_cells, run_sweep, states_of
+from twolink.sim.challenges import LEVELS, Challenge
+from twolink.sim.evaluation import evaluate
 from twolink.sim.metrics import discounted_return, settle_time, success
 from twolink.sim.perturbations import perturbed
 from twolink.sim.plants import MujocoPlant
@@ -25,13 +27,18 @@ pytestmark = pytest.mark.robustness
 SHORT = 1.5     # seconds: enough for the bit-for-bit and executor checks
 
 
+_NOISE = Challenge("noise", angle_noise_deg=2.0, speed_noise=0.04)
+
+
 def _cells(policy="centralized", duration=SHORT):
-    return [Cell(policy, "nominal", states="quick", duration=duration),
-            Cell(policy, "parameter", 0.3, "m2", states="quick", duration=duration),
-            Cell(policy, "joint", 0.3, draws=2, seed=5, states="quick", duration=duration),
-            Cell(policy, "noise", 2.0, seed=3, states="quick", duration=duration),
-            Cell(policy, "delay", 1.0, states="quick", duration=duration),
-            Cell(policy, "torque_limit", -0.3, states="quick", duration=duration)]
+    def cell(ch, **kw):
+        return Cell(policy, ch, states="quick", duration=duration, **kw)
+    return [cell("none"), cell(Challenge("m2", offsets={"m2": 0.3})),
+            cell(Challenge("joint", spread=0.3), plants=2, seed=5),
+            cell(_NOISE, seed=3), cell(Challenge("delay", action_delay=1)),
+            cell(Challenge("torque", torque_limit=-0.3)),
+            cell(Challenge("mixed", spread=0.2, offsets={"b1": -0.4}, action_delay=1,
+                           angle_noise_deg=1.0, speed_noise=0.03), plants=2, seed=7)]
 
 
 def test_batched_path_equals_one_rollout_loop_bit_for_bit():
@@ -39,6 +46,36 @@ def test_batched_path_equals_one_rollout_loop_bit_for_bit():
     batched = run_cells(cells, nthread=2)
     for c, rec in zip(cells, batched):
         assert rec == reference_cell(c), c
+
+
+@pytest.mark.parametrize("level", ["medium", "hard"])
+def test_a_cell_is_the_evaluation_call_of_its_challenge_and_seed(level):
+    """One seeding rule: the same challenge and seed give the same plants, the same
+    noise and faults, so the same outcomes run by run, through either path."""
+    ch = LEVELS[level]
+    cell = Cell("centralized_full", ch, plants=3, seed=11, states="quick", duration=2.0)
+    rec = run_cells([cell, Cell("centralized_full", _NOISE, states="quick", duration=2.0)],
+                    nthread=2)[0]
+    ev = evaluate("centralized_full", x0=states_of("quick"), count=3, seed=11,
+                  challenge=ch, horizon=2.0, nthread=1)
+    assert list(ev.params) == cell.params() == ch.plants(3, 11)
+    assert rec["successes"] == ev.success.ravel().tolist()
+    assert rec["returns"] == ev.returns.ravel().tolist()
+    assert rec["settle_times"] == [v if np.isfinite(v) else None for v in ev.settle.ravel()]
+    other = run_cells([Cell("centralized_full", ch, plants=3, seed=12, states="quick",
+                            duration=2.0)])[0]
+    assert other["returns"] != rec["returns"]
+
+
+def test_cells_are_keyed_by_their_whole_challenge():
+    a = Cell("centralized", Challenge("x", offsets={"m1": 0.1, "b2": -0.2}))
+    b = Cell("centralized", Challenge("x", offsets=(("b2", -0.2), ("m1", 0.1))))
+    assert a == b and a.key == b.key and hash(a) == hash(b)
+    assert a.challenge.offsets == (("m1", 0.1), ("b2", -0.2))
+    assert Cell.from_dict(json.loads(a.key)) == a
+    assert Cell("centralized", "none").key == Cell("centralized").key
+    assert Cell("centralized", "medium").key != Cell("centralized", "medium", seed=1).key
+    assert a.params() == [TABLE_I.scaled(m1=1.1, b2=0.8)]
 
 
 def test_a_cell_does_not_depend_on_its_batch_mates():
@@ -54,14 +91,14 @@ def test_zero_perturbation_reproduces_the_nominal_rollout_exactly():
     plant = MujocoPlant(TABLE_I, nthread=1)
     tr = rollout(policy, plant, x0, duration=SHORT)
     plant.close()
-    nominal = run_cells([Cell("centralized", "nominal", states="quick", duration=SHORT)])[0]
+    nominal = run_cells([Cell("centralized", states="quick", duration=SHORT)])[0]
     assert nominal["successes"] == success(tr).tolist()
     st = settle_time(tr)
     assert nominal["settle_times"] == [float(v) if np.isfinite(v) else None for v in st]
-    zero = [Cell("centralized", "parameter", 0.0, n, states="quick", duration=SHORT)
-            for n in ("m1", "b2")] + \
-        [Cell("centralized", f, 0.0, states="quick", duration=SHORT)
-         for f in ("noise", "delay", "torque_limit", "joint")]
+    zero = [Cell("centralized", Challenge(n, **kw), states="quick", duration=SHORT)
+            for n, kw in (("m1", dict(offsets={"m1": 0.0})), ("b2", dict(offsets={"b2": 0.0})),
+                          ("noise", dict(angle_noise_deg=0.0)), ("delay", dict(action_delay=0)),
+                          ("torque", dict(torque_limit=0.0)), ("joint", dict(spread=0.0)))]
     for rec in run_cells(zero):
         for k in ("successes", "settle_times", "returns", "mean_return"):
             assert rec[k] == nominal[k], rec["cell"]
@@ -70,23 +107,28 @@ def test_zero_perturbation_reproduces_the_nominal_rollout_exactly():
 
 
 def test_perturbations_change_the_outcome():
-    recs = run_cells([Cell("centralized_full", "nominal", states="quick"),
-                      Cell("centralized_full", "torque_limit", -0.9, states="quick"),
-                      Cell("centralized_full", "delay", 2.0, states="quick"),
-                      Cell("centralized_full", "noise", 5.0, states="quick")])
+    recs = run_cells([Cell("centralized_full", ch, states="quick") for ch in (
+        Challenge("none"), Challenge("torque", torque_limit=-0.85),
+        Challenge("delay", action_delay=2),
+        Challenge("noise", angle_noise_deg=5.0, speed_noise=0.1))])
     for rec in recs[1:]:
         assert rec["settle_times"] != recs[0]["settle_times"], rec["cell"]
         assert rec["mean_return"] < recs[0]["mean_return"], rec["cell"]
 
 
 @pytest.mark.parametrize("bad, match", [
-    (dict(family="wind"), "family"), (dict(family="parameter", name="zz"), "parameter"),
-    (dict(family="parameter", name="m1", size=1.5), "relative"),
-    (dict(family="delay", size=0.5), "delay"), (dict(family="noise", size=-1.0), "noise"),
-    (dict(family="nominal", states="tiny"), "state set")])
+    (dict(challenge="wind"), "unknown challenge 'wind'; choose one of none"),
+    (dict(plants=0), "plants must be a whole number of plants from 1 to 10000, got 0"),
+    (dict(seed=-1), "seed must be a whole number from 0 to"),
+    (dict(states="tiny"), "unknown state set 'tiny'; choose one of full, quick"),
+    (dict(duration=0.0), "duration must be a finite positive number"),
+    (dict(challenge=Challenge("d", action_delay=30), duration=1.0),
+     "a delay of 30 samples is not shorter than the horizon of 20 samples")])
 def test_bad_cells_are_refused(bad, match):
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(ValueError, match=__import__("re").escape(match)):
         Cell("centralized", **bad)
+    with pytest.raises(ValueError, match="policy must be a name"):
+        Cell("")
 
 
 def test_local_processes_equal_serial(tmp_path):
@@ -148,7 +190,7 @@ def test_changed_policy_invalidates_stored_cells(tmp_path):
 
 def test_a_bad_line_in_the_middle_is_refused(tmp_path):
     path = tmp_path / "sweep.jsonl"
-    path.write_text('{"format": "twolink-sweep", "format_version": 3}\n{"key": 1\n{}\n')
+    path.write_text('{"format": "twolink-sweep", "format_version": 4}\n{"key": 1\n{}\n')
     with pytest.raises(ValueError, match="line 2"):
         run_sweep(_cells()[:1], path, executor="serial")
     (tmp_path / "x.jsonl").write_text("hello\n")
@@ -176,22 +218,37 @@ def test_a_torn_last_line_is_dropped_reported_and_its_cell_rerun(tmp_path, capsy
 
 
 def test_a_file_of_the_older_format_starts_over(tmp_path, capsys):
-    """Version 2 files hold no per-row returns: not reused."""
+    """Version 3 files hold cells of perturbation families drawn by their own seeds: not
+    reused."""
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[3:4]
     run_sweep(cells, path, executor="serial")
     lines = path.read_text().splitlines(keepends=True)
-    path.write_text(lines[0].replace('"format_version": 3', '"format_version": 2') + lines[1])
-    with pytest.raises(ValueError, match="older format version 2"):
+    path.write_text(lines[0].replace('"format_version": 4', '"format_version": 3') + lines[1])
+    with pytest.raises(ValueError, match="older format version 3"):
         load_results(path)
     redone = []
     run_sweep(cells, path, executor="serial", on_task=redone.extend)
     assert len(redone) == 1 and path.read_text() == "".join(lines)
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "older format version 2; every cell runs again" in err[0]
-    path.write_text(lines[0].replace('"format_version": 3', '"format_version": 4'))
-    with pytest.raises(ValueError, match="unsupported sweep results version 4"):
+    assert len(err) == 1 and "older format version 3; every cell runs again" in err[0]
+    path.write_text(lines[0].replace('"format_version": 4', '"format_version": 5'))
+    with pytest.raises(ValueError, match="unsupported sweep results version 5"):
         run_sweep(cells, path, executor="serial")
+
+
+def test_records_of_other_keys_are_kept_and_ignored(tmp_path):
+    """A record whose key no cell has (another vocabulary's cell) is never reused."""
+    path = tmp_path / "sweep.jsonl"
+    cells = _cells(duration=0.5)[:1]
+    foreign = {"key": "old", "cell": {"policy": "centralized", "family": "nominal"},
+               "policy_digest": "x", "successes": [True]}
+    path.write_text('{"format": "twolink-sweep", "format_version": 4}\n'
+                    + json.dumps(foreign) + "\n" + json.dumps({"key": "k", "cell": {}}) + "\n")
+    redone = []
+    got = run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    assert list(got) == [cells[0].key] and len(redone) == 1
+    assert set(load_results(path)) == {"old", "k", cells[0].key}
 
 
 def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path):
@@ -244,7 +301,8 @@ def test_the_lock_names_the_process_that_holds_it(tmp_path):
 
 _KILL_SCRIPT = """
 from twolink.sim.cells import Cell, run_sweep
-cells = [Cell("centralized", "parameter", s / 100, "m1") for s in range(-40, 41)]
+from twolink.sim.challenges import Challenge
+cells = [Cell("centralized", Challenge("m1", offsets={"m1": s / 100})) for s in range(-40, 41)]
 run_sweep(cells, None, executor="local", workers=2)
 """
 

@@ -24,7 +24,16 @@ from twolink.studies.mismatch.measure import (
     margins,
     robustness,
 )
-from twolink.studies.mismatch.plan import CURVES, FAMILIES, PLANS, plan, report_order
+from twolink.studies.mismatch.plan import (
+    CURVES,
+    FAMILIES,
+    PLANS,
+    SWEEP_SEED,
+    axis,
+    family_challenge,
+    plan,
+    report_order,
+)
 from twolink.studies.mismatch.report import robustness_tables
 from twolink.studies.robustness import MODES, summarize
 from twolink.viz.formatting import format_rate
@@ -182,7 +191,7 @@ def test_robustness_tables_do_not_follow_completion_order():
     policies = ["decentralized_full", "centralized"]
     cells = PLANS["quick"].cells(policies)
     rng = np.random.default_rng(0)
-    records = {c.key: {"cell": dict(c.__dict__), "success_rate": float(rng.uniform(0.9, 1))}
+    records = {c.key: {"cell": c.as_dict(), "success_rate": float(rng.uniform(0.9, 1))}
                for c in cells}
     keys = list(records)
     shuffled = [dict(zip(ks, (records[k] for k in ks)))
@@ -213,13 +222,34 @@ def test_plans_are_one_table_of_named_plans():
     for p in PLANS.values():
         cells = p.cells(["centralized"])
         assert len(set(cells)) == len(cells)
-        assert {c.family for c in cells} == {"nominal", *FAMILIES}
-        assert all(c.states == p.states for c in cells)
-        assert all(c.size != 0 for c in cells if c.family != "nominal")
+        on = [axis(c.as_dict()) for c in cells]
+        assert {k.split(":")[0] for k, _ in on} == {"nominal", *FAMILIES}
+        assert all(c.states == p.states and c.seed == SWEEP_SEED for c in cells)
+        assert all(s != 0 for k, s in on if k != "nominal")
+        assert all(c.plants == (p.joint_draws if k == "joint" else 1)
+                   for c, (k, _) in zip(cells, on))
         assert sorted(p.sizes) == sorted(FAMILIES)
+        for (k, size), c in zip(on, cells):             # each point is one Challenge
+            fam, _, name = k.partition(":")
+            assert c.challenge == family_challenge(fam, size, name) and c.challenge.name == k
     assert len(PLANS["quick"].cells(["centralized"])) == 1 + 11 * 2 + 4
     assert report_order(["centralized_full", "x.npz", "centralized", "centralized"]) == \
         ("centralized", "centralized_full", "x.npz")
+
+
+def test_family_points_are_challenges_with_one_line_refusals():
+    assert family_challenge("parameter", -0.5, "m2").offsets == (("m2", -0.5),)
+    assert family_challenge("noise", 5.0).speed_noise == pytest.approx(0.1)
+    assert family_challenge("delay", 2.0).action_delay == 2
+    assert family_challenge("joint", 0.3).spread == 0.3
+    assert family_challenge("torque_limit", -0.2).torque_limit == -0.2
+    assert axis({"challenge": {"name": "medium"}}) is None
+    for args, match in ((("wind", 1.0), "unknown perturbation family 'wind'"),
+                        (("nominal", 1.0), "the nominal family has size 0"),
+                        (("parameter", 0.1, "zz"), "unknown parameter 'zz' in offsets"),
+                        (("delay", 0.5), "action_delay must be a whole number")):
+        with pytest.raises(ValueError, match=match):
+            family_challenge(*args)
 
 
 def test_a_second_run_on_one_folder_is_refused_at_once(tmp_path, capsys):

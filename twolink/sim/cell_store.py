@@ -7,6 +7,14 @@ runs; a later line for the same cell supersedes an earlier one. A run that is ki
 mid-write leaves at most a torn last line: it is dropped (and reported) when the file is
 opened again, and its cells run again. A bad line anywhere else is an error.
 
+Files of another kind are refused in one line: one whose header is not this format's
+("not a twolink sweep results file"), or of a newer or unknown version ("unsupported
+sweep results version"). A file of an older version is started over when a sweep opens
+it (its records are dropped, one line says so, and every cell runs again);
+:func:`load_results` refuses it in one line. Within a file of this version a record is
+reused only for a cell of the same key (:attr:`twolink.sim.cells.Cell.key`); records of
+other keys are kept in the file and ignored.
+
 While a :class:`SweepFile` is open it holds ``fcntl.flock`` on the file, so a second run
 on the same file refuses at once instead of computing every cell twice.
 """
@@ -23,7 +31,10 @@ FORMAT = "twolink-sweep"
 #: hold noise cells drawn otherwise, so a sweep starts them over.
 #: 3: records hold per-row returns (the worst-case return of a joint size needs them);
 #: older files are started over.
-FORMAT_VERSION = 3
+#: 4: a cell is a policy under a twolink.sim.challenges.Challenge, its plants and noise
+#: drawn by the challenge's seeding rule; version 3 files hold cells of perturbation
+#: families drawn otherwise, so a sweep starts them over.
+FORMAT_VERSION = 4
 _HEADER = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION}) + "\n"
 
 

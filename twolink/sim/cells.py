@@ -1,34 +1,39 @@
-"""Robustness sweeps: cells of (policy, perturbation), run in batches, saved resumably.
+"""Robustness sweeps: cells of (policy, challenge), run in batches, saved resumably.
 
-A :class:`Cell` is one policy under one perturbation of the MuJoCo plant, run from every
-state of an evaluation set. Families:
+A :class:`Cell` is one policy under one :class:`twolink.sim.challenges.Challenge` of the
+MuJoCo plant: ``plants`` plants drawn by the challenge from ``seed``, each run from every
+state of an evaluation set (:data:`STATE_SETS`) for ``duration`` seconds, the policy as
+it is (no run-time compensation). Whatever the challenge does (offsets of single Table I
+parameters, a random joint spread, torque limits, actuation and observation delays,
+noise, dropped and stuck readings) a cell does; what a report calls a perturbation
+family (e.g. the mismatch report's, :mod:`twolink.studies.mismatch.plan`) is a way of
+building the challenge.
 
-* ``nominal`` - Table I, no perturbation;
-* ``parameter`` - one Table I parameter of the plant changed by ``size`` (relative);
-* ``joint`` - every perturbable parameter changed at once, each uniformly in
-  [-size, size], for ``draws`` random plants (seeded by the cell);
-* ``noise`` - Gaussian noise on the measured state: angle std ``size`` degrees and speed
-  std ``size`` * (0.1 rad/s / 5 deg), so ``size = 5`` matches the goal band;
-* ``delay`` - the torque reaches the plant ``size`` sample periods late;
-* ``torque_limit`` - the plant's tau1_max and tau2_max both changed by ``size`` (relative).
+Randomness is the challenge's one seeding rule (:mod:`twolink.sim.challenges`): plant i
+from ``SeedSequence([seed, PLANT_STREAM], spawn_key=(i,))``, the run of plant p from
+state s its noise and faults from ``spawn_key=(p, s)``. So a cell's rows are exactly the
+runs of ``twolink.sim.evaluation.evaluate(policy, x0=states_of(states), count=plants,
+seed=seed, challenge=challenge, horizon=duration)``, run by run.
 
 Cells of one policy are concatenated into a single batch (many states x many plants),
 the policy is evaluated for the whole batch at once and MuJoCo advances it with
 ``mujoco.rollout`` on a thread pool (:class:`twolink.sim.plants.MujocoPlant`). A result never
-depends on which cells share its batch: noise and delay are the per-row perturbations
-of :mod:`twolink.sim.perturbations`, each noisy row drawing from its own generator (held
-bit-for-bit by tests against a one-rollout-at-a-time reference loop).
+depends on which cells share its batch: delays, noise and faults are the per-row
+perturbations of :mod:`twolink.sim.perturbations`, each row drawing from its own
+generators (held bit-for-bit by tests against a one-rollout-at-a-time reference loop).
 
 Tasks run in this process, on local worker processes (which die with the run), or on a
 Ray cluster; every finished task is appended to a locked JSON-lines results file
 (:mod:`twolink.sim.cell_store`), so an interrupted sweep resumes without redoing finished
-cells and two runs never share one file.
+cells and two runs never share one file. A stored record is reused only for a cell of
+the same :attr:`Cell.key` (the JSON of :meth:`Cell.as_dict`: the policy, every field of
+the challenge, the plant count, seed, state set and duration) and the same policy file;
+records of other keys in the file are ignored, and their cells run again.
 """
 from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import dataclasses
 import hashlib
 import json
 import math
@@ -37,30 +42,35 @@ import os
 import socket
 import sys
 import threading
+from dataclasses import dataclass
 from typing import Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
-from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
+from twolink.arm.parameters import HORIZON, ArmParameters
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.sim.cell_store import SweepFile, load_results  # noqa: F401  (re-exported)
+from twolink.sim.challenges import (
+    LEVELS,
+    MAX_PLANTS,
+    PLANT_COUNT,
+    Challenge,
+    check_horizon,
+)
+from twolink.sim.challenges import (
+    challenge as challenge_named,
+)
 from twolink.sim.metrics import discounted_return, evaluation_set, settle_time, success
-from twolink.sim.perturbations import (
-    NOISE_STREAM,
-    PERTURBABLE,
+from twolink.sim.perturbations import (  # noqa: F401  (SPEED_PER_DEG re-exported)
     SPEED_PER_DEG,
     ActuationDelay,
-    ObservationNoise,
-    perturbed,
-    random_perturbation,
-    row_generators,
-    torque_limited,
+    Sensors,
 )
 from twolink.sim.plants import MujocoPlant
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout, steps_for
+from twolink.validate import real, whole
 
-FAMILIES = ("nominal", "parameter", "joint", "noise", "delay", "torque_limit")
 EXECUTORS = ("serial", "local", "ray")
 #: Evaluation sets a cell can use: all 65 states of docs/conventions.md, or every 13th (the paper's x0
 #: and 4 grid states) for quick runs.
@@ -87,72 +97,65 @@ def states_of(name: str) -> np.ndarray:
     raise ValueError(f"unknown state set {name!r}; choose one of {', '.join(STATE_SETS)}")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclass(frozen=True)
 class Cell:
-    """One policy under one perturbation, from every state of ``states``."""
+    """One policy under one challenge (a :class:`Challenge` or a level name of
+    :data:`twolink.sim.challenges.LEVELS`): ``plants`` plants drawn from ``seed``, each
+    from every state of ``states``, for ``duration`` seconds."""
 
     policy: str
-    family: str
-    size: float = 0.0
-    name: str = ""
-    draws: int = 1
+    challenge: Challenge = LEVELS["none"]
+    plants: int = 1
     seed: int = 0
     states: str = "full"
     duration: float = HORIZON
 
     def __post_init__(self):
-        _check_cell(self)
+        if not isinstance(self.policy, str) or not self.policy:
+            raise ValueError(f"a cell's policy must be a name, got {self.policy!r}")
+        object.__setattr__(self, "challenge", challenge_named(self.challenge))
+        object.__setattr__(self, "plants", whole(self.plants, "plants", 1, MAX_PLANTS,
+                                                 message=PLANT_COUNT))
+        object.__setattr__(self, "seed", whole(self.seed, "seed", 0, 2**63 - 1))
+        if self.states not in STATE_SETS:
+            raise ValueError(f"unknown state set {self.states!r}; choose one of "
+                             f"{', '.join(STATE_SETS)}")
+        duration = real(self.duration, "duration", 0.0, open_low=True)
+        object.__setattr__(self, "duration", duration)
+        check_horizon(self.challenge, steps_for(duration), duration)
+
+    def as_dict(self) -> dict:
+        """The cell, JSON-ready (the challenge as :meth:`Challenge.as_dict`)."""
+        return {"policy": self.policy, "challenge": self.challenge.as_dict(),
+                "plants": self.plants, "seed": self.seed, "states": self.states,
+                "duration": self.duration}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Cell":
+        """The cell :meth:`as_dict` gave ``d``."""
+        d = dict(d)
+        return cls(**{**d, "challenge": Challenge(**d["challenge"])})
 
     @property
     def key(self) -> str:
-        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+        return json.dumps(self.as_dict(), sort_keys=True)
 
-    def plants(self) -> list[ArmParameters]:
-        """One parameter set per random draw (a single one for deterministic families)."""
-        if self.family == "parameter":
-            return [perturbed(TABLE_I, **{self.name: self.size})]
-        if self.family == "torque_limit":
-            return [torque_limited(TABLE_I, self.size)]
-        if self.family == "joint":
-            rng = np.random.default_rng([self.seed, int(round(self.size * 1e6))])
-            return [random_perturbation(rng, self.size) for _ in range(self.draws)]
-        return [TABLE_I]
+    def params(self) -> list[ArmParameters]:
+        """The cell's plants: :meth:`Challenge.plants` of ``plants`` from ``seed``."""
+        return self.challenge.plants(self.plants, self.seed)
 
-    def rows(self) -> tuple[list[ArmParameters], np.ndarray]:
-        """Per-row plant parameters and initial states (plants outer, states inner)."""
+    def rows(self) -> tuple[list[ArmParameters], np.ndarray, list[tuple[int, int]]]:
+        """Per-row plant parameters, initial states and (plant, state) keys (plants outer,
+        states inner)."""
         x0 = states_of(self.states)
-        plist = self.plants()
-        return [p for p in plist for _ in x0], np.tile(x0, (len(plist), 1))
-
-
-def _check_cell(c: Cell) -> None:
-    if c.family not in FAMILIES:
-        raise ValueError(f"unknown perturbation family {c.family!r}; choose one of "
-                         f"{', '.join(FAMILIES)}")
-    if c.states not in STATE_SETS:
-        raise ValueError(f"unknown state set {c.states!r}; choose one of {', '.join(STATE_SETS)}")
-    if not math.isfinite(c.size):
-        raise ValueError(f"perturbation size must be finite, got {c.size}")
-    if c.family == "parameter" and c.name not in PERTURBABLE:
-        raise ValueError(f"unknown parameter {c.name!r}; perturbable: {', '.join(PERTURBABLE)}")
-    if c.family in ("parameter", "torque_limit", "joint") and not -1.0 < c.size < 1.0:
-        raise ValueError(f"relative change must lie in (-1, 1), got {c.size}")
-    if c.family == "joint" and (c.size < 0 or c.draws < 1):
-        raise ValueError("joint perturbations need size >= 0 and at least one draw")
-    if c.family == "noise" and c.size < 0:
-        raise ValueError(f"noise level must be non-negative, got {c.size}")
-    if c.family == "delay" and (c.size < 0 or c.size != int(c.size)):
-        raise ValueError(f"delay must be a non-negative whole number of samples, got {c.size}")
-    if c.family == "nominal" and c.size != 0:
-        raise ValueError("the nominal family has size 0")
+        plist = self.params()
+        keys = [(p, s) for p in range(len(plist)) for s in range(len(x0))]
+        return [p for p in plist for _ in x0], np.tile(x0, (len(plist), 1)), keys
 
 
 # --------------------------------------------------------------------------- running
-def _noise_rows(c: Cell, rows: int) -> tuple[np.ndarray, list]:
-    """Per-row angle noise std [deg] of a cell and its rows' generators (None: no noise)."""
-    level = c.size if c.family == "noise" else 0.0
-    rngs = row_generators([c.seed, NOISE_STREAM], rows) if level > 0 else [None] * rows
-    return np.full(rows, level), rngs
+def _per_row(cells: Sequence[Cell], counts: Sequence[int], field: str) -> np.ndarray:
+    return np.concatenate([np.full(n, getattr(c.challenge, field)) for c, n in zip(cells, counts)])
 
 
 def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dict] = None
@@ -166,24 +169,26 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
     if len(names) != 1 or len(durations) != 1:
         raise ValueError("a batch holds cells of one policy and one duration")
     name = names.pop()
+    duration = durations.pop()
     policy = (policies or {}).get(name) or load_policy(name)
-    plist, x0, counts = [], [], []
+    plist, x0, counts, rngs, fault_rngs = [], [], [], [], []
     for c in cells:
-        p, x = c.rows()
+        p, x, keys = c.rows()
+        noise, faults = c.challenge.generators(c.seed, keys)
         plist += p
         x0.append(x)
         counts.append(len(x))
+        rngs += noise
+        fault_rngs += faults
     x0 = np.concatenate(x0)
-    delays = np.concatenate([np.full(n, c.size if c.family == "delay" else 0)
-                             for c, n in zip(cells, counts)])
-    parts = [_noise_rows(c, n) for c, n in zip(cells, counts)]
-    level = np.concatenate([lv for lv, _ in parts])
-    noise = ObservationNoise(np.deg2rad(level), level * SPEED_PER_DEG,
-                             rngs=[g for _, rngs in parts for g in rngs],
-                             block=steps_for(cells[0].duration))
+    row = {f: _per_row(cells, counts, f) for f in
+           ("angle_std", "speed_noise", "dropout", "stuck", "observation_delay", "action_delay")}
+    sensors = Sensors(row["angle_std"], row["speed_noise"], row["dropout"], row["stuck"],
+                      row["observation_delay"], rngs=rngs, fault_rngs=fault_rngs,
+                      block=steps_for(duration))
     with MujocoPlant(plist, nthread=nthread) as plant:
-        traj = rollout(ActuationDelay(policy, delays), plant, x0, duration=durations.pop(),
-                       observe=lambda k, x: noise(x))
+        traj = rollout(ActuationDelay(policy, row["action_delay"]), plant, x0,
+                       duration=duration, observe=lambda k, x: sensors(x))
     st, ok, ret = settle_time(traj), success(traj), discounted_return(traj)
     out, start = [], 0
     for c, n in zip(cells, counts):
@@ -196,7 +201,7 @@ def run_cells(cells: Sequence[Cell], *, nthread: int = 1, policies: Optional[dic
 def cell_record(c: Cell, st, ok, ret, digest: str) -> dict:
     """A cell's result: per-row settle times, successes, discounted returns, and their
     summaries (JSON-ready)."""
-    return {"key": c.key, "cell": dataclasses.asdict(c), "rows": int(len(ok)),
+    return {"key": c.key, "cell": c.as_dict(), "rows": int(len(ok)),
             "policy_digest": digest,
             "success_rate": float(np.mean(ok)),
             "settle_times": [float(v) if math.isfinite(v) else None for v in st],
@@ -215,7 +220,7 @@ def _tasks(cells: Sequence[Cell]) -> list[list[Cell]]:
     for group in groups.values():
         chunk, rows = [], 0
         for c in group:
-            n = len(states_of(c.states)) * (c.draws if c.family == "joint" else 1)
+            n = len(states_of(c.states)) * c.plants
             if chunk and rows + n > _ROWS_PER_TASK:
                 tasks.append(chunk)
                 chunk, rows = [], 0
@@ -297,7 +302,7 @@ def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
         digests = {n: policy_digest(load_policy(n)) for n in {c.policy for c in cells}}
     stored = store.records if store is not None else {}
     results = {k: r for k, r in stored.items()      # policies changed since: redo those
-               if digests.get(r["cell"]["policy"], r.get("policy_digest"))
+               if digests.get(r["cell"].get("policy"), r.get("policy_digest"))
                == r.get("policy_digest")}
     pending = [c for c in cells if c.key not in results]
     tasks = _tasks(pending)

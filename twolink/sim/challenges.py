@@ -5,7 +5,11 @@ perturbation, delay and noise specs, fitted to this arm at Ts = 0.05 s: every on
 the ten physical parameters of Table I (:data:`twolink.sim.perturbations.PHYSICAL`) changed
 jointly, each by a relative change uniform in +-``spread`` drawn anew for every plant;
 the plant's torque limits changed by ``torque_limit`` (the controller keeps its own
-action levels, the plant clips them); the torque reaching the arm ``action_delay``
+action levels, the plant clips them); named parameters of Table I
+(:data:`twolink.sim.perturbations.PERTURBABLE`) changed by fixed relative amounts,
+``offsets`` (``{"m2": 0.2}`` is m2 * 1.2; given as a mapping or (name, change) pairs,
+held as pairs in PERTURBABLE's order, each change in (-0.9, 1]; the base every random
+plant is drawn around); the torque reaching the arm ``action_delay``
 sample periods late and the readings reaching the controller ``observation_delay``
 sample periods late; Gaussian noise on the measured angles (``angle_noise_deg``, std in
 degrees) and speeds (``speed_noise``, std in rad/s); readings dropped with probability
@@ -17,23 +21,34 @@ against it.
 :data:`LEVELS` is the one table of named levels that the environments, the evaluation
 call (:func:`twolink.sim.evaluation.evaluate`), the report, the tests and the README read.
 The perturbations themselves are implemented once, in :mod:`twolink.sim.perturbations`.
+
+One seeding rule for everything a challenge draws from a ``seed``: plant i from
+``SeedSequence([seed, PLANT_STREAM], spawn_key=(i,))`` (:func:`draw_plants`); the run of
+plant p from state s its noise from ``SeedSequence([seed, NOISE_STREAM], spawn_key=(p, s))``
+and its faults from ``SeedSequence([seed, FAULT_STREAM], spawn_key=(p, s))``
+(:meth:`Challenge.generators`). The evaluation call and the robustness sweeps
+(:mod:`twolink.sim.cells`) both draw through it, so the same challenge and seed give the
+same runs in either.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
 from twolink.arm.parameters import TABLE_I, TS, ArmParameters
 from twolink.sim.perturbations import (
     MAX_SPREAD,
+    NOISE_STREAM,
+    PERTURBABLE,
     PHYSICAL,
     SPEED_PER_DEG,
     STUCK_SAMPLES,
     Sensors,
     keyed_generators,
+    perturbed,
     random_perturbation,
     torque_limited,
 )
@@ -48,6 +63,8 @@ PLANT_COUNT = "{what} must be a whole number of plants from {low} to {high}, got
 #: Second word of the plant draws' seed: plant i of ``draw_plants(..., seed)`` draws from
 #: ``SeedSequence([seed, PLANT_STREAM], spawn_key=(i,))``.
 PLANT_STREAM = 104_729
+#: Second word of the seeds of a run's reading faults (its noise: ``NOISE_STREAM``).
+FAULT_STREAM = 7927
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,6 +74,7 @@ class Challenge:
     name: str
     spread: float = 0.0
     torque_limit: float = 0.0
+    offsets: tuple = ()
     action_delay: int = 0
     observation_delay: int = 0
     angle_noise_deg: float = 0.0
@@ -70,8 +88,9 @@ class Challenge:
             raise ValueError(f"challenge name must be a non-empty string, got {self.name!r}")
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
-            if f.name not in ("name", "description"):
+            if f.name not in ("name", "description", "offsets"):
                 real(v, f"challenge {f.name}")
+        object.__setattr__(self, "offsets", _check_offsets(self.offsets))
         _check_spread(self.spread)
         if not -MAX_SPREAD < self.torque_limit <= 1.0:
             raise ValueError(f"torque_limit must be a relative change in (-{MAX_SPREAD}, 1], "
@@ -92,20 +111,26 @@ class Challenge:
 
     # ------------------------------------------------------------------ plants
     def perturbs_plant(self) -> bool:
-        return self.spread > 0 or self.torque_limit != 0
+        return self.spread > 0 or self.torque_limit != 0 or bool(self.offsets)
+
+    def offset(self, base: ArmParameters = TABLE_I) -> ArmParameters:
+        """``base`` with the challenge's ``offsets`` applied (``base`` itself without any)."""
+        return perturbed(base, **dict(self.offsets)) if self.offsets else base
 
     def plant(self, rng: np.random.Generator, base: ArmParameters = TABLE_I) -> ArmParameters:
-        """One plant: ``base`` with every PHYSICAL parameter changed by a relative change
-        uniform in +-spread drawn from ``rng`` (in PHYSICAL's order; nothing drawn when
-        spread is 0), and the torque limits changed by ``torque_limit``."""
-        p = random_perturbation(rng, self.spread, base, PHYSICAL) if self.spread > 0 else base
+        """One plant: ``base`` with the ``offsets`` applied, then every PHYSICAL parameter
+        changed by a relative change uniform in +-spread drawn from ``rng`` (in PHYSICAL's
+        order; nothing drawn when spread is 0), then the torque limits changed by
+        ``torque_limit``."""
+        p = self.offset(base)
+        p = random_perturbation(rng, self.spread, p, PHYSICAL) if self.spread > 0 else p
         return torque_limited(p, self.torque_limit) if self.torque_limit else p
 
     def plants(self, count: int, seed, base: ArmParameters = TABLE_I) -> list[ArmParameters]:
-        """``count`` plants: :func:`draw_plants` under the challenge's spread, each with
-        the challenge's torque limits."""
+        """``count`` plants: :func:`draw_plants` under the challenge's spread around
+        ``base`` with the ``offsets`` applied, each with the challenge's torque limits."""
         return [torque_limited(p, self.torque_limit) if self.torque_limit else p
-                for p in draw_plants(self.spread, count, seed, base)]
+                for p in draw_plants(self.spread, count, seed, self.offset(base))]
 
     # ------------------------------------------------------------------ readings
     @property
@@ -117,6 +142,16 @@ class Challenge:
         return bool(self.angle_noise_deg or self.speed_noise or self.dropout or self.stuck
                     or self.observation_delay)
 
+    def generators(self, seed, keys) -> tuple[list, list]:
+        """The noise and the fault generators of the runs ``keys`` ((plant, state) index
+        pairs, one per batch row) drawn from ``seed`` by the module's seeding rule; a
+        row's generator is None where the challenge draws nothing of that kind."""
+        seed = whole(seed, "seed", 0)
+        noisy = self.angle_noise_deg > 0 or self.speed_noise > 0
+        faulty = self.dropout > 0 or self.stuck > 0
+        return (keyed_generators([seed, NOISE_STREAM], keys) if noisy else [None] * len(keys),
+                keyed_generators([seed, FAULT_STREAM], keys) if faulty else [None] * len(keys))
+
     def sensors(self, *, rngs: Sequence, fault_rngs: Sequence | None = None,
                 block: int = 1) -> Sensors:
         """The challenge's noise, faults and observation delay for ``len(rngs)`` rows
@@ -125,7 +160,34 @@ class Challenge:
                        self.observation_delay, rngs=rngs, fault_rngs=fault_rngs, block=block)
 
     def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The fields, JSON-ready (``offsets`` as ``{name: change}``);
+        ``Challenge(**c.as_dict()) == c``."""
+        return {**dataclasses.asdict(self), "offsets": dict(self.offsets)}
+
+
+def _check_offsets(offsets) -> tuple:
+    """``offsets`` as (name, change) pairs in PERTURBABLE's order, or a one-line ValueError."""
+    if isinstance(offsets, Mapping):
+        pairs = list(offsets.items())
+    else:
+        try:
+            pairs = [tuple(p) for p in offsets]
+        except TypeError:
+            pairs = None
+        if pairs is None or isinstance(offsets, str) or any(len(p) != 2 for p in pairs):
+            raise ValueError(f"offsets must map Table I parameter names to relative changes, "
+                             f"got {offsets!r}")
+    names = [n for n, _ in pairs]
+    for n in names:
+        if n not in PERTURBABLE:
+            raise ValueError(f"unknown parameter {n!r} in offsets; perturbable: "
+                             f"{', '.join(PERTURBABLE)}")
+    if len(set(names)) < len(names):
+        raise ValueError(f"offsets name a parameter twice: {', '.join(names)}")
+    for n, v in pairs:
+        real(v, f"offset of {n}", -MAX_SPREAD, 1.0, open_low=True,
+             message="{what} must be a relative change in ({low:g}, 1], got {value!r}")
+    return tuple((n, float(v)) for n, v in sorted(pairs, key=lambda p: PERTURBABLE.index(p[0])))
 
 
 def _check_spread(spread) -> float:

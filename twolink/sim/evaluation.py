@@ -8,11 +8,13 @@ faults (:mod:`twolink.sim.perturbations`), optionally through the compensation w
 (:func:`twolink.sim.metrics.success`, :func:`twolink.sim.metrics.settle_time`) on the true
 states; the controller only ever sees the measured ones.
 
-Randomness: the run of plant p from state s draws its noise from
-``SeedSequence([seed, NOISE_STREAM], spawn_key=(p, s))`` and its faults from
-``SeedSequence([seed, FAULT_STREAM], spawn_key=(p, s))``, and drawn plants come from
-:func:`twolink.sim.challenges.draw_plants` with the same seed: a run's numbers never depend
-on which plants and states share its batch.
+Randomness: the seeding rule of :mod:`twolink.sim.challenges`, the one the robustness
+sweeps (:mod:`twolink.sim.cells`) use too: the run of plant p from state s draws its noise
+from ``SeedSequence([seed, NOISE_STREAM], spawn_key=(p, s))`` and its faults from
+``SeedSequence([seed, FAULT_STREAM], spawn_key=(p, s))``
+(:meth:`twolink.sim.challenges.Challenge.generators`), and drawn plants come from
+:meth:`twolink.sim.challenges.Challenge.plants` with the same seed: a run's numbers never
+depend on which plants and states share its batch.
 """
 from __future__ import annotations
 
@@ -22,8 +24,13 @@ import math
 
 import numpy as np
 
-from twolink.arm.parameters import HORIZON, TABLE_I, ArmParameters
-from twolink.sim.challenges import MAX_PLANTS, PLANT_COUNT, Challenge, check_horizon
+from twolink.arm.parameters import HORIZON, ArmParameters
+from twolink.sim.challenges import (  # noqa: F401  (FAULT_STREAM re-exported)
+    FAULT_STREAM,
+    MAX_PLANTS,
+    Challenge,
+    check_horizon,
+)
 from twolink.sim.challenges import challenge as challenge_named
 from twolink.sim.controller import checked, controller_name
 from twolink.sim.metrics import (
@@ -34,19 +41,16 @@ from twolink.sim.metrics import (
     settle_time,
     success,
 )
-from twolink.sim.perturbations import (
+from twolink.sim.perturbations import (  # noqa: F401  (NOISE_STREAM re-exported)
     NOISE_STREAM,
     SPEED_PER_DEG,
     ActuationDelay,
-    keyed_generators,
 )
 from twolink.sim.plants import MujocoPlant, check_nthread, check_states
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout, rollout_grid, steps_for
 from twolink.validate import real, whole
 
-#: Second word of the seeds of a run's reading faults (its noise: perturbations.NOISE_STREAM).
-FAULT_STREAM = 7927
 #: Plants drawn when a plant-perturbing challenge is given without ``params`` or ``count``.
 DEFAULT_PLANTS = 32
 #: Most runs (plants x states) one evaluation holds.
@@ -167,10 +171,7 @@ def _plants(params, ch: Challenge, count, seed) -> list[ArmParameters]:
     if params is None:
         if count is None:
             count = DEFAULT_PLANTS if ch.spread > 0 else 1
-        if ch.spread > 0:
-            return ch.plants(count, seed)
-        whole(count, "count", 1, MAX_PLANTS, message=PLANT_COUNT)
-        return [ch.plant(None, TABLE_I)] * int(count)
+        return ch.plants(count, seed)
     if isinstance(params, ArmParameters):
         params = [params]
     params = list(params)
@@ -218,13 +219,8 @@ def closed_loop(policy, ch: Challenge, *, keys, seed: int, steps: int,
     hands on the challenge's readings of the true states x (noise and faults drawn from
     each run's own generators, then the reading delay); ``act`` is the controller
     (:func:`controller`) behind the actuation delay. Make a new pair per rollout."""
-    rows = len(keys)
-    noisy = ch.angle_noise_deg > 0 or ch.speed_noise > 0
-    faulty = ch.dropout > 0 or ch.stuck > 0
-    sensors = ch.sensors(
-        rngs=keyed_generators([int(seed), NOISE_STREAM], keys) if noisy else [None] * rows,
-        fault_rngs=keyed_generators([int(seed), FAULT_STREAM], keys) if faulty
-        else [None] * rows, block=steps)
+    rngs, fault_rngs = ch.generators(seed, keys)
+    sensors = ch.sensors(rngs=rngs, fault_rngs=fault_rngs, block=steps)
     act = ActuationDelay(controller(policy, ch, compensate=compensate), ch.action_delay)
     return act, lambda k, x: sensors(x)
 

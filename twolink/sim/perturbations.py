@@ -19,7 +19,8 @@ import numpy as np
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, ArmParameters
 from twolink.validate import whole_array
 
-#: Table I parameters a sweep may perturb (the plant's physical constants).
+#: Table I parameters a challenge's ``offsets`` may change (the plant's physical constants
+#: and torque limits).
 PERTURBABLE = ("l1", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2", "tau1_max", "tau2_max")
 #: The ten physical parameters of the arm (not its torque or speed limits): what a
 #: challenge's joint plant perturbation and a robust synthesis's model draws change.
@@ -29,11 +30,11 @@ PHYSICAL = ("l1", "l2", "m1", "m2", "I1", "I2", "c1", "c2", "b1", "b2")
 #: synthesis's draws): 90 % or more would leave a parameter near 0.
 MAX_SPREAD = 0.9
 #: Speed noise std (rad/s) per degree of angle noise where only an angle noise is given
-#: (sweeps, ``robustness.evaluate`` without a challenge): the goal band's ratio, 0.1 rad/s
+#: (sweeps, ``evaluate`` without a challenge): the goal band's ratio, 0.1 rad/s
 #: per 5 deg, so 1 deg goes with 0.02 rad/s, as in the ``medium`` challenge.
 SPEED_PER_DEG = GOAL_SPEED / math.degrees(GOAL_ANGLE)
 #: Second word of the seeds of observation noise: a noisy run draws from a child of
-#: ``SeedSequence([seed, NOISE_STREAM])`` (sweeps and ``robustness.evaluate``).
+#: ``SeedSequence([seed, NOISE_STREAM])`` (the seeding rule of twolink.sim.challenges).
 NOISE_STREAM = 7919
 
 

@@ -45,7 +45,7 @@ from twolink.sim.metrics import (
 from twolink.sim.plants import PLANTS, MujocoPlant, make_plant
 from twolink.sim.rollout import rollout
 from twolink.studies.mismatch.model_error import one_step_error
-from twolink.studies.mismatch.plan import CURVES, UNITS, Plan, report_order
+from twolink.studies.mismatch.plan import CURVES, UNITS, Plan, axis, report_order
 from twolink.studies.robustness import study
 from twolink.studies.throughput import measure
 
@@ -130,10 +130,11 @@ def _by_curve(results: dict, policies, value) -> dict:
     points: dict = {}
     for rec in results.values():
         c = rec["cell"]
-        if c["policy"] not in policies:
+        on = axis(c) if c["policy"] in policies else None
+        if on is None:
             continue
-        key = f"parameter:{c['name']}" if c["family"] == "parameter" else c["family"]
-        points.setdefault(c["policy"], {}).setdefault(key, {})[float(c["size"])] = value(rec)
+        key, size = on
+        points.setdefault(c["policy"], {}).setdefault(key, {})[size] = value(rec)
     out = {}
     for pol in report_order(points):
         fams = points[pol]
@@ -175,14 +176,15 @@ def worst_plants(results: dict, policies) -> dict:
     out: dict = {}
     for rec in results.values():
         c = rec["cell"]
-        if c["policy"] not in policies or c["family"] != "joint":
+        on = axis(c) if c["policy"] in policies else None
+        if on is None or on[0] != "joint":
             continue
-        ok = np.asarray(rec["successes"], dtype=bool).reshape(c["draws"], -1)
+        ok = np.asarray(rec["successes"], dtype=bool).reshape(c["plants"], -1)
         k = ok.sum(axis=1)
         worst = int(np.argmin(k))
-        out.setdefault(c["policy"], {})[float(c["size"])] = {
+        out.setdefault(c["policy"], {})[on[1]] = {
             "plant": worst, "successes": int(k[worst]), "states": int(ok.shape[1]),
-            "plants": int(c["draws"]), "worst_return": float(min(rec["returns"])),
+            "plants": int(c["plants"]), "worst_return": float(min(rec["returns"])),
             "mean_return": float(rec["mean_return"])}
     return {pol: {s: out[pol][s] for s in sorted(out[pol])} for pol in report_order(out)}
 

@@ -8,6 +8,21 @@ and per challenge level, all 65 states); ``quick`` is the CI form (5 states per 
 fewer sizes, 4 plants per joint size and per level: its margins are coarse). The N-link
 section (``twolink mismatch --links N``) takes from the plan only its number of random
 poses, drawn from :data:`CHAIN_SEED`.
+
+The families are the report's axes; every point on them is a
+:class:`twolink.sim.challenges.Challenge` (:func:`family_challenge`), named by its curve,
+and a sweep cell (:class:`twolink.sim.cells.Cell`) is one policy under one of them:
+
+* ``nominal`` - no perturbation (the ``none`` level's fields);
+* ``parameter`` - one Table I parameter changed by ``size`` (``offsets``; relative);
+* ``joint`` - every physical parameter of Table I changed at once, each uniformly in
+  [-size, size] (``spread``), :attr:`Plan.joint_draws` random plants per size;
+* ``noise`` - Gaussian noise on the measured state: angle std ``size`` degrees and speed
+  std ``size`` * (0.1 rad/s / 5 deg), so ``size = 5`` matches the goal band;
+* ``delay`` - the torque reaches the plant ``size`` sample periods late (``action_delay``);
+* ``torque_limit`` - the plant's tau1_max and tau2_max both changed by ``size`` (relative).
+
+Plants and noise come from the challenges' one seeding rule with :data:`SWEEP_SEED`.
 """
 from __future__ import annotations
 
@@ -16,7 +31,8 @@ from typing import Iterable, Mapping
 
 from twolink.policy.registry import TWO_LINK
 from twolink.sim.cells import Cell, states_of
-from twolink.sim.perturbations import PERTURBABLE
+from twolink.sim.challenges import Challenge
+from twolink.sim.perturbations import PERTURBABLE, SPEED_PER_DEG
 
 #: Perturbation families of the robustness sweep, in report order.
 FAMILIES = ("parameter", "joint", "noise", "delay", "torque_limit")
@@ -31,6 +47,44 @@ ROBUST_SEED = 9_061_127
 CHAIN_SEED = 7_311_011
 #: Curves of the robustness analysis, in report order: one per parameter, then the rest.
 CURVES = tuple(f"parameter:{n}" for n in PERTURBABLE) + FAMILIES[1:]
+#: Seed of every sweep cell's plants and noise.
+SWEEP_SEED = 0
+#: The Challenge field a family's size sets (``parameter``: its entry of ``offsets``).
+FIELDS = {"joint": "spread", "noise": "angle_noise_deg", "delay": "action_delay",
+          "torque_limit": "torque_limit"}
+
+
+def family_challenge(family: str, size: float = 0.0, parameter: str = "") -> Challenge:
+    """The point ``size`` of ``family`` (``parameter``: the Table I parameter changed) as
+    a Challenge named by its curve (``nominal``, ``parameter:m2``, ``joint``, ...); a
+    one-line ValueError for an unknown family or a size the Challenge refuses."""
+    if family == "nominal":
+        if size:
+            raise ValueError(f"the nominal family has size 0, got {size!r}")
+        return Challenge("nominal")
+    if family == "parameter":
+        return Challenge(f"parameter:{parameter}", offsets={parameter: size})
+    if family == "noise":
+        return Challenge("noise", angle_noise_deg=size, speed_noise=size * SPEED_PER_DEG)
+    if family in FIELDS:
+        return Challenge(family, **{FIELDS[family]: size})
+    raise ValueError(f"unknown perturbation family {family!r}; choose one of nominal, "
+                     f"{', '.join(FAMILIES)}")
+
+
+def axis(cell: dict):
+    """``(curve, size)`` of a sweep cell (:meth:`twolink.sim.cells.Cell.as_dict`): its
+    curve of :data:`CURVES` or ``nominal`` and its size, read from the challenge's field;
+    None for a cell whose challenge is on none of them."""
+    ch = cell["challenge"]
+    curve = ch.get("name")
+    if curve == "nominal":
+        return curve, 0.0
+    if isinstance(curve, str) and curve.startswith("parameter:") and curve in CURVES:
+        return curve, float(ch["offsets"].get(curve.split(":", 1)[1], 0.0))
+    if curve in FIELDS:
+        return curve, float(ch[FIELDS[curve]])
+    return None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,17 +107,13 @@ class Plan:
 
     def cells(self, policies: Iterable[str]) -> list[Cell]:
         """Every sweep cell, the nominal one first, per policy in the order given."""
-        cells = []
-        for pol in policies:
-            cells.append(Cell(pol, "nominal", states=self.states))
-            for name in PERTURBABLE:
-                cells += [Cell(pol, "parameter", s, name, states=self.states)
-                          for s in self.sizes["parameter"]]
-            cells += [Cell(pol, "joint", s, draws=self.joint_draws, states=self.states)
-                      for s in self.sizes["joint"]]
-            for fam in FAMILIES[2:]:
-                cells += [Cell(pol, fam, s, states=self.states) for s in self.sizes[fam]]
-        return cells
+        points = [family_challenge("nominal")]
+        for name in PERTURBABLE:
+            points += [family_challenge("parameter", s, name) for s in self.sizes["parameter"]]
+        points += [family_challenge(fam, s) for fam in FAMILIES[1:] for s in self.sizes[fam]]
+        return [Cell(pol, ch, plants=self.joint_draws if ch.spread else 1, seed=SWEEP_SEED,
+                     states=self.states)
+                for pol in policies for ch in points]
 
     def sweep_states(self) -> int:
         return len(states_of(self.states))
