@@ -170,6 +170,103 @@ def test_a_block_without_markers_is_an_error():
         gen.fill("README.md", "no markers here\n", {"commands": "x"})
 
 
+# --------------------------------------------------------------------------- results data
+#: The results pages written from the development studies' versioned JSON.
+STUDY_PAGES = {
+    "results/round-off.md": "renders/tie_sensitivity/tie_sensitivity.json",
+    "results/finer-grids.md": "renders/grid_study/grid_study.json",
+    "results/identification.md": "renders/identification/identification.json",
+}
+
+
+@pytest.mark.parametrize("page", sorted(STUDY_PAGES))
+def test_each_study_has_its_results_page(page):
+    gen = _generator()
+    rel = STUDY_PAGES[page]
+    entry = next(e for e in gen.RESULTS if e[0] == page)
+    assert entry[2] == rel and isinstance(gen.SCHEMAS[rel], tuple)
+    text = gen.result_pages()[page]
+    assert text.startswith(gen.STAMP) and f"`python docs/generate.py`" in text
+    assert (DOCS / page).read_text() == text          # committed, and from this data
+
+
+@pytest.mark.parametrize("rel", sorted(STUDY_PAGES.values()))
+def test_a_file_of_another_schema_or_version_is_refused_in_one_line(rel, tmp_path,
+                                                                       monkeypatch, capsys):
+    import json
+
+    gen = _generator()
+    name, version = gen.SCHEMAS[rel]
+    data = json.loads((ROOT / rel).read_text())
+    monkeypatch.setattr(gen, "ROOT", tmp_path)
+    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    for wrong in ({**data, "version": version + 1}, {**data, "schema": "twolink.other"},
+                  {k: v for k, v in data.items() if k != "schema"}):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text(json.dumps(wrong))
+        with pytest.raises(gen.DataError, match=re.escape(rel)):
+            gen.result_pages()
+        assert gen.main(["--check"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("docs/generate.py: error: " + rel)
+    # nothing was written: the refusal comes before any page
+    assert not (tmp_path / "docs").exists()
+
+
+def test_an_older_report_of_the_wrong_kind_is_refused():
+    gen = _generator()
+    rel = "renders/scaling/scaling.json"
+    with pytest.raises(gen.DataError, match="no key 'command'"):
+        gen._check(rel, {"rows": []}, gen.SCHEMAS[rel])
+    with pytest.raises(gen.DataError, match="schema 'twolink.grid_study' version 1"):
+        gen._check(rel, {"schema": "twolink.grid_study", "version": 1, "command": "",
+                         "provenance": {}, "rows": []}, gen.SCHEMAS[rel])
+
+
+def test_the_robust_targets_are_judged_on_the_report():
+    gen = _generator()
+
+    def res(k, n, worst=1.0, settle=1.0):
+        return {"successes": k, "n": n, "rate": k / n, "plants": n // 65,
+                "worst_plant_rate": worst, "median_settle": settle}
+    section = {"results": {"centralized_robust": {
+        "none": {"compensated": res(65, 65)},
+        "medium": {"compensated": res(2060, 2080, worst=0.94, settle=1.6)}}}}
+    got = {t[0]: t[-1] for t in gen.robust_targets(section)}
+    assert got == {"centralized_robust, nominal plant: 100 % success": True,
+                   "centralized_robust + compensation, medium: ≥ 98 % success": True,
+                   "centralized_robust + compensation, medium: no plant below 95 %": False,
+                   "centralized_robust + compensation, medium: median settle ≤ 1.5 s": False}
+    page = gen.result_pages()["results/mismatch.md"]
+    assert "### Targets" in page and "Targets, measured here" not in page
+
+
+def test_the_scaling_targets_are_judged_on_the_report():
+    gen = _generator()
+
+    def row(scheme, links, k5, k8, n=64):
+        return {"scheme": scheme, "rule": "tapered", "links": links, "status": "run",
+                "evaluation": {"horizons": {"5": {"successes": k5, "n": n, "rate": k5 / n},
+                                            "8": {"successes": k8, "n": n, "rate": k8 / n}}}}
+    got = {t[0]: (t[1], t[2]) for t in gen.scaling_targets(
+        {"rows": [row("decentralized", 3, 57, 61), row("decentralized_levels", 5, 0, 245, 256),
+                  row("decentralized", 5, 0, 230, 256)]})}
+    assert got["tapered N = 3 ≥ 95 % at 8 s"][1] is True
+    assert got["tapered N = 3 ≥ 90 % at 5 s"] == ("57/64 = 89.1 % [79, 95] at 5 s", False)
+    assert got["tapered N = 5 ≥ 95 % at 8 s"][1] is False
+    assert got["tapered N = 5 ≥ 95 % at 8 s (5 levels)"][1] is True
+    assert "## Targets" in gen.result_pages()["results/scaling.md"]
+
+
+def test_no_acceptance_targets_in_the_package():
+    """What a study should reach is the documentation's to judge (docs/generate.py)."""
+    import twolink.studies.robustness as robustness
+    import twolink.studies.scaling.measure as measure
+
+    for module in (robustness, measure):
+        assert not hasattr(module, "TARGETS") and not hasattr(module, "targets")
+
+
 # --------------------------------------------------------------------------- README
 def test_readme_is_a_landing_page():
     lines = README.read_text().splitlines()

@@ -15,8 +15,11 @@ chosen from this table (so was ``centralized_robust_tuned``); the leaderboard (`
 evaluation set and the leaderboard's own seed. Beside the levers the package offers
 (``levels``, ``bins``, ``readout``) two that it does not ship are measured here as
 prototypes: the expectation over the reading noise inside the transition model
-(:func:`noise_expectation`) and agents that know their torque is one sample late
-(:func:`delay_aware`). About 15 minutes on two cores.
+(:func:`noise_expectation`), agents that know their torque is one sample late
+(:func:`delay_aware`), a hold region that zeroes a joint's torque near the goal
+(:class:`Hold`) and a one-step look-ahead on the model far from the goal
+(:class:`LookAhead`). About 15 minutes on two cores; ``--merge --only LABEL ...``
+measures some variants again and puts them into an existing ``--json`` table.
 """
 from __future__ import annotations
 
@@ -31,7 +34,7 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from twolink.arm.parameters import TABLE_I  # noqa: E402
+from twolink.arm.parameters import GAMMA, TABLE_I  # noqa: E402
 from twolink.arm.task import action_levels, agent_reward, centralized_reward  # noqa: E402
 from twolink.control import problems as P  # noqa: E402
 from twolink.control.synthesis import synthesize  # noqa: E402
@@ -154,6 +157,49 @@ def delay_aware(levels: int = 3) -> DelayAware:
     return DelayAware(levels)
 
 
+class LookAhead:
+    """``policy`` (a centralized one) where every angle reads within ``beyond_deg``
+    degrees; beyond that the action of a one-step look-ahead on the full model (6): the
+    torque pair u of the policy's action set that maximises rho(f(x, u)) + gamma
+    max_u' Q(f(x, u), u'), Q interpolated by (12) at the reached state."""
+
+    def __init__(self, policy: Policy, beyond_deg: float):
+        self.policy, self.agent = policy, policy.agents[0]
+        self.beyond = np.deg2rad(beyond_deg)
+        self.name, self.meta = f"{policy.meta.get('name', 'policy')}_lookahead", dict(policy.meta)
+
+    def look(self, x):
+        u = self.agent.actions
+        nxt = P.model_step("full", TABLE_I, x[:, None, :], u[None], compiled=True)
+        pts = nxt.copy()
+        pts[..., :2] = np.mod(pts[..., :2] + np.pi, 2 * np.pi) - np.pi
+        value = centralized_reward(nxt) + GAMMA * self.agent.q_values(pts).max(-1)
+        return u[np.argmax(value, -1)]
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        out = self.policy(x)
+        far = np.any(np.abs(np.mod(x[:, :2] + np.pi, 2 * np.pi) - np.pi) > self.beyond, -1)
+        if np.any(far):
+            out[far] = self.look(x[far])
+        return out
+
+
+class Hold:
+    """``policy`` with a hold region: joint i's torque is 0 while its link reads within
+    ``angle_deg`` degrees and ``speed`` rad/s of the goal."""
+
+    def __init__(self, policy: Policy, angle_deg: float, speed: float):
+        self.policy, self.angle, self.speed = policy, np.deg2rad(angle_deg), speed
+        self.name, self.meta = "hold", dict(policy.meta)
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        inside = (np.abs(np.mod(x[:, :2] + np.pi, 2 * np.pi) - np.pi) < self.angle) \
+            & (np.abs(x[:, 2:]) < self.speed)
+        return np.where(inside, 0.0, self.policy(x))
+
+
 #: label -> a function building the controller.
 VARIANTS = {
     "centralized_full (paper design on (6))": _policy("centralized"),
@@ -197,6 +243,16 @@ VARIANTS = {
     "decentralized_robust, argmax beyond 30 deg": _policy("decentralized", argmax=30.0,
                                                           robust=True),
     "decentralized delay-aware, 3 levels": delay_aware,
+    "decentralized delay-aware, 5 levels": lambda: delay_aware(5),
+    "decentralized 7 levels, propagated, dead zone 0.06, angle dead zone 1 deg, argmax 30 deg":
+        lambda: synthesize("decentralized", model="full", levels=7, context="propagated",
+                           readout=Readout(speed_dead_zone=0.06, angle_dead_zone_deg=1.0,
+                                           argmax_beyond_deg=30.0)),
+    "decentralized_tuned with a hold region (3 deg, 0.06 rad/s)":
+        lambda: Hold(_policy("decentralized", 7, context="propagated", dead_zone=0.06,
+                             argmax=30.0)(), 3.0, 0.06),
+    "centralized_tuned with a one-step look-ahead on (6) beyond 15 deg":
+        lambda: LookAhead(_policy("centralized", 5, "goal", dead_zone=0.08, argmax=30.0)(), 15.0),
 }
 
 
@@ -238,14 +294,24 @@ def main(argv=None) -> int:
     parser.add_argument("--only", nargs="+", default=None, choices=list(VARIANTS),
                         metavar="LABEL")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--merge", action="store_true",
+                        help="measure the --only variants and put their rows into the --json "
+                             "file's table (kept in the order of VARIANTS)")
     parser.add_argument("--markdown", type=Path, default=None)
     args = parser.parse_args(argv)
+    if args.merge and (args.json is None or not args.json.is_file() or not args.only):
+        parser.error("--merge needs --only and an existing --json file")
+    kept = json.loads(args.json.read_text())["rows"] if args.merge else []
     rows = []
     for k, label in enumerate(args.only or VARIANTS, 1):
         rows.append(measure(label))
         print(f"[{k}/{len(args.only or VARIANTS)}] {label}: nominal "
               f"{rows[-1]['none']['successes']}/{rows[-1]['none']['n']}", file=sys.stderr,
               flush=True)
+    if args.merge:
+        new = {r["variant"]: r for r in rows}
+        old = {r["variant"]: r for r in kept if r["variant"] in VARIANTS}
+        rows = [new.get(label) or old[label] for label in VARIANTS if label in new or label in old]
     table = markdown(rows)
     print(table)
     if args.json:

@@ -17,13 +17,14 @@ k: k - 1 evenly spaced centres inserted between neighbouring centres, 12k angle 
   time of the random poses that succeed.
 
 ``--sweeps serial`` synthesises with serial sweeps instead (the shipped policies are
-synchronous). Nothing is tuned: every configuration runs the same sets. Runs in about 3-4 minutes on
-2 cores with the defaults (refine 3 of the centralized problem is most of it).
+synchronous). Nothing is tuned: every configuration runs the same sets. Prints tables;
+``--json PATH`` also merges the run into PATH (schema ``twolink.grid_study``, version 1:
+one entry of ``runs`` per set of options, a rerun with the same options replaces its
+entry), from which ``python docs/generate.py`` writes docs/results/finer-grids.md.
 
 Run: .venv/bin/python docs/studies/grid_study.py [--refine 1 2 3] [--states 200] [--seed 7]
      [--noise-deg 1] [--models simplified full] [--sweeps synchronous|serial]
-     [--json] [--report FILE]
-Used in docs/findings/finer-grids.md.
+     [--json renders/grid_study/grid_study.json]
 """
 from __future__ import annotations
 
@@ -35,12 +36,13 @@ import resource
 import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON
-from twolink.artifacts import check_outputs, write_json
+from twolink.artifacts import check_outputs, provenance, write_json
 from twolink.control.problems import KINDS, SWEEPS, table_sizes
 from twolink.control.problems import SYNTHESIS_MODELS as MODELS
 from twolink.control.synthesis import synthesize
@@ -59,6 +61,8 @@ from twolink.viz.formatting import format_rate
 
 #: Most random poses per run (each is a 5 s rollout on two plants, three times).
 MAX_STATES = 100_000
+#: What the --json file calls itself; docs/generate.py refuses any other.
+SCHEMA, VERSION = "twolink.grid_study", 1
 
 
 @dataclasses.dataclass
@@ -99,6 +103,17 @@ def _outcome(traj) -> Outcome:
                    float(np.median(st)) if len(st) else None)
 
 
+def _tail(traj, seconds: float = 1.0) -> dict:
+    """Link 2 over the last ``seconds`` of the x0 rollout (row 0): its angle range [deg],
+    its speed range [rad/s] and its mean |torque| [N m]."""
+    k = int(round(seconds / (traj.t[1] - traj.t[0])))
+    x, u = traj.x[0, -k:], traj.u[0, -k:]
+    return {"seconds": seconds,
+            "theta2_deg": [float(np.rad2deg(x[:, 1]).min()), float(np.rad2deg(x[:, 1]).max())],
+            "dtheta2": [float(x[:, 3].min()), float(x[:, 3].max())],
+            "mean_abs_torque2": float(np.mean(np.abs(u[:, 1])))}
+
+
 def measure_one(kind, model, refine, plants, *, poses, seed, noise_deg,
                 sweeps="synchronous") -> Row:
     tracemalloc.start()
@@ -119,6 +134,7 @@ def measure_one(kind, model, refine, plants, *, poses, seed, noise_deg,
         noisy = rollout(policy, plant, poses, observe=lambda k, x: noise(x))
         x0_settle = float(settle_time(ev)[0])       # row 0 of the evaluation set is x0
         closed[name] = {"x0_settle": x0_settle if math.isfinite(x0_settle) else None,
+                        "x0_tail": _tail(ev),
                         "evaluation": dataclasses.asdict(_outcome(ev)),
                         "random": dataclasses.asdict(_outcome(rnd)),
                         "noisy": dataclasses.asdict(_outcome(noisy))}
@@ -187,9 +203,8 @@ def main(argv=None):
                         help="synthesis models (default: simplified full)")
     parser.add_argument("--sweeps", choices=SWEEPS, default="synchronous",
                         help="Alg. 1's sweeps (default synchronous, as the shipped policies)")
-    parser.add_argument("--json", action="store_true", help="print the rows as JSON")
-    parser.add_argument("--report", default=None, metavar="FILE",
-                        help="also write the rows as JSON to FILE")
+    parser.add_argument("--json", default=None, metavar="PATH",
+                        help="also merge the run into PATH (versioned JSON)")
     args = parser.parse_args(argv)
     if not 1 <= args.states <= MAX_STATES:
         parser.error(f"--states must be from 1 to {MAX_STATES}")
@@ -200,26 +215,53 @@ def main(argv=None):
         if biggest * 8 > MAX_Q_BYTES:
             parser.error(f"--refine {r}: a Q-table of {biggest} values is over the "
                          f"{MAX_Q_BYTES >> 20} MiB a policy may hold")
-    if args.report:
+    if args.json:
         try:
-            check_outputs({"--report": args.report})
+            check_outputs({"--json": args.json})
+            old = _read(args.json)
         except (OSError, ValueError) as exc:
             parser.error(str(exc))
     if not (math.isfinite(args.noise_deg) and args.noise_deg >= 0):
         parser.error("--noise-deg must be a non-negative number")
+    start = time.perf_counter()
     rows = measure(sorted(set(args.refine)), states=args.states, seed=args.seed,
                    noise_deg=args.noise_deg, models=args.models, sweeps=args.sweeps)
-    data = [dataclasses.asdict(r) for r in rows]
-    if args.report:
-        write_json(args.report, {"states": args.states, "seed": args.seed,
-                                 "sweeps": args.sweeps,
-                                 "noise_deg": args.noise_deg, "rows": data})
+    seconds = time.perf_counter() - start
+    print_tables(rows, states=args.states, seed=args.seed, noise_deg=args.noise_deg,
+                 sweeps=args.sweeps)
     if args.json:
-        print(json.dumps(data, indent=2))
-    else:
-        print_tables(rows, states=args.states, seed=args.seed, noise_deg=args.noise_deg,
-                     sweeps=args.sweeps)
+        options = {"refine": sorted(set(args.refine)), "states": args.states,
+                   "seed": args.seed, "noise_deg": args.noise_deg,
+                   "models": list(args.models), "sweeps": args.sweeps}
+        run = {"options": options, "seconds": seconds,
+               "rss_max_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+               "speed_noise": args.noise_deg * SPEED_PER_DEG,
+               # the largest Q-table of each refinement, one past the largest measured
+               "largest_q_table": {str(r): max(n for k in KINDS
+                                               for n in table_sizes(k, r).values())
+                                   for r in range(1, max(options["refine"]) + 2)},
+               "rows": [dataclasses.asdict(r) for r in rows]}
+        kept = [r for r in old["runs"] if r["options"] != options]
+        write_json(args.json, {"schema": SCHEMA, "version": VERSION,
+                               "max_q_bytes": MAX_Q_BYTES, "provenance": provenance(),
+                               "runs": kept + [run]})
+        print(f"wrote {args.json}")
     return 0
+
+
+def _read(path) -> dict:
+    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
+    not a file this script wrote."""
+    if not Path(path).is_file():
+        return {"runs": []}
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not JSON ({exc})") from None
+    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
+        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
+                         "give another --json PATH")
+    return data
 
 
 if __name__ == "__main__":

@@ -198,7 +198,7 @@ def test_grid_study_measures_the_papers_grid_as_reproduce_does(capsys, monkeypat
 @pytest.mark.parametrize("args, message", [
     (["--states", "1000000000"], "--states must be from 1 to 100000"),
     (["--refine", "9"], "--refine 9: a Q-table of 317552400 values is over the 64 MiB"),
-    (["--report", "/nonexistent/r.json"], "directory /nonexistent does not exist"),
+    (["--json", "/nonexistent/r.json"], "directory /nonexistent does not exist"),
 ])
 def test_grid_study_refuses_unbounded_work_before_starting(args, message):
     import subprocess

@@ -218,7 +218,5 @@ def _report(args, chosen, levels) -> int:
     else:
         for p, d in summary(report)["successes"].items():
             print(f"{p:26s} " + "  ".join(f"{pl} {format_rate(*kn):<24s}" for pl, kn in d.items()))
-        for t in (report.get("robust") or {}).get("targets", []):
-            print(f"target {'met   ' if t['met'] else 'MISSED'} {t['target']}: {t['value']}")
         print(f"wrote {out / 'report.md'}")
     return 0

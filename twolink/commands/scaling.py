@@ -31,7 +31,7 @@ from twolink.studies.scaling.measure import (
     plan,
     scaling,
 )
-from twolink.studies.scaling.report import FILES, tables, target_lines, write
+from twolink.studies.scaling.report import FILES, tables, write
 from twolink.studies.scaling.synthesis import PEAK_METHODS
 
 
@@ -120,8 +120,5 @@ def run(args) -> int:
         print(json.dumps(json.loads(paths["json"].read_text()), indent=2))
     else:
         print(tables(report))
-        lines = target_lines(report)
-        if lines:
-            print("\n" + "\n".join(lines))
         print(f"\nwrote {paths['markdown']}, {paths['figure'].name}, {paths['json'].name}")
     return 0

@@ -38,7 +38,6 @@ def summary(report: dict) -> dict:
                             for lv, d in by.items()}
                         for p, by in report["robust"]["results"].items()}
                        if "robust" in report else None),
-            "targets": report["robust"]["targets"] if "robust" in report else None,
             "throughput": report["throughput"], "plan": report["plan"],
             "seconds": report["seconds"], "stage_seconds": report["stage_seconds"]}
 
@@ -100,7 +99,7 @@ def _challenge_row(name: str, ch: dict) -> list:
 
 
 def robust_tables(section: dict) -> str:
-    """The robust section's tables: the levels, every policy x level x mode, the targets."""
+    """The robust section's tables: the levels and every policy x level x mode."""
     levels = _table(("level", "parameters (jointly)", "torque limits", "actuation delay",
                      "observation delay", "angle noise [deg]", "speed noise [rad/s]",
                      "dropped readings", "stuck readings"),
@@ -119,13 +118,8 @@ def robust_tables(section: dict) -> str:
     results = _table(("policy", "level", "run", "success k/n [95 % Wilson]", "plants",
                       "worst plant [95 % Wilson]", "mean return", "worst-case return",
                       "median settle [s]", "p90 settle [s]"), rows)
-    rows = [[t["target"], _num(t["value"], "{:.3f}", none="never"),
-             format_rate(t["successes"], score_keys(t)["n"]), t["plants"],
-             "met" if t["met"] else "**missed**"] for t in section["targets"]]
-    checks = _table(("target", "measured", "success k/n [95 % Wilson]", "plants", "verdict"),
-                    rows) if rows else "No target policy was measured."
     return "\n".join(["Challenge levels (twolink.sim.challenges.LEVELS):", "", levels, "",
-                      results, "", "Targets, measured here:", "", checks])
+                      results])
 
 
 def markdown(report: dict, figures: dict, command: str) -> str:

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from twolink.artifacts import atomic_path, write_json, write_text  # noqa: E402
-from twolink.studies.scaling.measure import ALL_SCHEMES, LEVER_LEVELS, targets  # noqa: E402
+from twolink.studies.scaling.measure import ALL_SCHEMES, LEVER_LEVELS  # noqa: E402
 from twolink.viz.formatting import format_rate  # noqa: E402
 
 #: The files :func:`write` writes into its folder.
@@ -102,17 +102,6 @@ def tables(report: dict) -> str:
     return "\n\n".join(parts)
 
 
-def target_lines(report: dict) -> list:
-    """One line per target of :data:`twolink.studies.scaling.measure.TARGETS` the report measures."""
-    out = []
-    for t in targets(report):
-        v = t["value"]
-        shown = v if isinstance(v, str) else \
-            f"{format_rate(v['successes'], v['n'])} at {v['horizon']:g} s"
-        out.append(f"- {'met' if t['met'] else '**missed**'}: {t['target']}: {shown}")
-    return out
-
-
 def _shipped(report: dict) -> list:
     """A bullet on the rows that rebuild a shipped policy: equal to its file or not."""
     got = {r["synthesis"]["shipped_policy"]: r["synthesis"]["matches_shipped_policy"]
@@ -162,7 +151,7 @@ def _load(o: dict) -> str:
 
 
 def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
-    """The report as Markdown: what was measured and how, the tables, the targets."""
+    """The report as Markdown: what was measured and how, and the tables."""
     o = report["options"]
     prov = report["provenance"]
     method = {"process": "measured in a fresh process per synthesis: the growth of its "
@@ -206,9 +195,7 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         *_constructions(report), "",
         tables(report), "",
         f"![scaling]({figure})", "",
-        "## Targets", "",
         *([f"Quick run ({o['poses']} poses): indicative only.", ""] if o["quick"] else []),
-        *(target_lines(report) or ["- none of the targeted rows was measured"]), "",
         f"Machine: {prov.get('cpu_count')} CPUs ({prov.get('processor') or prov['machine']}), "
         f"{size(o['machine_bytes'])}{_load(o)}; twolink {prov['twolink_version']}, MuJoCo "
         f"{prov['mujoco_version']}, numpy {prov['numpy_version']}, Python {prov['python']}.",
@@ -319,9 +306,9 @@ def figure(report: dict, path) -> Path:
 
 def write(report: dict, outdir, command: str) -> dict:
     """Write :data:`FILES` into ``outdir`` (each atomically): the JSON report (with the
-    command and the targets), the figure and the Markdown. Returns their paths."""
+    command), the figure and the Markdown. Returns their paths."""
     outdir = Path(outdir)
-    report = {**report, "command": command, "targets": targets(report)}
+    report = {**report, "command": command}
     paths = {k: outdir / name for k, name in FILES.items()}
     write_json(paths["json"], report)
     figure(report, paths["figure"])
