@@ -45,7 +45,7 @@ class OwnGreedy:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--seed", type=int, default=99, help="seed (default 99, the dev seed)")
+    p.add_argument("--seed", type=int, default=99, help="seed (default 99, the seed the learner's settings were chosen on)")
     p.add_argument("--steps", type=float, default=1.2e6)
     p.add_argument("--arms", type=int, default=256)
     p.add_argument("--init", default=None, help="warm-start policy (e.g. decentralized)")
