@@ -757,7 +757,7 @@ def round_off_page(data: dict) -> str:
     """docs/studies/tie_sensitivity.py's runs: the greedy rule's variants and the ties."""
     src = "renders/tie_sensitivity/tie_sensitivity.json"
     runs = sorted(data["runs"], key=lambda r: (r["states"], r["seed"]))
-    main, others = runs[0], runs[1:]
+    main = runs[0]
     tol, eps = data["tie_tolerance"], data["epsilons"]
     rows = {(r["policy"], r["variant"]): r for r in main["rows"]}
     shipped = next(v for p, v in rows if v.startswith("shipped rule (tolerance"))
@@ -818,8 +818,11 @@ def round_off_page(data: dict) -> str:
         safe = [e for e in eps if all(rows[p, noisy("shipped", e)]["changed_bins"] == 0
                                       for p in policies)]
         broken = next((e for e in eps if e not in safe), None)
-        quiet = [p for p in policies if p != d and rows[p, noisy("shipped", e0)]["changed_bins"] == 0]
-        near = ", ".join(f"`{p}` has {sum(t['within_tolerance'] for (q, _), t in ties.items() if q == p)}"
+        quiet = [p for p in policies
+                 if p != d and rows[p, noisy("shipped", e0)]["changed_bins"] == 0]
+        tied = {p: sum(t["within_tolerance"] for (q, _), t in ties.items() if q == p)
+                for p in quiet}
+        near = ", ".join(f"`{p}` has {tied[p]}"
                          for p in quiet)
         line = (f"- **Round-off would decide the decentralized policy.** A plain `argmax` and "
                 f"the shipped rule differ in {b['changed_bins']} of its {b['bins']} bins. "
@@ -832,7 +835,8 @@ def round_off_page(data: dict) -> str:
             line += (f" Of the other policies {near} bins within the tolerance; under it, "
                      f"±{_sci(e0)} moves none of them.")
         if safe:
-            line += f" Under the tolerance, noise up to ±{_sci(max(safe))} moves no bin of any policy"
+            line += (f" Under the tolerance, noise up to ±{_sci(max(safe))} moves no bin of "
+                     "any policy")
             line += (f"; at ±{_sci(broken)} the exact ties break at random again "
                      f"({rows[d, noisy('shipped', broken)]['changed_bins']} bins of the "
                      "decentralized policy).\n" if broken else ".\n")
@@ -875,17 +879,20 @@ def round_off_page(data: dict) -> str:
     if stalls:
         parts = ", ".join(f"{r['edge_stalls']}/{r['states'] - r['successes']} (`{p}`)"
                           for p, r in stalls)
-        line = f"- **Edge stalls.** Of the shipped rule's failures from random states, {parts} are arms parked within {_sci(data['edge_slack_deg'])}° of the band edge."
+        line = (f"- **Edge stalls.** Of the shipped rule's failures from random states, "
+                f"{parts} are arms parked within {_sci(data['edge_slack_deg'])}° of the band "
+                "edge.")
         x0_edge = [p for p, r in stalls if _never(r["x0_settle"])
                    and 0 < abs(r["x0_final_deg"][0]) - 5 < data["edge_slack_deg"]]
         if x0_edge:
             line += (" The x0 rollout of " + ", ".join(f"`{p}`" for p in x0_edge)
-                     + f" is one of them: link 1 parks at {rows[x0_edge[0], shipped]['x0_final_deg'][0]:.7f}°.")
+                     + " is one of them: link 1 parks at "
+                     f"{rows[x0_edge[0], shipped]['x0_final_deg'][0]:.7f}°.")
         text.append(line + " The success rates of the paper's policies rest on that "
                     "knife-edge of the metric as much as on the policies.\n")
     text.append(f"\nMachine: {_machine(data['provenance'])}. Re-create the data with "
                 + "; ".join(f"`python docs/studies/tie_sensitivity.py --seed {r['seed']} "
-                            f"--states {r['states']} --json {src}`" for r in runs)
+                            f"--states {r['states']} --json {src}` ({_duration(r['seconds'])})" for r in runs)
                 + " (each run is merged into the file by states, seed and policies), then "
                 "`python docs/generate.py`.\n")
     return "".join(text)
@@ -1249,7 +1256,8 @@ def identification_page(data: dict) -> str:
                 + "; ".join(f"`python docs/studies/identification_study.py --plants "
                             f"{r['options']['plants']} --policy-plants "
                             f"{r['options']['policy_plants']} --first-seed "
-                            f"{r['options']['first_seed']} --json {src}`" for r in runs)
+                            f"{r['options']['first_seed']} --json {src}` ({_duration(r['seconds'])})"
+                            for r in runs)
                 + " (each run is merged into the file by its options), then "
                 "`python docs/generate.py`.\n")
     return "".join(text)

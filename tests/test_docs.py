@@ -186,7 +186,7 @@ def test_each_study_has_its_results_page(page):
     entry = next(e for e in gen.RESULTS if e[0] == page)
     assert entry[2] == rel and isinstance(gen.SCHEMAS[rel], tuple)
     text = gen.result_pages()[page]
-    assert text.startswith(gen.STAMP) and f"`python docs/generate.py`" in text
+    assert text.startswith(gen.STAMP) and "`python docs/generate.py`" in text
     assert (DOCS / page).read_text() == text          # committed, and from this data
 
 
