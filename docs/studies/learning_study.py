@@ -3,7 +3,7 @@
 ``python docs/studies/learning_study.py --seed 99 --steps 1.2e6 [--init decentralized]``: learns
 the ordered agents with the discrete update (4) on MuJoCo (256 arms) and evaluates, at
 every checkpoint, both the saved policy (14), sum_m mu_m argmax_u theta[m, u], and the
-policy the learner acts on, argmax_u sum_m mu_m theta[m, u] (docs/findings/learning.md, "why the
+policy the learner acts on, argmax_u sum_m mu_m theta[m, u] (docs/results/learning.md, "why the
 discrete update oscillates"). Prints one line per evaluation.
 """
 from __future__ import annotations
