@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 # The installed-stamps name the interpreter's version, so a new PYTHON misses them.
 PYVER := $(shell $(PYTHON) -c 'import platform; print(platform.python_version())' 2>/dev/null)
 
-.PHONY: demo test system-deps venv venv-test bench bench-quick clean
+.PHONY: demo test system-deps venv venv-test bench bench-quick docs docs-serve clean
 
 # demo needs twolink alone; test and the benchmarks also need '.[test]' (pytest and
 # the peer libraries the benchmarks and tests compare against).
@@ -40,6 +40,14 @@ bench: venv-test system-deps
 
 bench-quick: venv-test system-deps
 	$(PY) -m benchmarks.run --quick
+
+# The documentation site (scripts/build-docs.sh installs the docs extra into the venv):
+# docs builds it strictly into build/site; docs-serve shows it at http://127.0.0.1:8000.
+docs: venv
+	bash scripts/build-docs.sh $(VENV)
+
+docs-serve: docs
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs serve
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

@@ -189,3 +189,22 @@ def test_an_unknown_option_is_named_by_its_subcommand(capsys):
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("usage: twolink mjcf")
     assert err[-1] == "twolink mjcf: error: unrecognized arguments: --nosuch"
+
+
+def test_licence_and_citation_agree_with_the_package_metadata():
+    import tomllib
+
+    import yaml
+
+    from twolink.artifacts import VERSION
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    licence = (ROOT / "LICENSE").read_text()
+    assert project["license"] == "MIT" and licence.startswith("MIT License")
+    assert project["license-files"] == ["LICENSE"]
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert cff["cff-version"] == "1.2.0" and cff["version"] == VERSION
+    assert cff["license"] == project["license"]
+    paper = cff["references"][0]
+    assert paper["year"] == 2006 and (paper["start"], paper["end"]) == (1347, 1352)
+    # The README's BibTeX cites the same pages.
+    assert "pages     = {1347--1352}" in (ROOT / "README.md").read_text()
