@@ -297,3 +297,27 @@ def test_the_docs_extra_pins_what_the_build_needs():
 
 if __name__ == "__main__":          # python tests/test_docs.py: the stale pages, if any
     sys.exit(_generator().main(["--check"]))
+
+
+def test_the_reproduction_page_refuses_sweep_counts_of_another_version(tmp_path, monkeypatch,
+                                                                        capsys):
+    """renders/iteration_norms/iteration_norms.json, read by the reproduction page beside
+    docs/data/reproduce.json, is schema-checked like the studies' own pages' data."""
+    import json
+
+    gen = _generator()
+    rel, report = "renders/iteration_norms/iteration_norms.json", "docs/data/reproduce.json"
+    name, version = gen.SCHEMAS[rel]
+    data = json.loads((ROOT / rel).read_text())
+    assert "iteration_norms.py" in (DOCS / "results/reproduction.md").read_text()
+    monkeypatch.setattr(gen, "ROOT", tmp_path)
+    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    for path, text in ((report, (ROOT / report).read_text()),
+                       (rel, json.dumps({**data, "version": version + 1}))):
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+    with pytest.raises(gen.DataError, match=re.escape(rel)):
+        gen.result_pages()
+    assert gen.main(["--check"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("docs/generate.py: error: " + rel)
