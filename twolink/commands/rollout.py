@@ -144,9 +144,11 @@ def run(args) -> int:
         panels = {pname: {plant: runs[(pname, plant)] for plant in plants}
                   for pname in policies}
         x0s = ", ".join(f"{v:.3g}" for v in x0)
+        styles = ", ".join(f"{s} {p}" for s, p in zip(("solid", "dashed", "dotted",
+                                                          "dash-dot"), plants))
         fig3(panels, outputs["figure"],
-             title=f"x0 = [{x0s}]" + ("; " if links == 2 else f", {links} links ({args.rule})\n")
-                   + f"line styles: {', '.join(plants)}"
+             title=f"Closed-loop runs from x0 = [{x0s}] ({args.duration:g} s"
+                   + ("" if links == 2 else f", {links} links, {args.rule}") + f"): {styles}"
                    + ("" if ch is None else f"; challenge {ch.name}, seed {args.seed}")
                    + ("; compensated" if args.compensate else ""))
         report["outputs"] = {k: str(v) for k, v in outputs.items()}
