@@ -2338,7 +2338,6 @@ def mismatch_findings() -> str:
     from twolink.policy.registry import SHIPPED
     from twolink.sim.challenges import SPEED_PER_DEG
     from twolink.sim.perturbations import PHYSICAL
-    from twolink.sim.metrics import wilson_interval
 
     report = _load(MISMATCH, SCHEMAS[MISMATCH])
     if report is None:
@@ -2371,7 +2370,7 @@ def mismatch_findings() -> str:
         v = cl[p][plant]
         return v["successes"], v["states"]
 
-    c, d, dp = cl["centralized"], cl["decentralized"], cl["decentralized_propagated"]
+    c, d = cl["centralized"], cl["decentralized"]
     line = ("- **Paper policies on MuJoCo** (k of "
             f"{report['evaluation_set']['closed_loop']} states, 95 % Wilson interval). "
             f"Centralized: {_pct_kn(*kn('centralized', 'simplified'))} on the simplified "
