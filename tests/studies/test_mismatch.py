@@ -10,7 +10,7 @@ from twolink.arm.parameters import TABLE_I
 from twolink.cli import main
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.policy.registry import SHIPPED
-from twolink.sim.cell_store import SweepFile, load_results
+from twolink.sim.cell_store import CellFile, load_results
 from twolink.sim.cells import states_of
 from twolink.sim.challenges import LEVELS
 from twolink.sim.evaluation import evaluate
@@ -255,7 +255,7 @@ def test_family_points_are_challenges_with_one_line_refusals():
 def test_a_second_run_on_one_folder_is_refused_at_once(tmp_path, capsys):
     out = tmp_path / "r"
     out.mkdir()
-    with SweepFile(out / "sweep.jsonl"):
+    with CellFile(out / "sweep.jsonl"):
         t0 = time.perf_counter()
         assert main(["mismatch", "--quick", "--out", str(out), "--executor", "serial"]) == 2
         assert time.perf_counter() - t0 < 5.0               # before any measurement

@@ -29,7 +29,7 @@ from twolink.envs.core import horizon
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.policy.registry import PAPER_DESIGNS
 from twolink.resources import output_dir
-from twolink.sim.cell_store import SweepFile
+from twolink.sim.cell_store import CellFile
 from twolink.sim.cells import EXECUTORS, ray_session
 from twolink.sim.challenges import LEVELS, challenge
 from twolink.studies.mismatch.measure import build
@@ -202,7 +202,7 @@ def _report(args, chosen, levels) -> int:
     check_report_folder(out, force=args.force)
     out.mkdir(exist_ok=True)
     progress = not args.json          # bars on a terminal, periodic lines in a log
-    with SweepFile(out / "sweep.jsonl") as store:    # a second run on `out` stops here
+    with CellFile(out / "sweep.jsonl") as store:    # a second run on `out` stops here
         if store.note:
             print(f"twolink mismatch: {store.note}", file=sys.stderr)
         report, data = build(chosen, args.policies, store=store, executor=args.executor,

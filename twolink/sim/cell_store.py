@@ -1,4 +1,5 @@
-"""The sweep results file: JSON lines, appended to, held under an exclusive lock.
+"""The results file of robustness cells (the mismatch report's ``sweep.jsonl``): JSON
+lines, appended to, held under an exclusive lock.
 
 Line 1 is a header (``{"format": "twolink-sweep", "format_version": 1}``); every later
 line is one finished cell's record (:func:`twolink.sim.cells.run_cells`). Records are only
@@ -15,7 +16,7 @@ it (its records are dropped, one line says so, and every cell runs again);
 reused only for a cell of the same key (:attr:`twolink.sim.cells.Cell.key`); records of
 other keys are kept in the file and ignored.
 
-While a :class:`SweepFile` is open it holds ``fcntl.flock`` on the file, so a second run
+While a :class:`CellFile` is open it holds ``fcntl.flock`` on the file, so a second run
 on the same file refuses at once instead of computing every cell twice.
 """
 from __future__ import annotations
@@ -38,8 +39,8 @@ FORMAT_VERSION = 4
 _HEADER = json.dumps({"format": FORMAT, "format_version": FORMAT_VERSION}) + "\n"
 
 
-class SweepLocked(RuntimeError):
-    """Another open :class:`SweepFile` (in this or another process) holds the file."""
+class CellFileLocked(RuntimeError):
+    """Another open :class:`CellFile` (in this or another process) holds the file."""
 
 
 class _OlderFormat(ValueError):
@@ -110,11 +111,11 @@ def load_results(path: os.PathLike) -> dict:
     return records
 
 
-class SweepFile:
+class CellFile:
     """A results file opened for a sweep: locked, read, and appended to.
 
-    ``with SweepFile(path) as store:`` creates the file (header only) if needed, takes an
-    exclusive lock (:class:`SweepLocked` if another run holds it), drops a torn last line
+    ``with CellFile(path) as store:`` creates the file (header only) if needed, takes an
+    exclusive lock (:class:`CellFileLocked` if another run holds it), drops a torn last line
     (``store.note`` says so) and exposes the stored records as ``store.records``.
     """
 
@@ -124,7 +125,7 @@ class SweepFile:
         self.note: Optional[str] = None
         self._fd: Optional[int] = None
 
-    def __enter__(self) -> "SweepFile":
+    def __enter__(self) -> "CellFile":
         self.open()
         return self
 
@@ -142,7 +143,7 @@ class SweepFile:
             except BlockingIOError:
                 pid = _lock_holder(self.path)
                 who = f"another run (pid {pid})" if pid else "another run"
-                raise SweepLocked(f"{self.path} is in use by {who}; wait for it to finish "
+                raise CellFileLocked(f"{self.path} is in use by {who}; wait for it to finish "
                                   "or choose another output folder") from None
             data = b""
             while chunk := os.read(fd, 1 << 20):

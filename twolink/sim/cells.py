@@ -1,4 +1,4 @@
-"""Robustness sweeps: cells of (policy, challenge), run in batches, saved resumably.
+"""Robustness cells: (policy, challenge) pairs, run in batches, saved resumably.
 
 A :class:`Cell` is one policy under one :class:`twolink.sim.challenges.Challenge` of the
 MuJoCo plant: ``plants`` plants drawn by the challenge from ``seed``, each run from every
@@ -49,7 +49,7 @@ import numpy as np
 
 from twolink.arm.parameters import HORIZON, ArmParameters
 from twolink.policy.fuzzy_policy import load_policy
-from twolink.sim.cell_store import SweepFile, load_results  # noqa: F401  (re-exported)
+from twolink.sim.cell_store import CellFile, load_results  # noqa: F401  (re-exported)
 from twolink.sim.challenges import (
     LEVELS,
     MAX_PLANTS,
@@ -271,15 +271,15 @@ def _check_executor(executor: str, workers: int) -> None:
         raise ValueError(f"workers must be at least 1, got {workers}")
 
 
-def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
-              store: Optional[SweepFile] = None,
-              executor: str = "local", workers: Optional[int] = None, nthread: int = 1,
-              address: Optional[str] = None, progress: bool = False,
-              digests: Optional[dict] = None,
-              on_task: Optional[Callable[[list], None]] = None) -> dict:
+def evaluate_cells(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
+                   store: Optional[CellFile] = None,
+                   executor: str = "local", workers: Optional[int] = None, nthread: int = 1,
+                   address: Optional[str] = None, progress: bool = False,
+                   digests: Optional[dict] = None,
+                   on_task: Optional[Callable[[list], None]] = None) -> dict:
     """Run every cell not already stored; returns all results by key, in ``cells`` order.
 
-    Results go to an open ``store`` (:class:`twolink.sim.cell_store.SweepFile`), or to the
+    Results go to an open ``store`` (:class:`twolink.sim.cell_store.CellFile`), or to the
     file ``path`` (opened and locked for the run), or nowhere. ``executor``: ``serial``
     (this process), ``local`` (worker processes) or ``ray`` (the cluster at ``address``,
     or an already initialised Ray, or a new local one). Stored cells are reused only when
@@ -292,12 +292,12 @@ def run_sweep(cells: Iterable[Cell], path: Optional[os.PathLike] = None, *,
     if executor == "ray" and store is None:        # before the sweep file is made
         check_ray_address(address)
     if store is None and path is not None:
-        with SweepFile(path) as opened:
+        with CellFile(path) as opened:
             if opened.note:
                 print(f"twolink: {opened.note}", file=sys.stderr)
-            return run_sweep(cells, store=opened, executor=executor, workers=workers,
-                             nthread=nthread, address=address, progress=progress,
-                             digests=digests, on_task=on_task)
+            return evaluate_cells(cells, store=opened, executor=executor, workers=workers,
+                                  nthread=nthread, address=address, progress=progress,
+                                  digests=digests, on_task=on_task)
     if digests is None:
         digests = {n: policy_digest(load_policy(n)) for n in {c.policy for c in cells}}
     stored = store.records if store is not None else {}

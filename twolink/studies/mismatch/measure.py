@@ -32,8 +32,8 @@ from twolink.arm.parameters import HORIZON, TABLE_I
 from twolink.artifacts import provenance
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.policy.registry import COUNTERPART
-from twolink.sim.cell_store import SweepFile
-from twolink.sim.cells import policy_digest, run_sweep
+from twolink.sim.cell_store import CellFile
+from twolink.sim.cells import policy_digest, evaluate_cells
 from twolink.sim.metrics import (
     discounted_return,
     evaluation_set,
@@ -227,7 +227,7 @@ def margins(curves: dict, threshold: float = THRESHOLD, counted: Optional[dict] 
 
 
 # --------------------------------------------------------------------------- the report
-def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="local",
+def build(plan: Plan, policies, *, store: Optional[CellFile] = None, executor="local",
           workers=None, address=None, nthread=None, log=None, progress: bool = False,
           robust: bool = True, levels=None, seed: Optional[int] = None
           ) -> tuple[dict, dict]:
@@ -252,7 +252,7 @@ def build(plan: Plan, policies, *, store: Optional[SweepFile] = None, executor="
     cl, settle = closed_loop(policies, nthread=nthread, log=log)
     stage("sweep")
     cells = plan.cells(policies)
-    results = run_sweep(cells, store=store, executor=executor, workers=workers,
+    results = evaluate_cells(cells, store=store, executor=executor, workers=workers,
                         address=address, progress=progress, digests=digests)
     curves = robustness(results, policies)
     counted = counts(results, policies)

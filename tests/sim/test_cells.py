@@ -13,8 +13,8 @@ from reference_sweeps import reference_cell
 
 from twolink.arm.parameters import TABLE_I
 from twolink.policy.fuzzy_policy import load_policy
-from twolink.sim.cell_store import SweepFile, SweepLocked
-from twolink.sim.cells import Cell, load_results, run_cells, run_sweep, states_of
+from twolink.sim.cell_store import CellFile, CellFileLocked
+from twolink.sim.cells import Cell, load_results, run_cells, evaluate_cells, states_of
 from twolink.sim.challenges import LEVELS, Challenge
 from twolink.sim.evaluation import evaluate
 from twolink.sim.metrics import discounted_return, settle_time, success
@@ -133,8 +133,8 @@ def test_bad_cells_are_refused(bad, match):
 
 def test_local_processes_equal_serial(tmp_path):
     cells = _cells(duration=0.5)
-    serial = run_sweep(cells, tmp_path / "a.jsonl", executor="serial")
-    local = run_sweep(cells, tmp_path / "b.jsonl", executor="local", workers=2)
+    serial = evaluate_cells(cells, tmp_path / "a.jsonl", executor="serial")
+    local = evaluate_cells(cells, tmp_path / "b.jsonl", executor="local", workers=2)
     assert serial == local and len(serial) == len(cells)
 
 
@@ -142,10 +142,10 @@ def test_local_processes_equal_serial(tmp_path):
 def test_ray_equals_local(tmp_path):
     ray = pytest.importorskip("ray")
     cells = _cells(duration=0.5)
-    local = run_sweep(cells, tmp_path / "local.jsonl", executor="serial")
+    local = evaluate_cells(cells, tmp_path / "local.jsonl", executor="serial")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
-        remote = run_sweep(cells, tmp_path / "ray.jsonl", executor="ray")
+        remote = evaluate_cells(cells, tmp_path / "ray.jsonl", executor="ray")
     finally:
         ray.shutdown()
     assert remote == local
@@ -163,16 +163,16 @@ def test_interrupted_sweep_resumes_without_redoing_cells(tmp_path):
         raise Stop
 
     with pytest.raises(Stop):
-        run_sweep(cells, path, executor="serial", on_task=stop_after_first)
+        evaluate_cells(cells, path, executor="serial", on_task=stop_after_first)
     first = load_results(path)
     assert 0 < len(first) < len(cells)         # a valid file holding the finished task
     done_keys = set(first)
     redone = []
-    results = run_sweep(cells, path, executor="serial",
+    results = evaluate_cells(cells, path, executor="serial",
                         on_task=lambda recs: redone.extend(r["key"] for r in recs))
     assert not done_keys & set(redone)
     assert set(redone) | done_keys == {c.key for c in cells}
-    assert results == run_sweep(cells, None, executor="serial")
+    assert results == evaluate_cells(cells, None, executor="serial")
     lines = path.read_text().splitlines()
     assert json.loads(lines[0])["format"] == "twolink-sweep" and len(lines) == len(cells) + 1
     assert [p.name for p in tmp_path.iterdir()] == ["sweep.jsonl"]   # no temporary left
@@ -181,9 +181,9 @@ def test_interrupted_sweep_resumes_without_redoing_cells(tmp_path):
 def test_changed_policy_invalidates_stored_cells(tmp_path):
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[:2]
-    run_sweep(cells, path, executor="serial")
+    evaluate_cells(cells, path, executor="serial")
     redone = []
-    run_sweep(cells, path, executor="serial", digests={"centralized": "other"},
+    evaluate_cells(cells, path, executor="serial", digests={"centralized": "other"},
               on_task=lambda recs: redone.extend(recs))
     assert len(redone) == len(cells)
 
@@ -192,23 +192,23 @@ def test_a_bad_line_in_the_middle_is_refused(tmp_path):
     path = tmp_path / "sweep.jsonl"
     path.write_text('{"format": "twolink-sweep", "format_version": 4}\n{"key": 1\n{}\n')
     with pytest.raises(ValueError, match="line 2"):
-        run_sweep(_cells()[:1], path, executor="serial")
+        evaluate_cells(_cells()[:1], path, executor="serial")
     (tmp_path / "x.jsonl").write_text("hello\n")
     with pytest.raises(ValueError, match="not a twolink sweep"):
         load_results(tmp_path / "x.jsonl")
     with pytest.raises(ValueError, match="executor"):
-        run_sweep(_cells()[:1], None, executor="mpi")
+        evaluate_cells(_cells()[:1], None, executor="mpi")
 
 
 @pytest.mark.parametrize("tail", ['{"key": "torn", "cel', '{"key": "torn"}\n', "\x00\x00"])
 def test_a_torn_last_line_is_dropped_reported_and_its_cell_rerun(tmp_path, capsys, tail):
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[:3]
-    whole = run_sweep(cells, path, executor="serial")
+    whole = evaluate_cells(cells, path, executor="serial")
     lines = path.read_text().splitlines(keepends=True)
     path.write_text("".join(lines[:-1]) + tail)          # the last record torn mid-write
     redone = []
-    again = run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    again = evaluate_cells(cells, path, executor="serial", on_task=redone.extend)
     assert again == whole
     assert [r["key"] for r in redone] == [cells[-1].key]
     err = capsys.readouterr().err.strip().splitlines()
@@ -222,19 +222,19 @@ def test_a_file_of_the_older_format_starts_over(tmp_path, capsys):
     reused."""
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[3:4]
-    run_sweep(cells, path, executor="serial")
+    evaluate_cells(cells, path, executor="serial")
     lines = path.read_text().splitlines(keepends=True)
     path.write_text(lines[0].replace('"format_version": 4', '"format_version": 3') + lines[1])
     with pytest.raises(ValueError, match="older format version 3"):
         load_results(path)
     redone = []
-    run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    evaluate_cells(cells, path, executor="serial", on_task=redone.extend)
     assert len(redone) == 1 and path.read_text() == "".join(lines)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "older format version 3; every cell runs again" in err[0]
     path.write_text(lines[0].replace('"format_version": 4', '"format_version": 5'))
     with pytest.raises(ValueError, match="unsupported sweep results version 5"):
-        run_sweep(cells, path, executor="serial")
+        evaluate_cells(cells, path, executor="serial")
 
 
 def test_records_of_other_keys_are_kept_and_ignored(tmp_path):
@@ -246,7 +246,7 @@ def test_records_of_other_keys_are_kept_and_ignored(tmp_path):
     path.write_text('{"format": "twolink-sweep", "format_version": 4}\n'
                     + json.dumps(foreign) + "\n" + json.dumps({"key": "k", "cell": {}}) + "\n")
     redone = []
-    got = run_sweep(cells, path, executor="serial", on_task=redone.extend)
+    got = evaluate_cells(cells, path, executor="serial", on_task=redone.extend)
     assert list(got) == [cells[0].key] and len(redone) == 1
     assert set(load_results(path)) == {"old", "k", cells[0].key}
 
@@ -254,30 +254,30 @@ def test_records_of_other_keys_are_kept_and_ignored(tmp_path):
 def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path):
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[:2]
-    whole = run_sweep(cells, path, executor="serial")
+    whole = evaluate_cells(cells, path, executor="serial")
     path.write_text(path.read_text().rstrip("\n"))
     redone = []
-    assert run_sweep(cells, path, executor="serial", on_task=redone.extend) == whole
+    assert evaluate_cells(cells, path, executor="serial", on_task=redone.extend) == whole
     assert not redone and path.read_text().endswith("}\n")
 
 
 def test_a_second_run_on_a_locked_file_refuses_at_once(tmp_path):
     path = tmp_path / "sweep.jsonl"
     cells = _cells(duration=0.5)[:2]
-    with SweepFile(path):
+    with CellFile(path):
         t0 = time.perf_counter()
-        with pytest.raises(SweepLocked, match=f"{path}.*in use by another run \\(pid {os.getpid()}\\)"):
-            run_sweep(cells, path, executor="serial")
+        with pytest.raises(CellFileLocked, match=f"{path}.*in use by another run \\(pid {os.getpid()}\\)"):
+            evaluate_cells(cells, path, executor="serial")
         assert time.perf_counter() - t0 < 1.0
         assert load_results(path) == {}                    # nothing computed, nothing written
-    run_sweep(cells, path, executor="serial")            # released on leaving the block
+    evaluate_cells(cells, path, executor="serial")            # released on leaving the block
     assert len(load_results(path)) == 2
 
 
 def test_results_come_back_in_cell_order_whatever_the_completion_order(tmp_path):
     cells = _cells(duration=0.5)
-    done = run_sweep(cells[::-1], tmp_path / "s.jsonl", executor="serial")
-    again = run_sweep(cells, tmp_path / "s.jsonl", executor="serial")
+    done = evaluate_cells(cells[::-1], tmp_path / "s.jsonl", executor="serial")
+    again = evaluate_cells(cells, tmp_path / "s.jsonl", executor="serial")
     assert list(again) == [c.key for c in cells]
     assert list(done) == [c.key for c in cells[::-1]]
 
@@ -285,25 +285,25 @@ def test_results_come_back_in_cell_order_whatever_the_completion_order(tmp_path)
 def test_the_lock_names_the_process_that_holds_it(tmp_path):
     path = tmp_path / "sweep.jsonl"
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys, time\nfrom twolink.sim.cell_store import SweepFile\n"
-         "f = SweepFile(sys.argv[1]); f.open(); print('held', flush=True); time.sleep(60)",
+        [sys.executable, "-c", "import sys, time\nfrom twolink.sim.cell_store import CellFile\n"
+         "f = CellFile(sys.argv[1]); f.open(); print('held', flush=True); time.sleep(60)",
          str(path)], stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "held"
-        with pytest.raises(SweepLocked, match=f"in use by another run \\(pid {holder.pid}\\)"):
-            SweepFile(path).open()
+        with pytest.raises(CellFileLocked, match=f"in use by another run \\(pid {holder.pid}\\)"):
+            CellFile(path).open()
     finally:
         holder.kill()
         holder.wait()
-    with SweepFile(path) as store:                       # free once its holder is gone
+    with CellFile(path) as store:                       # free once its holder is gone
         assert store.records == {}
 
 
 _KILL_SCRIPT = """
-from twolink.sim.cells import Cell, run_sweep
+from twolink.sim.cells import Cell, evaluate_cells
 from twolink.sim.challenges import Challenge
 cells = [Cell("centralized", Challenge("m1", offsets={"m1": s / 100})) for s in range(-40, 41)]
-run_sweep(cells, None, executor="local", workers=2)
+evaluate_cells(cells, None, executor="local", workers=2)
 """
 
 
