@@ -153,8 +153,8 @@ def test_a_changed_source_makes_its_page_stale(tmp_path, monkeypatch):
     rel = "docs/reference/cli/index.md"
     edited = dict(out)
     edited[rel] = out[rel] + "typed by hand\n"
-    monkeypatch.setattr(gen, "ROOT", tmp_path)
-    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    monkeypatch.setattr(gen.common, "DOCS", tmp_path / "docs")
     for path, text in out.items():
         (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / path).write_text(text)
@@ -198,8 +198,8 @@ def test_a_file_of_another_schema_or_version_is_refused_in_one_line(rel, tmp_pat
     gen = _generator()
     name, version = gen.SCHEMAS[rel]
     data = json.loads((ROOT / rel).read_text())
-    monkeypatch.setattr(gen, "ROOT", tmp_path)
-    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    monkeypatch.setattr(gen.common, "DOCS", tmp_path / "docs")
     for wrong in ({**data, "version": version + 1}, {**data, "schema": "twolink.other"},
                   {k: v for k, v in data.items() if k != "schema"}):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -310,8 +310,8 @@ def test_the_reproduction_page_refuses_sweep_counts_of_another_version(tmp_path,
     name, version = gen.SCHEMAS[rel]
     data = json.loads((ROOT / rel).read_text())
     assert "iteration_norms.py" in (DOCS / "results/reproduction.md").read_text()
-    monkeypatch.setattr(gen, "ROOT", tmp_path)
-    monkeypatch.setattr(gen, "DOCS", tmp_path / "docs")
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    monkeypatch.setattr(gen.common, "DOCS", tmp_path / "docs")
     for path, text in ((report, (ROOT / report).read_text()),
                        (rel, json.dumps({**data, "version": version + 1}))):
         (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,128 @@
+"""docs/results/leaderboard.md and docs/results/fuzzy-designs.md, both from
+``renders/leaderboard/leaderboard.json`` (:func:`leaderboard_page`,
+:func:`fuzzy_designs_page`, the latter judged against
+:data:`~generator.targets.FUZZY_TARGETS`).
+"""
+from __future__ import annotations
+
+from .common import _cell, _load, SCHEMAS, _stamp, _table
+from .targets import FUZZY_TARGETS
+
+
+def leaderboard_page(report: dict) -> str:
+    from twolink.studies.leaderboard.report import markdown
+
+    return "".join([_stamp("renders/leaderboard/leaderboard.json"),
+                    markdown(report).rstrip("\n").replace("T*", "T\\*"), "\n\n",
+                    "How to run it and add your controller: [Leaderboard]"
+                    "(../guides/leaderboard.md). Re-create the data with "
+                    "`twolink leaderboard`, then `python docs/generate.py`.\n"])
+
+
+def _kinds(names) -> dict:
+    """``{controller: "centralized" | "decentralized"}`` of the shipped ones among ``names``."""
+    from twolink.control.baselines import BASELINES, baseline
+    from twolink.policy.registry import SHIPPED
+
+    out = {}
+    for n in names:
+        if n in SHIPPED:
+            out[n] = SHIPPED[n].kind
+        elif n in BASELINES:
+            out[n] = baseline(n).kind
+    return out
+
+
+def fuzzy_designs_page(report: dict) -> str:
+    """The tuned fuzzy designs against their targets and against the best controller of
+    their kind at every level, from the committed leaderboard; then the tuning table of
+    docs/studies/fuzzy_design.py when its data is committed."""
+    from twolink.policy.registry import SHIPPED
+    from twolink.sim.metrics import wilson_interval
+    from twolink.viz.formatting import format_rate
+
+    rows = {(r["controller"], r["level"], r["mode"]): r for r in report["rows"]}
+    kinds = _kinds(dict.fromkeys(r["controller"] for r in report["rows"]))
+    out = [_stamp("renders/leaderboard/leaderboard.json"),
+           "# Fuzzy designs against the yardstick\n\n",
+           "The tuned fuzzy designs (`centralized_tuned`, `decentralized_tuned`: more torque "
+           "levels, other bins, a read-out with a speed dead zone and the argmax of Q far "
+           "from the goal; [Synthesis](../guides/synthesis.md)) on the committed "
+           f"leaderboard: {report['states']} evaluation states, {report['plants']} plants "
+           f"per perturbed level, seed {report['seed']}, on MuJoCo. Their designs were "
+           "chosen on other states and seeds (the tuning table below).\n\n## Targets\n\n"]
+    def verdict(r, rate, worst, ratio):
+        want, got, ok = [f"≥ {100 * rate:g} %"], [format_rate(r["successes"], r["n"])], \
+            r["rate"] >= rate
+        if worst is not None:
+            want.append(f"worst plant ≥ {worst}/65")
+            got.append(f"worst plant {r['worst_plant_successes']}/65")
+            ok = ok and (r["worst_plant_successes"] or 0) >= worst
+        if ratio is not None:
+            v = r["settle_ratio_median"]
+            want.append(f"median settle / T\\* ≤ {ratio:g}")
+            got.append("never" if v is None else f"settle / T\\* {v:.2f}")
+            ok = ok and v is not None and v <= ratio
+        return ok, ", ".join(want), ", ".join(got)
+
+    body = []
+    for kind, level, mode, rate, worst, ratio in FUZZY_TARGETS:
+        cands = [r for (n, lv, m), r in rows.items() if lv == level and m == mode
+                 and n in SHIPPED and SHIPPED[n].kind == kind and SHIPPED[n].links == 2]
+        if not cands:
+            continue
+        judged = [(verdict(r, rate, worst, ratio), r) for r in cands]
+        # the policy that meets it, else the one with the most successes
+        (ok, want, got), r = max(judged, key=lambda j: (j[0][0], j[1]["successes"],
+                                                        -(j[1]["settle_ratio_median"] or 1e9)))
+        body.append((kind, level, mode, want, f"`{r['controller']}` {got}",
+                     "met" if ok else "**missed**"))
+    out += ["The best fuzzy policy of each kind for each target (one that meets it, if any "
+            "does).\n\n",
+            _table(("kind", "level", "mode", "target", "measured", ""), body), "\n\n"]
+    out.append("## Best of each kind\n\nPer level and mode, the controller of each kind "
+               "with the most successes (then the shortest median settle / T\\*) and the "
+               "best fuzzy policy of that kind; *within* when the fuzzy policy's 95 % "
+               "interval reaches the best one's rate.\n\n")
+    body = []
+    for level in report["levels"]:
+        for mode in ("plain", "compensated"):
+            for kind in ("centralized", "decentralized"):
+                cands = [r for (n, lv, m), r in rows.items()
+                         if lv == level and m == mode and kinds.get(n) == kind]
+                if not cands:
+                    continue
+                def key(r):
+                    v = r["settle_ratio_median"]
+                    return (-r["successes"], v if v is not None else float("inf"))
+                best = min(cands, key=key)
+                fuzzy = [r for r in cands if r["controller"] in SHIPPED]
+                if not fuzzy:
+                    continue
+                f = min(fuzzy, key=key)
+                hi = wilson_interval(f["successes"], f["n"])[1]
+                verdict = "best" if f is best else ("within" if hi >= best["rate"] - 1e-9 else
+                                                    "below")
+                body.append((level, mode, kind, f"`{best['controller']}` "
+                             + format_rate(best["successes"], best["n"]),
+                             f"`{f['controller']}` " + format_rate(f["successes"], f["n"]),
+                             verdict))
+    out += [_table(("level", "mode", "kind", "best", "best fuzzy", "fuzzy is"), body), "\n"]
+    design = _load("renders/fuzzy_design/design.json", SCHEMAS["renders/fuzzy_design/design.json"])
+    if design is not None:
+        out.append("\n## The tuning table\n\n`python docs/studies/fuzzy_design.py --json "
+                   "renders/fuzzy_design/design.json`: every lever on the tuning seeds "
+                   f"{design['seeds']} ({design['poses']} poses at rest nominal; 32 of them "
+                   "on 8 plants under medium and hard), k/n [95 % interval] and the median "
+                   "settle time.\n\n")
+        cols = ("none", "medium", "medium compensated", "hard", "hard compensated")
+
+        def fmt(c):
+            lo, hi = wilson_interval(c["successes"], c["n"])
+            settle = "never" if c["median_settle"] is None else f"{c['median_settle']:.2f} s"
+            return f"{c['successes']}/{c['n']} [{100 * lo:.0f}, {100 * hi:.0f}], {settle}"
+        out.append(_table(("variant", *cols, "synthesis"),
+                          [(_cell(r["variant"]), *[fmt(r[c]) for c in cols],
+                            f"{r['synthesis_seconds']:.1f} s") for r in design["rows"]]))
+        out.append("\n")
+    return "".join(out)
