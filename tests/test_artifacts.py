@@ -153,3 +153,22 @@ def test_learn_takes_a_folder_with_a_trailing_slash(tmp_path, monkeypatch):
         main(["learn", "--task", "decentralized", "-o", f"{tmp_path / 'l'}/"])
     assert seen == [tmp_path / "l" / "learned_decentralized.npz"]
     assert (tmp_path / "l").is_dir()
+
+
+def test_read_runs_merges_only_files_of_its_own_schema(tmp_path):
+    import json
+
+    import pytest
+
+    from twolink.artifacts import read_runs
+    assert read_runs(tmp_path / "none.json", "twolink.x", 1) == {"runs": []}
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps({"schema": "twolink.x", "version": 1, "runs": [{"seed": 3}]}))
+    assert read_runs(good, "twolink.x", 1)["runs"] == [{"seed": 3}]
+    with pytest.raises(ValueError, match=r"good.json is not a twolink.x version 2 file; "
+                                         r"give another --json PATH"):
+        read_runs(good, "twolink.x", 2)
+    broken = tmp_path / "broken.json"
+    broken.write_text("{")
+    with pytest.raises(ValueError, match=r"broken.json is not JSON"):
+        read_runs(broken, "twolink.x", 1)

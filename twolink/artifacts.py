@@ -156,6 +156,23 @@ def write_json(path: os.PathLike, data) -> Path:
     return write_text(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
 
 
+def read_runs(path: os.PathLike, schema: str, version: int) -> dict:
+    """The data of a study file that merges its runs (``{"schema": schema, "version":
+    version, "runs": [...], ...}``): ``{"runs": []}`` when ``path`` does not exist, else
+    the file's JSON; a ValueError in one line when it is not JSON or of another schema
+    or version."""
+    if not Path(path).is_file():
+        return {"runs": []}
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not JSON ({exc})") from None
+    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (schema, version):
+        raise ValueError(f"{path} is not a {schema} version {version} file; "
+                         "give another --json PATH")
+    return data
+
+
 def provenance() -> dict:
     """Package version and machine description stamped on reports."""
     from importlib.metadata import version

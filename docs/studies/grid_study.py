@@ -30,19 +30,17 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import resource
 import sys
 import time
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON
-from twolink.artifacts import check_outputs, provenance, write_json
+from twolink.artifacts import check_outputs, provenance, read_runs, write_json
 from twolink.control.problems import KINDS, SWEEPS, table_sizes
 from twolink.control.problems import SYNTHESIS_MODELS as MODELS
 from twolink.control.synthesis import synthesize
@@ -218,7 +216,7 @@ def main(argv=None):
     if args.json:
         try:
             check_outputs({"--json": args.json})
-            old = _read(args.json)
+            old = read_runs(args.json, SCHEMA, VERSION)
         except (OSError, ValueError) as exc:
             parser.error(str(exc))
     if not (math.isfinite(args.noise_deg) and args.noise_deg >= 0):
@@ -247,21 +245,6 @@ def main(argv=None):
                                "runs": kept + [run]})
         print(f"wrote {args.json}")
     return 0
-
-
-def _read(path) -> dict:
-    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
-    not a file this script wrote."""
-    if not Path(path).is_file():
-        return {"runs": []}
-    try:
-        data = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not JSON ({exc})") from None
-    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
-        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
-                         "give another --json PATH")
-    return data
 
 
 if __name__ == "__main__":

@@ -24,16 +24,14 @@ Run: .venv/bin/python docs/studies/identification_study.py [--plants 48] [--poli
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from twolink.arm.parameters import TABLE_I
-from twolink.artifacts import check_outputs, provenance, write_json
+from twolink.artifacts import check_outputs, provenance, read_runs, write_json
 from twolink.control.synthesis import synthesize
 from twolink.sim import excitation, identify
 from twolink.sim.metrics import evaluation_set, success, wilson_interval
@@ -154,7 +152,7 @@ def main(argv=None) -> int:
     try:
         if args.json:
             check_outputs({"--json": args.json})
-            old = _read(args.json)
+            old = read_runs(args.json, SCHEMA, VERSION)
         if not 1 <= args.plants <= MAX_PLANTS:
             raise ValueError(f"--plants must lie in [1, {MAX_PLANTS}]")
         if not 0 <= args.policy_plants <= min(args.plants, MAX_POLICY_PLANTS):
@@ -189,21 +187,6 @@ def main(argv=None) -> int:
                                "provenance": provenance(), "runs": kept + [run]})
         print(f"wrote {args.json}")
     return 0
-
-
-def _read(path) -> dict:
-    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
-    not a file this script wrote."""
-    if not Path(path).is_file():
-        return {"runs": []}
-    try:
-        data = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not JSON ({exc})") from None
-    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
-        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
-                         "give another --json PATH")
-    return data
 
 
 if __name__ == "__main__":

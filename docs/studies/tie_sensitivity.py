@@ -23,16 +23,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
 from twolink.arm.parameters import PAPER_X0
-from twolink.artifacts import check_outputs, provenance, write_json
+from twolink.artifacts import check_outputs, provenance, read_runs, write_json
 from twolink.policy.fuzzy_policy import (
     TIE_TOLERANCE,
     Agent,
@@ -149,7 +147,7 @@ def main(argv=None):
     if args.json:
         try:
             check_outputs({"--json": args.json})
-            old = _read(args.json)
+            old = read_runs(args.json, SCHEMA, VERSION)
         except (OSError, ValueError) as exc:
             parser.error(str(exc))
     names = args.policy or [n for n, e in SHIPPED.items() if e.paper]
@@ -190,21 +188,6 @@ def main(argv=None):
             "epsilons": list(EPSILONS), "provenance": provenance(), "runs": kept + [run]})
         print(f"wrote {args.json}")
     return 0
-
-
-def _read(path) -> dict:
-    """The runs already in ``path`` (none when it does not exist); a ValueError when it is
-    not a file this script wrote."""
-    if not Path(path).is_file():
-        return {"runs": []}
-    try:
-        data = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not JSON ({exc})") from None
-    if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (SCHEMA, VERSION):
-        raise ValueError(f"{path} is not a {SCHEMA} version {VERSION} file; "
-                         "give another --json PATH")
-    return data
 
 
 if __name__ == "__main__":
