@@ -41,6 +41,19 @@ def _wilson1(k: int, n: int) -> str:
     return f"[{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
+def _sweep_time(rb: dict, seconds: float) -> str:
+    """The sweep's share of a mismatch run: its time, or that its cells were reused from
+    the sweep file of an earlier run (``reused_cells``)."""
+    what = f"the sweep ({rb['cells']} cells, {rb['joint_draws']} plants per joint size)"
+    reused = rb.get("reused_cells", 0)
+    if reused == rb["cells"]:
+        return (f"{what} took {seconds:.0f} s: every cell came from the sweep file of an "
+                f"earlier run (`twolink mismatch` resumes from `sweep.jsonl`)")
+    if reused:
+        return f"{what} {seconds:.0f} s ({reused} of its cells reused from the sweep file)"
+    return f"{what} {seconds:.0f} s"
+
+
 def mismatch_findings() -> str:
     """What the committed mismatch report shows, the guide's bullets: open loop, the paper's
     policies on MuJoCo, synthesis on (6), the robustness margins, the robust section and
@@ -262,10 +275,9 @@ def mismatch_findings() -> str:
             "they are), one `twolink.sim.evaluation.evaluate` call each, with its targets "
             f"checked. Measured in the committed run, on a "
             f"{report['provenance']['cpu_count']}-core machine shared with other jobs: the "
-            f"whole `{report['command']}` took {report['seconds']:.0f} s, of which the sweep "
-            f"({rb['cells']} cells, {rb['joint_draws']} plants per joint size) "
-            f"{st['sweep']:.0f} s and this section {rs['seconds']:.0f} s wall "
-            f"({rs['cpu_seconds']:.0f} s CPU).")
+            f"whole `{report['command']}` took {report['seconds']:.0f} s, of which "
+            + _sweep_time(rb, st["sweep"])
+            + f" and this section {rs['seconds']:.0f} s wall ({rs['cpu_seconds']:.0f} s CPU).")
 
     # 6. throughput
     tp = report["throughput"]

@@ -123,6 +123,7 @@ def test_quick_report_numbers_are_recomputed(tmp_path, capsys, mujoco_plant):
     records = load_results(out / "sweep.jsonl")
     assert len(records) == report["robustness"]["cells"] == len(PLANS["quick"].cells(
         ["centralized", "centralized_full"]))
+    assert report["robustness"]["reused_cells"] == 0          # a fresh folder: all computed
     curves = robustness(records, ["centralized", "centralized_full"])
     counted = counts(records, ["centralized", "centralized_full"])
     assert report["robustness"]["curves"] == json.loads(json.dumps(curves))

@@ -252,8 +252,11 @@ def build(plan: Plan, policies, *, store: Optional[CellFile] = None, executor="l
     cl, settle = closed_loop(policies, nthread=nthread, log=log)
     stage("sweep")
     cells = plan.cells(policies)
+    stored = store.records if store is not None else {}
+    reused = sum(1 for c in cells if c.key in stored
+                 and stored[c.key].get("policy_digest") == digests.get(c.policy))
     results = evaluate_cells(cells, store=store, executor=executor, workers=workers,
-                        address=address, progress=progress, digests=digests)
+                             address=address, progress=progress, digests=digests)
     curves = robustness(results, policies)
     counted = counts(results, policies)
     if robust:
@@ -276,7 +279,8 @@ def build(plan: Plan, policies, *, store: Optional[CellFile] = None, executor="l
                            "sweeps": plan.sweep_states()},
         "open_loop": ol, "closed_loop": cl, "gap_closure": gap_closure(cl),
         "robustness": {"threshold": THRESHOLD, "sizes": dict(plan.sizes), "units": UNITS,
-                       "joint_draws": plan.joint_draws, "cells": len(cells), "curves": curves,
+                       "joint_draws": plan.joint_draws, "cells": len(cells),
+                       "reused_cells": reused, "curves": curves,
                        "counts": counted, "margins": margins(curves, counted=counted),
                        "joint_worst_plant": worst_plants(results, policies)},
         "throughput": tp.as_dict(), "policy_digests": digests,
