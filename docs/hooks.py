@@ -16,9 +16,10 @@ IMAGES = (".png", ".gif", ".svg", ".jpg")
 
 def on_files(files, config):
     for path in sorted((ROOT / "renders").rglob("*")):
-        scratch = any(part == "tmp" or part.endswith("-quick") for part in path.parts)
+        parts = path.relative_to(ROOT).parts           # not the checkout's own folders
+        scratch = any(part == "tmp" or part.endswith("-quick") for part in parts)
         if path.suffix.lower() in IMAGES and path.is_file() and not scratch:
-            rel = path.relative_to(ROOT).as_posix()
+            rel = "/".join(parts)
             if files.get_file_from_path(rel) is None:
                 files.append(File(rel, src_dir=str(ROOT), dest_dir=config["site_dir"],
                                   use_directory_urls=config["use_directory_urls"]))

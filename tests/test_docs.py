@@ -321,3 +321,24 @@ def test_the_reproduction_page_refuses_sweep_counts_of_another_version(tmp_path,
     assert gen.main(["--check"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("docs/generate.py: error: " + rel)
+
+
+def test_the_site_serves_the_committed_figures_wherever_the_checkout_lies(tmp_path,
+                                                                         monkeypatch):
+    # A checkout under a folder named like a scratch one (/tmp/...): only folders inside
+    # renders/ may mark figures as scratch.
+    pytest.importorskip("mkdocs")
+    from mkdocs.structure.files import Files
+    spec = importlib.util.spec_from_file_location("docs_hooks", DOCS / "hooks.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    root = tmp_path / "tmp" / "checkout"
+    for rel in ("renders/fig3.png", "renders/mismatch/robust.png",
+                "renders/mismatch-quick/robust.png", "renders/tmp/x.png", "renders/a.json"):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_bytes(b"x")
+    monkeypatch.setattr(hooks, "ROOT", root)
+    files = hooks.on_files(Files([]), {"site_dir": str(tmp_path / "site"),
+                                       "use_directory_urls": True})
+    assert sorted(f.src_uri for f in files) == ["renders/fig3.png",
+                                                "renders/mismatch/robust.png"]
