@@ -235,6 +235,10 @@ VARIANTS = {
     "decentralized 7 levels, propagated, dead zone 0.06, argmax beyond 30 deg "
     "(decentralized_tuned)":
         _policy("decentralized", 7, context="propagated", dead_zone=0.06, argmax=30.0),
+    "decentralized 7 levels, propagated, dead zone 0.08, argmax beyond 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.08, argmax=30.0),
+    "decentralized 7 levels, propagated, dead zone 0.1, argmax beyond 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0),
     "decentralized 9 levels, propagated, dead zone 0.02":
         _policy("decentralized", 9, context="propagated", dead_zone=0.02),
     "decentralized 7 levels, propagated, worst of 8 models, dead zone 0.04, argmax 30 deg":
