@@ -226,7 +226,10 @@ def test_throughput_figures_are_the_steps_over_the_times():
     assert d["closed_loop_steps_per_s"] == d["mujoco_steps"] / d["closed_loop_seconds"]
     assert d["open_loop_steps_per_s"] == d["mujoco_steps"] / d["open_loop_seconds"]
     assert d["ratio_closed_to_open"] == d["open_loop_seconds"] / d["closed_loop_seconds"]
-    assert 0 < d["policy_seconds"] < d["closed_loop_seconds"]
+    # The policy's own time is measured apart (best of the repeats), so on a loaded machine
+    # it may even exceed the closed loop's: only its share is defined by the others.
+    assert d["policy_seconds"] > 0
+    assert d["policy_share"] == d["policy_seconds"] / d["closed_loop_seconds"]
     for bad in (dict(x0=x0[0]), dict(samples=0), dict(nthread=0), dict(samples=1.5)):
         kwargs = dict(dict(x0=x0, samples=3, nthread=1), **bad)
         with pytest.raises(ValueError):
