@@ -1,4 +1,5 @@
 """Atomic writes and the up-front output check shared by every command."""
+import ctypes
 import os
 import signal
 import threading
@@ -172,3 +173,48 @@ def test_read_runs_merges_only_files_of_its_own_schema(tmp_path):
     broken.write_text("{")
     with pytest.raises(ValueError, match=r"broken.json is not JSON"):
         read_runs(broken, "twolink.x", 1)
+
+
+class _SignalWhileConverting:
+    """A ctypes argument type whose conversion receives ``signum``: the handler's
+    exception is raised inside ctypes, which wraps it in ``ctypes.ArgumentError`` (as
+    happens in PyOpenGL's EGL calls when a render is terminated)."""
+
+    signum = signal.SIGTERM
+
+    @classmethod
+    def from_param(cls, value):
+        os.kill(os.getpid(), cls.signum)
+        return ctypes.c_int(value)
+
+
+@pytest.mark.parametrize("signum, code, line", [(signal.SIGTERM, 143, "twolink: terminated"),
+                                                (signal.SIGINT, 130, "twolink: interrupted")])
+def test_a_signal_wrapped_by_a_foreign_call_is_reported_as_the_signal(
+        monkeypatch, capsys, signum, code, line):
+    from twolink import cli
+
+    libc_abs = ctypes.CDLL(None).abs
+    libc_abs.argtypes = [_SignalWhileConverting]
+    monkeypatch.setattr(_SignalWhileConverting, "signum", signum)
+    def run(args):
+        with pytest.raises(ctypes.ArgumentError, match="argument 1"):
+            libc_abs(-3)                   # the wrapped exception, as the command sees it
+        libc_abs(-3)
+
+    monkeypatch.setattr("twolink.commands.limits.run", run)
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    assert cli.main(["limits"]) == code
+    assert capsys.readouterr().err.strip() == line
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+
+
+def test_an_unexpected_exception_without_a_signal_is_not_hidden(monkeypatch):
+    from twolink import cli
+
+    def run(args):
+        raise TypeError("a bug")
+
+    monkeypatch.setattr("twolink.commands.limits.run", run)
+    with pytest.raises(TypeError, match="a bug"):
+        cli.main(["limits"])

@@ -28,24 +28,52 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised like Ctrl-C so that cleanup (``finally``) runs."""
 
 
+#: Signals delivered inside :func:`sigterm_raises` (their names), for :func:`signal_received`.
+_received: list[str] = []
+
+
 def _raise_terminated(signum, frame):
+    _received.append("SIGTERM")
     raise Terminated("terminated by SIGTERM")
+
+
+def _raise_interrupt(signum, frame):
+    _received.append("SIGINT")
+    raise KeyboardInterrupt
+
+
+def signal_received() -> str | None:
+    """``"SIGTERM"`` or ``"SIGINT"`` if one arrived inside the latest outermost
+    :func:`sigterm_raises` block, else None.
+
+    The exception a signal handler raises can surface as another one: raised while
+    ctypes converts a foreign call's arguments (as PyOpenGL's EGL calls do during a
+    render) it becomes ``ctypes.ArgumentError: argument 1: Terminated: ...``. A command
+    that catches an unexpected exception asks this to report the signal instead."""
+    return _received[-1] if _received else None
 
 
 @contextlib.contextmanager
 def sigterm_raises():
     """Within the block, SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) instead
-    of killing the process, so temporary files are removed as on Ctrl-C. Only the main
-    thread can take signals; elsewhere, and when nested, this does nothing."""
+    of killing the process, so temporary files are removed as on Ctrl-C; both signals
+    are recorded for :func:`signal_received`. Only the main thread can take signals;
+    elsewhere, and when nested, this does nothing."""
     if threading.current_thread() is not threading.main_thread() or \
             signal.getsignal(signal.SIGTERM) is _raise_terminated:
         yield
         return
+    _received.clear()
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    interrupt = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    if interrupt:
+        signal.signal(signal.SIGINT, _raise_interrupt)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        if interrupt:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def check_writable(path: os.PathLike) -> Path:

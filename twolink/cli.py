@@ -55,21 +55,32 @@ def main(argv=None) -> int:
     args, unknown = parser.parse_known_args(argv)
     if unknown:                  # named by the subcommand's parser, with its own usage
         getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
-    from twolink.artifacts import Terminated, sigterm_raises
+    from twolink.artifacts import Terminated, signal_received, sigterm_raises
 
     try:
         with sigterm_raises():       # SIGTERM unwinds like Ctrl-C: temporary files go
             return int(args._run(args) or 0)
     except Terminated:
-        print("twolink: terminated", file=sys.stderr)
-        return 143
+        return _signalled("SIGTERM")
     except KeyboardInterrupt:
-        print("twolink: interrupted", file=sys.stderr)
-        return 130
-    except (ValueError, OSError, RuntimeError, zipfile.BadZipFile) as exc:
+        return _signalled("SIGINT")
+    except Exception as exc:
+        if signal_received():        # a signal's exception, wrapped by a foreign call
+            return _signalled(signal_received())
+        if not isinstance(exc, (ValueError, OSError, RuntimeError, zipfile.BadZipFile)):
+            raise
         print(f"twolink {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
+
+def _signalled(name: str) -> int:
+    """The line and exit status (128 + the signal's number, as a shell reports it) of a
+    command ended by SIGTERM or Ctrl-C."""
+    if name == "SIGTERM":
+        print("twolink: terminated", file=sys.stderr)
+        return 143
+    print("twolink: interrupted", file=sys.stderr)
+    return 130
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -293,7 +293,7 @@ def test_sigterm_during_render_leaves_no_file(tmp_path, ext):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 143                       # 128 + SIGTERM, as a shell reports it
+    assert proc.returncode == 143, err                  # 128 + SIGTERM, as a shell reports it
     assert err.strip() == "twolink: terminated", err
     assert list(tmp_path.iterdir()) == []
 
