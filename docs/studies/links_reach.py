@@ -1,0 +1,88 @@
+"""Which N-link poses any controller could settle within the scaling table's 8 s.
+
+``python docs/studies/links_reach.py --links N [--rule tapered|copied] [--poses K]
+[--json FILE]`` asks :func:`twolink.control.time_optimal.links.reach` of the first K poses
+of the scaling table's evaluation set (``random_poses(N, 256, 20061122 + N)``) whether
+admissible torques bring the arm to rest in the goal band by 7 s (140 samples: settled
+1 s before the end of 8 s, the table's success rule), and merges the answers into the
+JSON file (one run per arm; the run of an arm measured again replaces the old one). The
+count of reachable poses is a lower bound on the ceiling of every controller's success
+rate at that N (IPOPT is a local solver). The docs generator writes the result into
+``docs/results/scaling.md``. About 25 s per pose at six links on this machine.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from twolink.arm.parameters import LINK_RULES, TS, chain  # noqa: E402
+from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
+from twolink.control.time_optimal import casadi_version  # noqa: E402
+from twolink.control.time_optimal.links import HOLD, NLP_SUBSTEPS, reach_all  # noqa: E402
+from twolink.sim.metrics import random_poses, wilson_interval  # noqa: E402
+from twolink.validate import whole  # noqa: E402
+
+SCHEMA, VERSION = "twolink.links_reach", 1
+#: The scaling table's poses: 256 per arm from this seed plus N.
+POSE_SEED, POSES = 20061122, 256
+#: 7 s: settled 1 s before the end of the scaling table's 8 s horizon.
+DEADLINE = 140
+DEFAULT_JSON = Path("renders/links_reach/reach.json")
+
+
+def measure(links: int, rule: str, poses: int) -> dict:
+    p = chain(links, rule)
+    x0 = random_poses(links, POSES, POSE_SEED + links)[:poses]
+    t0 = time.perf_counter()
+
+    def report(i, r):
+        print(f"  pose {i + 1}/{poses}: {'reachable' if r.reachable else 'not found'} "
+              f"({r.status}, defect {r.defect:.1e}, {r.seconds:.0f} s)", flush=True)
+
+    answers = reach_all(p, x0, DEADLINE, on_pose=report)
+    k = sum(a.reachable for a in answers)
+    low, high = wilson_interval(k, poses)
+    return {"links": links, "rule": rule, "poses": poses, "reachable": k,
+            "wilson95": [low, high], "deadline_s": DEADLINE * TS, "hold": HOLD,
+            "substeps": NLP_SUBSTEPS, "seconds": round(time.perf_counter() - t0, 1),
+            "answers": [a.as_dict() for a in answers]}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--links", type=int, required=True, help="links N, 3 to 6")
+    ap.add_argument("--rule", choices=LINK_RULES, default="tapered")
+    ap.add_argument("--poses", type=int, default=16,
+                    help=f"the first K poses of the {POSES} of the scaling table (default 16)")
+    ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
+    args = ap.parse_args(argv)
+    try:
+        whole(args.links, "--links", 3, 6)
+        whole(args.poses, "--poses", 1, POSES)
+        if casadi_version() is None:
+            raise ValueError("this study needs CasADi: pip install 'twolink[limits]'")
+        data = read_runs(args.json, SCHEMA, VERSION)
+    except ValueError as exc:
+        print(f"links_reach: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{args.links} {args.rule} links, {args.poses} poses, deadline {DEADLINE * TS:g} s",
+          flush=True)
+    run = measure(args.links, args.rule, args.poses)
+    runs = [r for r in data["runs"] if (r["links"], r["rule"]) != (args.links, args.rule)]
+    runs.append(run)
+    runs.sort(key=lambda r: (r["rule"], r["links"]))
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    write_json(args.json, {"schema": SCHEMA, "version": VERSION, "runs": runs,
+                           "casadi": casadi_version(), "provenance": provenance()})
+    print(json.dumps({k: v for k, v in run.items() if k != "answers"}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
