@@ -342,3 +342,34 @@ def test_the_site_serves_the_committed_figures_wherever_the_checkout_lies(tmp_pa
                                        "use_directory_urls": True})
     assert sorted(f.src_uri for f in files) == ["renders/fig3.png",
                                                 "renders/mismatch/robust.png"]
+
+
+def test_the_scaling_page_shows_the_reach_study_beside_the_table(tmp_path, monkeypatch):
+    """The physical ceiling section: the study's counts with intervals beside the table's
+    rates at 8 s, and a verdict that follows the counts."""
+    import json
+
+    gen = _generator()
+    from generator import results_scaling as rs
+
+    report = json.loads((ROOT / "renders/scaling/scaling.json").read_text())
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    assert rs._reach_block(report) == ""                    # no study data: no section
+    answers = [{"reachable": True, "seconds": 20.0}] * 15 + [{"reachable": False, "seconds": 40.0}]
+    run = {"links": 6, "rule": "tapered", "poses": 16, "reachable": 15, "hold": 2,
+           "deadline_s": 7.0, "answers": answers}
+    path = tmp_path / rs.REACH
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps({"schema": "twolink.links_reach", "version": 1, "runs": [run]}))
+    text = rs._reach_block(report)
+    row = next(line for line in text.splitlines() if line.startswith("| 6 | tapered |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[2].startswith("15/16 = 93.8 %")
+    pd = next(r for r in report["rows"] if (r["scheme"], r["rule"], r["links"]) ==
+              ("pd", "tapered", 6))["evaluation"]["horizons"]["8"]
+    assert cells[5].startswith(f"{pd['successes']}/{pd['n']} = ")
+    assert cells[6] == "21 s a pose (at most 40 s)"
+    assert "no controller is known to settle it" in text and "Every pose" not in text
+    run.update(reachable=16, answers=[{"reachable": True, "seconds": 20.0}] * 16)
+    path.write_text(json.dumps({"schema": "twolink.links_reach", "version": 1, "runs": [run]}))
+    assert "Every pose tried was reachable" in rs._reach_block(report)

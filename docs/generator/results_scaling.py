@@ -1,10 +1,60 @@
 """docs/results/scaling.md, from ``renders/scaling/scaling.json`` (:func:`scaling_page`),
-judged against :data:`~generator.targets.SCALING_TARGETS`.
+judged against :data:`~generator.targets.SCALING_TARGETS`, with the physical ceiling of
+``renders/links_reach/reach.json`` (``docs/studies/links_reach.py``) where it exists.
 """
 from __future__ import annotations
 
-from .common import _cell, _gib, _int, _overlap, _stamp
+from .common import SCHEMAS, _cell, _gib, _int, _load, _overlap, _stamp
 from .targets import scaling_targets
+
+#: The reach study's data (:mod:`twolink.control.time_optimal.links`).
+REACH = "renders/links_reach/reach.json"
+
+
+def _reach_block(report: dict) -> str:
+    """The physical ceiling: the reach study's answers beside the table's rates at 8 s."""
+    from twolink.viz.formatting import format_rate
+
+    reach = _load(REACH, SCHEMAS[REACH])
+    if reach is None or not reach["runs"]:
+        return ""
+    rows = {(r["scheme"], r["rule"], r["links"]): r for r in report["rows"]}
+
+    def rate(scheme, rule, n):
+        r = rows.get((scheme, rule, n))
+        h = None if r is None or r["status"] != "run" else \
+            r["evaluation"]["horizons"].get("8")
+        return "—" if h is None else format_rate(h["successes"], h["n"])
+
+    out = ["## The physical ceiling\n\n",
+           "`python docs/studies/links_reach.py --links N --poses K` asks of the first K "
+           "poses of the table whether admissible torques (within the torque and speed "
+           "limits, each held for "
+           f"{reach['runs'][0]['hold']} samples, on the package's RK4 model of the N-link "
+           "arm) bring the arm to rest in the goal band by "
+           f"{reach['runs'][0]['deadline_s']:g} s, 1 s before the end of 8 s "
+           "(`twolink.control.time_optimal.links`: direct multiple shooting, CasADi and "
+           "IPOPT). At rest in the band the horizontal arm stays there, so a reachable pose "
+           "can succeed under the table's rule; IPOPT is a local solver, so the count is a "
+           "lower bound on what any controller could reach. The table's rates are over "
+           f"its {report['options']['poses']} poses.\n\n",
+           "| N | links | reachable by the deadline | decentralized at 8 s | 5 levels at 8 s "
+           "| per-joint PD at 8 s | solve time |\n|---|---|---|---|---|---|---|\n"]
+    for run in reach["runs"]:
+        n, rule = run["links"], run["rule"]
+        secs = [a["seconds"] for a in run["answers"]]
+        out.append(f"| {n} | {rule} | {format_rate(run['reachable'], run['poses'])} | "
+                   f"{rate('decentralized', rule, n)} | "
+                   f"{rate('decentralized_levels', rule, n)} | {rate('pd', rule, n)} | "
+                   f"{sum(secs) / len(secs):.0f} s a pose (at most {max(secs):.0f} s) |\n")
+    every = all(r["reachable"] == r["poses"] for r in reach["runs"])
+    out.append("\n" + (
+        "Every pose tried was reachable. At these N the arm itself allows what the targets "
+        "ask; what stops the decentralized agents and the per-joint PD is the controllers."
+        if every else
+        "Where a pose was not found reachable, no controller is known to settle it by 8 s; "
+        "the rates above are to be read against the reachable share.") + "\n\n")
+    return "".join(out)
 
 
 def _scaling_findings(report: dict) -> str:
@@ -151,7 +201,7 @@ def scaling_page(report: dict) -> str:
     block = ("## Targets\n\nWhat the table should show (the targets live in "
              "`docs/generate.py`, which judges this report's data against them):\n\n"
              + "\n".join(lines or ["- none of the targeted rows was measured"]) + "\n\n")
-    block = _scaling_findings(report) + block
+    block = _scaling_findings(report) + _reach_block(report) + block
     at = text.find("\nMachine: ")
     text = text + "\n" + block if at < 0 else text[:at + 1] + block + text[at + 1:]
     return "".join([

@@ -8,7 +8,8 @@ admissible torques bring the arm to rest in the goal band by 7 s (140 samples: s
 JSON file (one run per arm; the run of an arm measured again replaces the old one). The
 count of reachable poses is a lower bound on the ceiling of every controller's success
 rate at that N (IPOPT is a local solver). The docs generator writes the result into
-``docs/results/scaling.md``. About 25 s per pose at six links on this machine.
+``docs/results/scaling.md``. About 25 s per pose at six links on this machine;
+``--workers W`` shares the poses among W processes.
 """
 from __future__ import annotations
 
@@ -36,16 +37,33 @@ DEADLINE = 140
 DEFAULT_JSON = Path("renders/links_reach/reach.json")
 
 
-def measure(links: int, rule: str, poses: int) -> dict:
-    p = chain(links, rule)
-    x0 = random_poses(links, POSES, POSE_SEED + links)[:poses]
-    t0 = time.perf_counter()
+def _chunk(links: int, rule: str, rows: list) -> list:
+    """:func:`reach_all` of the poses ``rows`` of the table's set (a worker's share)."""
+    x0 = random_poses(links, POSES, POSE_SEED + links)[rows]
 
     def report(i, r):
-        print(f"  pose {i + 1}/{poses}: {'reachable' if r.reachable else 'not found'} "
+        print(f"  pose {rows[i] + 1}: {'reachable' if r.reachable else 'not found'} "
               f"({r.status}, defect {r.defect:.1e}, {r.seconds:.0f} s)", flush=True)
 
-    answers = reach_all(p, x0, DEADLINE, on_pose=report)
+    return reach_all(chain(links, rule), x0, DEADLINE, on_pose=report)
+
+
+def measure(links: int, rule: str, poses: int, workers: int = 1) -> dict:
+    """The reach answers of the first ``poses`` poses, in ``workers`` processes (each
+    takes every ``workers``-th pose)."""
+    t0 = time.perf_counter()
+    shares = [list(range(w, poses, workers)) for w in range(min(workers, poses))]
+    if len(shares) == 1:
+        parts = [_chunk(links, rule, shares[0])]
+    else:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(len(shares)) as pool:
+            parts = list(pool.map(_chunk, [links] * len(shares), [rule] * len(shares), shares))
+    answers = [None] * poses
+    for rows, part in zip(shares, parts):
+        for i, a in zip(rows, part):
+            answers[i] = a
     k = sum(a.reachable for a in answers)
     low, high = wilson_interval(k, poses)
     return {"links": links, "rule": rule, "poses": poses, "reachable": k,
@@ -60,11 +78,13 @@ def main(argv=None) -> int:
     ap.add_argument("--rule", choices=LINK_RULES, default="tapered")
     ap.add_argument("--poses", type=int, default=16,
                     help=f"the first K poses of the {POSES} of the scaling table (default 16)")
+    ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
     args = ap.parse_args(argv)
     try:
         whole(args.links, "--links", 3, 6)
         whole(args.poses, "--poses", 1, POSES)
+        whole(args.workers, "--workers", 1, 64)
         if casadi_version() is None:
             raise ValueError("this study needs CasADi: pip install 'twolink[limits]'")
         data = read_runs(args.json, SCHEMA, VERSION)
@@ -73,7 +93,7 @@ def main(argv=None) -> int:
         return 2
     print(f"{args.links} {args.rule} links, {args.poses} poses, deadline {DEADLINE * TS:g} s",
           flush=True)
-    run = measure(args.links, args.rule, args.poses)
+    run = measure(args.links, args.rule, args.poses, args.workers)
     runs = [r for r in data["runs"] if (r["links"], r["rule"]) != (args.links, args.rule)]
     runs.append(run)
     runs.sort(key=lambda r: (r["rule"], r["links"]))
