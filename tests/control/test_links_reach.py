@@ -88,3 +88,19 @@ def test_bad_input_is_one_line_before_any_solve(x0, deadline, kwargs, match):
 
 def test_the_deadline_is_in_samples_of_ts():
     assert L.HOLD * TS == pytest.approx(0.1) and L.NLP_SUBSTEPS == 20
+
+
+def test_speeds_inside_a_held_period_are_checked():
+    """The NLP bounds the speeds at the ends of the held periods only; the answer's check
+    sees the samples in between: link 3 coasting down from 3 rad/s is fastest at the
+    period's first sample, not at its end."""
+    p = chain(3)
+    x0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 3.0])
+    tau = np.zeros((1, 3))
+    mid = L._unwrapped_step(p, x0, tau[0])
+    end = L._unwrapped_step(p, mid, tau[0])
+    states = np.array([x0, end])
+    assert L.defect(p, states, tau, 2) < 1e-14
+    assert abs(mid[5]) > abs(end[5])
+    assert L.peak_speed(p, states, tau, 2) == pytest.approx(
+        np.abs(np.r_[mid[3:], end[3:]]).max() / p.speed_max[0], rel=1e-12)

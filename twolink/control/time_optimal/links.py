@@ -17,8 +17,10 @@ admissible sequences: a pose found reachable stays reachable), integrated with R
 :data:`SUBSTEPS`), and IPOPT uses a limited-memory Hessian. An answer
 counts only once its trajectory is one of the package's model to within
 :data:`DEFECT_TOL`: from every state of the answer, ``hold`` samples of the package's own
-:func:`twolink.arm.integrate.sample_step` (RK4, :data:`SUBSTEPS` per Ts) under its torque
-land on the answer's next state to within that (the largest such gap is ``defect``).
+RK4 step (:func:`twolink.arm.integrate.sample_step`, :data:`SUBSTEPS` steps per Ts)
+under its torque land on the answer's next state to within that (the largest such gap is
+``defect``), and the speeds stay within the links' limits at every sample, those inside
+a held period included (:func:`peak_speed`; the NLP bounds them at the periods' ends).
 
 The check is on the defect, not on an open-loop replay of the torques: over 7 s an
 open-loop six-link arm amplifies any difference of model or integration (a coarser RK4
@@ -187,13 +189,27 @@ def _solve(ca, step, p, x0, targets, intervals):
 
 
 def defect(p: ChainParameters, states: np.ndarray, torques: np.ndarray, hold: int) -> float:
-    """The largest gap between ``states`` (K+1, 2N) and ``hold`` samples of
-    :func:`sample_step` from each of them under ``torques`` (K, N) (no wrap: the answer's
-    angles are unwrapped)."""
-    x = np.asarray(states, float)[:-1]
+    """The largest gap between ``states`` (K+1, 2N) and ``hold`` samples of the package's
+    RK4 step from each of them under ``torques`` (K, N) (no wrap: the answer's angles are
+    unwrapped)."""
+    return _check_answer(p, states, torques, hold)[0]
+
+
+def peak_speed(p: ChainParameters, states: np.ndarray, torques: np.ndarray,
+               hold: int) -> float:
+    """The largest |speed| over the links' speed limits at every sample of the answer,
+    the samples inside each held period included (the NLP bounds the speeds only at the
+    ends of the periods; <= 1: within the limits)."""
+    return _check_answer(p, states, torques, hold)[1]
+
+
+def _check_answer(p, states, torques, hold) -> tuple:
+    states = np.asarray(states, float)
+    x, peak = states[:-1], 0.0
     for _ in range(hold):
         x = _unwrapped_step(p, x, np.asarray(torques, float))
-    return float(np.abs(x - np.asarray(states, float)[1:]).max())
+        peak = max(peak, float((np.abs(x[:, p.links:]) / p.speed_max).max()))
+    return float(np.abs(x - states[1:]).max()), peak
 
 
 def _unwrapped_step(p, x, tau):
@@ -250,8 +266,8 @@ def reach(p, x0, deadline: int, *, hold: int = HOLD, substeps: int = NLP_SUBSTEP
         status, slack, states, torques = _solve(ca, step, p, x0, targets, deadline // hold)
         if torques is None or slack > 1e-6:
             continue
-        gap = defect(p, states.T, torques.T, hold)
-        if gap <= DEFECT_TOL:
+        gap, peak = _check_answer(p, states.T, torques.T, hold)
+        if gap <= DEFECT_TOL and peak <= 1.0 + DEFECT_TOL:
             return Reach(True, tuple(targets.tolist()), np.repeat(torques.T, hold, axis=0),
                          status, slack, gap, time.perf_counter() - t0)
     return Reach(False, tuple(np.asarray(targets).tolist()), None, status, slack, gap,
@@ -274,4 +290,4 @@ def reach_all(p, poses, deadline: int, *, hold: int = HOLD, substeps: int = NLP_
 
 
 __all__ = ["HOLD", "NLP_SUBSTEPS", "Reach", "acceleration_expression",
-           "candidate_targets", "defect", "reach", "reach_all", "step_function"]
+           "candidate_targets", "defect", "peak_speed", "reach", "reach_all", "step_function"]
