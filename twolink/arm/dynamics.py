@@ -95,8 +95,9 @@ MODELS = {
 # For two links W_11 + I_1 = P1, W_22 + I_2 = P2 and W_12 = P3 of (10).
 
 
-def _chain_weights(c: ChainParameters) -> np.ndarray:
-    """The constant N x N matrix W of the comment above."""
+def chain_weights(c: ChainParameters) -> np.ndarray:
+    """The constant N x N matrix W of the comment above: the kinetic-energy weights
+    W_ab = sum_{k >= max(a, b)} m_k r_ka r_kb of the N-link arm ``c``."""
     n = c.links
     w = np.zeros((n, n))
     for k in range(n):
@@ -139,7 +140,7 @@ def _sin_diff(cos, sin, a, b):
 def _mass_entries(c: ChainParameters, cos, sin, batch: tuple) -> np.ndarray:
     """M(theta) laid out as (N, N) + batch (each entry contiguous)."""
     n = c.links
-    w = _chain_weights(c)
+    w = chain_weights(c)
     g = np.empty((n, n) + batch)
     for a in range(n):
         g[a, a] = w[a, a] + c.inertias[a]
@@ -157,7 +158,7 @@ def _bias(c: ChainParameters, dtheta: list, cos, sin) -> list:
     """C(theta, dtheta) dtheta as a list of N arrays (no damping) from the joint speeds
     ``dtheta`` (a list of N arrays)."""
     n = c.links
-    w = _chain_weights(c)
+    w = chain_weights(c)
     omega2, omega = [], None
     for v in dtheta:
         omega = v if omega is None else omega + v

@@ -41,7 +41,7 @@ from typing import Optional
 
 import numpy as np
 
-from twolink.arm.dynamics import _chain_weights, chain_acceleration
+from twolink.arm.dynamics import chain_acceleration, chain_weights
 from twolink.arm.integrate import SUBSTEPS
 from twolink.arm.parameters import GOAL_ANGLE, TS, ChainParameters, as_chain
 from twolink.control.time_optimal.symbolic import require_casadi
@@ -66,9 +66,9 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
 def acceleration_expression(ca, p: ChainParameters, x, tau):
     """:func:`twolink.arm.dynamics.chain_acceleration` (no joint locked) in CasADi
     symbols: M(theta) ddtheta = tau - C(theta, dtheta) dtheta - diag(b) dtheta with
-    M = L^T G L and the bias of the same weights W (:func:`twolink.arm.dynamics._chain_weights`)."""
+    M = L^T G L and the bias of the same weights W (:func:`twolink.arm.dynamics.chain_weights`)."""
     n = p.links
-    w = _chain_weights(p)
+    w = chain_weights(p)
     phi = [None]                                   # absolute angles of links 2..N
     for k in range(1, n):
         phi.append(x[k] if k == 1 else phi[-1] + x[k])
