@@ -42,7 +42,7 @@ from typing import Optional
 import numpy as np
 
 from twolink.arm.dynamics import chain_acceleration, chain_weights
-from twolink.arm.integrate import SUBSTEPS
+from twolink.arm.integrate import SUBSTEPS, rk4
 from twolink.arm.parameters import GOAL_ANGLE, TS, ChainParameters, as_chain
 from twolink.control.time_optimal.symbolic import require_casadi
 from twolink.validate import whole
@@ -207,27 +207,9 @@ def _check_answer(p, states, torques, hold) -> tuple:
     states = np.asarray(states, float)
     x, peak = states[:-1], 0.0
     for _ in range(hold):
-        x = _unwrapped_step(p, x, np.asarray(torques, float))
+        x = rk4(chain_acceleration, p, x, np.asarray(torques, float), TS, SUBSTEPS)
         peak = max(peak, float((np.abs(x[:, p.links:]) / p.speed_max).max()))
     return float(np.abs(x - states[1:]).max()), peak
-
-
-def _unwrapped_step(p, x, tau):
-    """One sample of the package's RK4 (:data:`SUBSTEPS` steps, torque held) without the
-    end-of-sample wrap and saturation that :func:`sample_step` applies."""
-    h = TS / SUBSTEPS
-    n = p.links
-
-    def f(s):
-        return np.concatenate([s[..., n:], chain_acceleration(p, s, tau)], axis=-1)
-
-    for _ in range(SUBSTEPS):
-        k1 = f(x)
-        k2 = f(x + 0.5 * h * k1)
-        k3 = f(x + 0.5 * h * k2)
-        k4 = f(x + h * k3)
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x
 
 
 def candidate_targets(x0, links: int) -> list:
