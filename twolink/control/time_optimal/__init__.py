@@ -26,7 +26,9 @@ initial guesses (:mod:`.search`), gives for each state
 :func:`limit` solves one state, :func:`limit_table` many (in worker processes),
 :func:`shipped_limits` reads the table of the 65 evaluation states shipped in
 ``data/limits.json`` (no CasADi needed). CasADi comes with ``pip install
-'twolink[limits]'``.
+'twolink[limits]'``. For arms of N links, :mod:`.links` asks the question at a deadline:
+whether a pose can be brought to rest in the band by then at all (the ceiling of the
+N-link success rates).
 """
 from __future__ import annotations
 
