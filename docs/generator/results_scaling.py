@@ -49,8 +49,9 @@ def _reach_block(report: dict) -> str:
                    f"{sum(secs) / len(secs):.0f} s a pose (at most {max(secs):.0f} s) |\n")
     every = all(r["reachable"] == r["poses"] for r in reach["runs"])
     out.append("\n" + (
-        "Every pose tried was reachable. At these N the arm itself allows what the targets "
-        "ask; what stops the decentralized agents and the per-joint PD is the controllers."
+        "Every pose tried was reachable: from each, the arm itself can settle in time, so "
+        "what stops the decentralized agents and the per-joint PD there is the controllers "
+        "(the intervals say how high the ceiling is known to lie)."
         if every else
         "Where a pose was not found reachable, no controller is known to settle it by 8 s; "
         "the rates above are to be read against the reachable share.") + "\n\n")
