@@ -44,7 +44,7 @@ import numpy as np
 from twolink.arm.dynamics import chain_acceleration, chain_weights
 from twolink.arm.integrate import SUBSTEPS, rk4
 from twolink.arm.parameters import GOAL_ANGLE, TS, ChainParameters, as_chain
-from twolink.control.time_optimal.symbolic import require_casadi
+from twolink.control.time_optimal.symbolic import require_casadi, rk4_expression
 from twolink.validate import whole
 
 #: Torques are held this many samples of Ts in the reach problem (default).
@@ -113,18 +113,8 @@ def step_function(p: ChainParameters, *, ts: float = TS, substeps: int = SUBSTEP
     ca = require_casadi()
     n = p.links
     x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", n)
-    h = ts / substeps
-
-    def f(s):
-        return ca.vertcat(s[n:], acceleration_expression(ca, p, s, u))
-
-    y = x
-    for _ in range(substeps):
-        k1 = f(y)
-        k2 = f(y + 0.5 * h * k1)
-        k3 = f(y + 0.5 * h * k2)
-        k4 = f(y + h * k3)
-        y = y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    y = rk4_expression(lambda s: ca.vertcat(s[n:], acceleration_expression(ca, p, s, u)),
+                       x, ts, substeps)
     return ca.Function("chain_step", [x, u], [y], ["x", "u"], ["x_next"])
 
 

@@ -87,11 +87,13 @@ def step_expression(ca, model: str, p: ArmParameters, x, u, *, ts: float = TS,
     """The state after one sample period from ``x`` under the held torque ``u``
     (symbols or numbers), before the wrap: :func:`twolink.arm.integrate.rk4`."""
     accel = ACCELERATIONS[check_model(model)]
-    h = ts / substeps
+    return rk4_expression(lambda s: ca.vertcat(s[2:], accel(ca, p, s, u)), x, ts, substeps)
 
-    def f(s):
-        return ca.vertcat(s[2:], accel(ca, p, s, u))
 
+def rk4_expression(f, x, duration: float, substeps: int):
+    """``substeps`` RK4 steps of dx/dt = f(x) over ``duration``, operation for operation
+    :func:`twolink.arm.integrate.rk4`, in whatever ``x`` is (CasADi symbols or numbers)."""
+    h = duration / substeps
     for _ in range(substeps):
         k1 = f(x)
         k2 = f(x + 0.5 * h * k1)
