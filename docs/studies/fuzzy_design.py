@@ -58,11 +58,11 @@ def _dz(width: float, argmax=None):
 
 
 def _policy(kind, levels=3, bins="paper", context=None, dead_zone=0.0, argmax=None,
-            robust=False):
+            robust=False, refine=1):
     worst = {"robust": "worst", "draws": 8, "spread": 0.2, "seed": ROBUST_SEED} if robust \
         else {}
     return lambda: synthesize(kind, model="full", levels=levels, bins=bins, context=context,
-                              readout=_dz(dead_zone, argmax), **worst)
+                              refine=refine, readout=_dz(dead_zone, argmax), **worst)
 
 
 def noise_expectation(levels=5, bins="goal", draws=8, angle_deg=1.0, speed=0.02,
@@ -244,6 +244,17 @@ VARIANTS = {
     "decentralized 7 levels, propagated, worst of 8 models, dead zone 0.04, argmax 30 deg":
         _policy("decentralized", 7, context="propagated", dead_zone=0.04, argmax=30.0,
                 robust=True),
+    "decentralized 7 levels, propagated, refine 2, no read-out":
+        _policy("decentralized", 7, context="propagated", refine=2),
+    "decentralized 7 levels, propagated, refine 2, dead zone 0.06, argmax beyond 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.06, argmax=30.0,
+                refine=2),
+    "decentralized 7 levels, propagated, refine 2, dead zone 0.1, argmax beyond 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0,
+                refine=2),
+    "decentralized 3 levels, propagated, refine 2, dead zone 0.06, argmax beyond 30 deg":
+        _policy("decentralized", 3, context="propagated", dead_zone=0.06, argmax=30.0,
+                refine=2),
     "decentralized_robust, argmax beyond 30 deg": _policy("decentralized", argmax=30.0,
                                                           robust=True),
     "decentralized delay-aware, 3 levels": delay_aware,
