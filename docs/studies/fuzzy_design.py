@@ -13,7 +13,7 @@ Each cell is k/n with the 95 % Wilson interval and the median settle time (failu
 never settle). The shipped designs ``centralized_tuned`` and ``decentralized_tuned`` were
 chosen from this table (so was ``centralized_robust_tuned``); the leaderboard (``twolink leaderboard``) reports them on the
 evaluation set and the leaderboard's own seed. Beside the levers the package offers
-(``levels``, ``bins``, ``readout``) two that it does not ship are measured here as
+(``levels``, ``bins``, ``refine``, ``readout``) two that it does not ship are measured here as
 study-only controllers: the expectation over the reading noise inside the transition model
 (:func:`noise_expectation`), agents that know their torque is one sample late
 (:func:`delay_aware`), a hold region that zeroes a joint's torque near the goal
