@@ -91,6 +91,21 @@ def noise_expectation(levels=5, bins="goal", draws=8, angle_deg=1.0, speed=0.02,
     return Policy("centralized", [agent], meta)
 
 
+def per_agent(angle2: int = 1, speed2: int = 1, refine1: int = 1, levels: int = 7) -> Policy:
+    """decentralized_tuned's design (7 levels, propagated, 0.06 rad/s dead zone, argmax
+    beyond 30 deg) with agent 2's angle and speed axes refined ``angle2`` and ``speed2``
+    times and every axis of agent 1 ``refine1`` times (:meth:`fuzzy.Axis.refined`):
+    which agent's bins a finer grid helps, and which it hurts."""
+    axes = (fuzzy.angle_axis("theta2").refined(angle2),
+            fuzzy.speed_axis("dtheta2").refined(speed2))
+    a2 = P.solve(P.agent2_problem(TABLE_I, "full", axes=axes, levels=levels))
+    a1 = P.solve(P.agent1_problem(a2, TABLE_I, "full", "propagated", refine=refine1,
+                                  levels=levels), extra={"context": "propagated"})
+    meta = {"model": "full", "parameters": TABLE_I.as_dict(), "context": "propagated",
+            "readout": _dz(0.06, 30.0).as_dict()}
+    return Policy("decentralized", [a2, a1], meta)
+
+
 class DelayAware:
     """Agents whose state holds the torque they sent one sample before (the torque acting
     now under a one-sample actuation delay): agent 2 over (theta2, dtheta2, tau2_prev),
@@ -223,6 +238,13 @@ VARIANTS = {
         _policy("centralized", dead_zone=0.04, argmax=30.0, robust=True),
     "centralized_robust, 5 levels, dead zone 0.05, argmax beyond 30 deg":
         _policy("centralized", 5, dead_zone=0.05, argmax=30.0, robust=True),
+    "centralized_robust, edge bins, dead zone 0.04, argmax beyond 30 deg "
+    "(centralized_robust_edge)":
+        _policy("centralized", bins="edge", dead_zone=0.04, argmax=30.0, robust=True),
+    "centralized_robust, 5 levels, edge bins, dead zone 0.04, argmax beyond 30 deg":
+        _policy("centralized", 5, "edge", dead_zone=0.04, argmax=30.0, robust=True),
+    "centralized 5 levels, edge bins, dead zone 0.08, argmax beyond 30 deg":
+        _policy("centralized", 5, "edge", dead_zone=0.08, argmax=30.0),
     "decentralized_full (paper design on (6))": _policy("decentralized"),
     "decentralized 5 levels": _policy("decentralized", levels=5),
     "decentralized 5 levels, goal bins": _policy("decentralized", levels=5, bins="goal"),
@@ -255,6 +277,18 @@ VARIANTS = {
     "decentralized 3 levels, propagated, refine 2, dead zone 0.06, argmax beyond 30 deg":
         _policy("decentralized", 3, context="propagated", dead_zone=0.06, argmax=30.0,
                 refine=2),
+    "decentralized_tuned, agent 1 refine 2": lambda: per_agent(refine1=2),
+    "decentralized_tuned, agent 2's speed bins refined": lambda: per_agent(speed2=2),
+    "decentralized_tuned, agent 2's angle bins refined": lambda: per_agent(angle2=2),
+    "decentralized_tuned, agent 2's angle bins refined, agent 1 refine 2":
+        lambda: per_agent(angle2=2, refine1=2),
+    "decentralized 7 levels, propagated, edge bins, dead zone 0.06, argmax beyond 30 deg "
+    "(decentralized_edge)":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0),
+    "decentralized 7 levels, propagated, edge bins, worst of 8 models, dead zone 0.06, "
+    "argmax 30 deg":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0,
+                robust=True),
     "decentralized_robust, argmax beyond 30 deg": _policy("decentralized", argmax=30.0,
                                                           robust=True),
     "decentralized delay-aware, 3 levels": delay_aware,

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from twolink.arm.parameters import TABLE_I
+from twolink.arm.parameters import GOAL_ANGLE, TABLE_I
 from twolink.arm.task import action_levels, check_levels
 from twolink.cli import main
 from twolink.control.problems import check_size, table_sizes
@@ -31,8 +31,24 @@ def test_the_goal_layout_puts_centres_at_and_inside_the_band():
     assert {-5.0, -2.0, 0.0, 2.0, 5.0} <= set(np.round(ang, 9))
     assert np.all(np.abs(spd[np.abs(spd) <= 5.0]) <= math.degrees(0.1))
     assert fuzzy.angle_axis("a").size == 12 and fuzzy.angle_axis("a", "goal").size == 16
-    with pytest.raises(ValueError, match="unknown bin layout 'fine'; choose one of paper, goal"):
+    with pytest.raises(ValueError, match="unknown bin layout 'fine'; choose one of paper, goal, edge"):
         fuzzy.angle_axis("a", "fine")
+
+
+def test_the_edge_layout_brackets_the_band_edge_without_a_centre_on_it():
+    ang = np.rad2deg(fuzzy.angle_axis("a", "edge").centers)
+    edge = math.degrees(GOAL_ANGLE)
+    assert fuzzy.angle_axis("a", "edge").size == 22
+    assert np.min(np.abs(np.abs(ang) - edge)) >= 1.0
+    inside = ang[np.abs(ang) < edge]
+    assert sorted(np.round(inside, 9)) == [-4.0, 0.0, 4.0]
+    assert np.min(np.abs(ang)[np.abs(ang) > edge]) == 9.0
+    # beyond 10 deg the centres are the paper's halved once
+    halved = np.rad2deg(fuzzy.angle_axis("a").refined(2).centers)
+    assert set(np.round(ang[np.abs(ang) > 10], 9)) == set(np.round(halved[np.abs(halved) > 10], 9))
+    assert np.array_equal(fuzzy.speed_axis("s", "edge").centers, fuzzy.speed_axis("s").centers)
+    assert table_sizes("decentralized", levels=7, bins="edge") == {
+        "agent2": 22 * 7 * 7, "agent1": 22 * 7 * 22 * 7 * 7}
 
 
 def test_table_sizes_follow_levels_and_bins():
@@ -129,3 +145,11 @@ def test_the_tuned_designs_are_registered_with_their_options():
                                                        argmax_beyond_deg=30.0)
     assert d.synthesis_options()["levels"] == 7 and d.context == "propagated"
     assert not c.paper and not d.paper and c.tuned and d.tuned
+
+
+def test_the_edge_designs_are_the_tuned_designs_on_the_edge_bins():
+    for edge, tuned in (("centralized_robust_edge", "centralized_robust_tuned"),
+                        ("decentralized_edge", "decentralized_tuned")):
+        e, t = SHIPPED[edge].synthesis_options(), SHIPPED[tuned].synthesis_options()
+        assert e.pop("bins") == "edge" and "bins" not in t
+        assert e == t and SHIPPED[edge].tuned and not SHIPPED[edge].paper

@@ -118,7 +118,8 @@ def add_parser(sub):
                         f"2 to {MAX_LEVELS} (default 3: the paper's -tau_max, 0, tau_max)")
     p.add_argument("--bins", default=None, metavar="LAYOUT",
                    help=f"bin layout of the angles and speeds: {', '.join(BIN_LAYOUTS)} "
-                        f"(default paper; goal: concentrated around the goal band)")
+                        f"(default paper; goal: concentrated around the goal band; edge: "
+                        f"no centre on the band's edge, 4 and 9 deg around it)")
     p.add_argument("--speed-dead-zone", default=None, metavar="W",
                    help=f"read every speed through a dead zone of W rad/s, 0 <= W <= "
                         f"{GOAL_SPEED} (twolink.policy.readout; default 0: none), recorded "

@@ -187,17 +187,22 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
 
 
 def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
-                   refine: int = 1, compiled: bool = False, levels: int = 3,
-                   bins: str = "paper") -> Problem:
+                   refine: int = 1, axes: Optional[tuple] = None, compiled: bool = False,
+                   levels: int = 3, bins: str = "paper") -> Problem:
     """Agent 2's MDP over (theta2, dtheta2), u = tau2.
 
     Under (11) link 2 does not depend on link 1. Under the full model agent 2 cannot see
-    link 1 and assumes it at rest (theta1 = dtheta1 = 0, tau1 = 0).
+    link 1 and assumes it at rest (theta1 = dtheta1 = 0, tau1 = 0). ``axes`` replaces
+    the (theta2, dtheta2) axes of the layout ``bins`` (each refined ``refine`` times).
     """
+    if axes is None:
+        axes = (fuzzy.angle_axis("theta2", bins), fuzzy.speed_axis("dtheta2", bins))
+    if tuple(a.name for a in axes) != ("theta2", "dtheta2"):
+        raise ValueError(f"agent 2's state axes must be theta2, dtheta2, got "
+                         f"{', '.join(a.name for a in axes)}")
     start = time.perf_counter()
     dynamics_of(model)
-    grid = _grid(fuzzy.angle_axis("theta2", bins), fuzzy.speed_axis("dtheta2", bins),
-                 refine=refine)
+    grid = _grid(*axes, refine=refine)
     actions = action_levels(p.tau2_max, levels)[:, None]
     c = grid.centers()
     x = np.zeros((len(c), 4))

@@ -23,9 +23,20 @@ GOAL_ANGLE_BINS_DEG = (-180.0, -120.0, -70.0, -40.0, -20.0, -10.0, -5.0, -2.0, 0
                        2.0, 5.0, 10.0, 20.0, 40.0, 70.0, 120.0)
 GOAL_SPEED_BINS_DEG = (-360.0, -180.0, -90.0, -40.0, -15.0, -5.0, 0.0, 5.0, 15.0, 40.0,
                        90.0, 180.0, 360.0)
+#: Angle bins with no centre on the goal band's edge: the paper's centres halved once
+#: (:meth:`Axis.refined` (2)) with 2.5, 5 and 10 deg replaced by one centre inside the
+#: band (4 deg) and one outside it (9 deg); 22 centres, the speeds keep the paper's 7.
+#: A centre on the edge (the paper's +-5 deg) is inside the band, its greedy action at
+#: rest is zero torque, and (14) barely pushes a joint resting just outside the band:
+#: the arm parks there under torque loss and noise (``metrics.stalled_at_band_edge``).
+#: With 9 deg outside the band, a joint at 5.3 deg takes 26 % of that bin's push.
+EDGE_ANGLE_BINS_DEG = (-180.0, -155.0, -130.0, -105.0, -80.0, -55.0, -30.0, -22.5, -15.0,
+                       -9.0, -4.0, 0.0, 4.0, 9.0, 15.0, 22.5, 30.0, 55.0, 80.0, 105.0,
+                       130.0, 155.0)
 #: Named bin layouts: (angle centres, speed centres), degrees and degrees per second.
 BIN_LAYOUTS = {"paper": (ANGLE_BINS_DEG, SPEED_BINS_DEG),
-               "goal": (GOAL_ANGLE_BINS_DEG, GOAL_SPEED_BINS_DEG)}
+               "goal": (GOAL_ANGLE_BINS_DEG, GOAL_SPEED_BINS_DEG),
+               "edge": (EDGE_ANGLE_BINS_DEG, SPEED_BINS_DEG)}
 #: The two extra speed bins (deg/s, at -+ this value) that N-link agents add to some speed
 #: axes (:mod:`twolink.control.links_decentralized`; the paper's two-link agents do not use them).
 EXTRA_SPEED_DEG = 6.0

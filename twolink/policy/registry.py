@@ -72,7 +72,8 @@ TUNING_SEEDS = (9301, 9302)
 
 #: Every shipped policy, in report order: the paper's three, the two on (6), the two
 #: robust ones (worst case over K = 8 models within +-20 %, on (6)), the three-link
-#: agents, then the tuned designs (more torque levels, other bins, a read-out dead zone).
+#: agents, then the tuned designs (more torque levels, other bins, a read-out dead zone)
+#: and the same designs on the edge bins (:data:`twolink.fqi.fuzzy.EDGE_ANGLE_BINS_DEG`).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
                   "the centralized policy (16) on the simplified model (11)"),
@@ -111,6 +112,16 @@ SHIPPED = {p.name: p for p in (
                   "read through a 0.04 rad/s dead zone on the speeds and the argmax of Q "
                   "beyond 30 deg", robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED,
                   speed_dead_zone=0.04, argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("centralized_robust_edge", "centralized", "full", None, False,
+                  "centralized_robust_tuned's design on the edge bins (no bin centre on the "
+                  "goal band's edge: 4 and 9 deg around it, the paper's angle bins halved "
+                  "elsewhere)", robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED,
+                  bins="edge", speed_dead_zone=0.04, argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("decentralized_edge", "decentralized", "full", "propagated", False,
+                  "decentralized_tuned's design on the edge bins (no bin centre on the goal "
+                  "band's edge: 4 and 9 deg around it, the paper's angle bins halved "
+                  "elsewhere)", levels=7, bins="edge", speed_dead_zone=0.06,
+                  argmax_beyond_deg=30.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
