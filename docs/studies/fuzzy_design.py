@@ -106,6 +106,34 @@ def per_agent(angle2: int = 1, speed2: int = 1, refine1: int = 1, levels: int = 
     return Policy("decentralized", [a2, a1], meta)
 
 
+def agent2_worst_over_link1(tau1_fraction: float = 0.0, dtheta1: float = 0.0,
+                            levels: int = 7) -> Policy:
+    """decentralized_edge's design with agent 2 the worst case over link 1's motion: three
+    transition models of agent 2 (link 1 starting at speed -``dtheta1``, 0, +``dtheta1``
+    rad/s under tau1 = -, 0, + ``tau1_fraction`` tau1_max, each pair once; model 0 the
+    paper's link 1 at rest without torque), solved by the robust Alg. 1
+    (:func:`twolink.control.problems.solve_robust`, ``mode="worst"``); agent 1 as in
+    ``decentralized_edge``."""
+    p, problems = TABLE_I, []
+    grid = fuzzy.Grid((fuzzy.angle_axis("theta2", "edge"), fuzzy.speed_axis("dtheta2", "edge")))
+    actions = action_levels(p.tau2_max, levels)[:, None]
+    c = grid.centers()
+    for sign in (0.0, -1.0, 1.0):
+        x = np.zeros((len(c), 4))
+        x[:, 1], x[:, 3], x[:, 2] = c[:, 0], c[:, 1], sign * dtheta1
+        tau = np.zeros((len(actions), 2))
+        tau[:, 1], tau[:, 0] = actions[:, 0], sign * tau1_fraction * p.tau1_max
+        nxt = P.model_step("full", p, x[:, None, :], tau[None], compiled=False)
+        problems.append(P.Problem("agent2", grid, actions, ("tau2",), nxt[..., [1, 3]],
+                                  agent_reward(nxt, 2)))
+    a2 = P.solve_robust(problems, mode="worst")
+    a1 = P.solve(P.agent1_problem(a2, p, "full", "propagated", levels=levels, bins="edge"),
+                 extra={"context": "propagated"})
+    meta = {"model": "full", "parameters": p.as_dict(), "context": "propagated",
+            "readout": _dz(0.06, 30.0).as_dict()}
+    return Policy("decentralized", [a2, a1], meta)
+
+
 class DelayAware:
     """Agents whose state holds the torque they sent one sample before (the torque acting
     now under a one-sample actuation delay): agent 2 over (theta2, dtheta2, tau2_prev),
@@ -289,6 +317,10 @@ VARIANTS = {
     "argmax 30 deg":
         _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0,
                 robust=True),
+    "decentralized_edge, agent 2 the worst case over tau1 in +-10 % of its limit":
+        lambda: agent2_worst_over_link1(tau1_fraction=0.1),
+    "decentralized_edge, agent 2 the worst case over dtheta1 in +-0.05 rad/s":
+        lambda: agent2_worst_over_link1(dtheta1=0.05),
     "decentralized_robust, argmax beyond 30 deg": _policy("decentralized", argmax=30.0,
                                                           robust=True),
     "decentralized delay-aware, 3 levels": delay_aware,
