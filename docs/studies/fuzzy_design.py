@@ -10,14 +10,17 @@ figure uses (:data:`twolink.policy.registry.TUNING_SEEDS`):
   seed 9302 (its noise and faults too), plain and compensated.
 
 Each cell is k/n with the 95 % Wilson interval and the median settle time (failures
-never settle). The shipped designs ``centralized_tuned`` and ``decentralized_tuned`` were
-chosen from this table (so was ``centralized_robust_tuned``); the leaderboard (``twolink leaderboard``) reports them on the
-evaluation set and the leaderboard's own seed. Beside the levers the package offers
-(``levels``, ``bins``, ``refine``, ``readout``) two that it does not ship are measured here as
-study-only controllers: the expectation over the reading noise inside the transition model
+never settle). The shipped designs ``centralized_tuned``, ``decentralized_tuned``,
+``centralized_robust_tuned`` and the ``*_edge`` ones were chosen from this table; the
+leaderboard (``twolink leaderboard``) reports them on the evaluation set and the
+leaderboard's own seed. Beside the levers the package offers (``levels``, ``bins``,
+``refine``, ``readout``) others that it does not ship are measured here as study-only
+controllers: the expectation over the reading noise inside the transition model
 (:func:`noise_expectation`), agents that know their torque is one sample late
-(:func:`delay_aware`), a hold region that zeroes a joint's torque near the goal
-(:class:`Hold`) and a one-step look-ahead on the model far from the goal
+(:func:`delay_aware`), per-agent grids (:func:`per_agent`), agent 2 as the worst case
+over link 1's motion (:func:`agent2_worst_over_link1`), a hold region that zeroes a
+joint's torque near the goal (:class:`Hold`), the same with hysteresis
+(:class:`Hysteresis`) and a one-step look-ahead on the model far from the goal
 (:class:`LookAhead`). About 15 minutes on two cores; ``--merge --only LABEL ...``
 measures some variants again and puts them into an existing ``--json`` table.
 """
@@ -243,6 +246,33 @@ class Hold:
         return np.where(inside, 0.0, self.policy(x))
 
 
+class Hysteresis:
+    """``policy`` with a hold region that has hysteresis: joint i holds (torque 0) from
+    the sample its link reads within ``angle_in`` degrees and ``speed_in`` rad/s of the
+    goal until it reads beyond ``angle_out`` degrees or ``speed_out`` rad/s. A controller
+    with state: ``reset(n)`` releases every joint."""
+
+    def __init__(self, policy: Policy, angle_in: float, speed_in: float, angle_out: float,
+                 speed_out: float):
+        self.policy, self.held = policy, None
+        self.inner = (np.deg2rad(angle_in), speed_in)
+        self.outer = (np.deg2rad(angle_out), speed_out)
+        self.name, self.meta = "hysteresis", dict(policy.meta)
+
+    def reset(self, n: int) -> None:
+        self.held = np.zeros((n, 2), dtype=bool)
+
+    def __call__(self, x):
+        x = np.asarray(x, dtype=float)
+        if self.held is None or len(self.held) != len(x):
+            self.reset(len(x))
+        theta, speed = np.abs(np.mod(x[:, :2] + np.pi, 2 * np.pi) - np.pi), np.abs(x[:, 2:])
+        inside = (theta <= self.inner[0]) & (speed <= self.inner[1])
+        beyond = (theta > self.outer[0]) | (speed > self.outer[1])
+        self.held = (self.held | inside) & ~beyond
+        return np.where(self.held, 0.0, self.policy(x))
+
+
 #: label -> a function building the controller.
 VARIANTS = {
     "centralized_full (paper design on (6))": _policy("centralized"),
@@ -332,6 +362,9 @@ VARIANTS = {
     "decentralized_tuned with a hold region (3 deg, 0.06 rad/s)":
         lambda: Hold(_policy("decentralized", 7, context="propagated", dead_zone=0.06,
                              argmax=30.0)(), 3.0, 0.06),
+    "decentralized_edge with a hysteresis hold (in 4 deg, 0.05 rad/s; out 7 deg, 0.15 rad/s)":
+        lambda: Hysteresis(_policy("decentralized", 7, "edge", context="propagated",
+                                   dead_zone=0.06, argmax=30.0)(), 4.0, 0.05, 7.0, 0.15),
     "centralized_tuned with a one-step look-ahead on (6) beyond 15 deg":
         lambda: LookAhead(_policy("centralized", 5, "goal", dead_zone=0.08, argmax=30.0)(), 15.0),
 }
