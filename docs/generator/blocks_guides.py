@@ -37,6 +37,8 @@ def policies_table(link_prefix: str = "") -> str:
             how.append(f"{p.levels} torque levels")
         if p.bins != "paper":
             how.append(f"{p.bins} bins")
+        if p.agent2_link1 != "free":
+            how.append(f"agent 2 reads link 1 {p.agent2_link1}")
         if p.speed_dead_zone:
             how.append(f"speed dead zone {p.speed_dead_zone:g} rad/s")
         if p.argmax_beyond_deg is not None:

@@ -112,7 +112,8 @@ def test_a_dead_zone_wider_than_the_band_is_refused(bad, match):
 
 
 def test_design_options_are_two_link_only():
-    with pytest.raises(ValueError, match="levels, bins and readout are two-link options"):
+    with pytest.raises(ValueError,
+                       match="levels, bins, readout and agent2_link1 are two-link options"):
         synthesize("decentralized", links=3, levels=5)
     with pytest.raises(TypeError, match="readout must be a twolink.policy.readout.Readout"):
         synthesize("decentralized", readout={"speed_dead_zone": 0.1})
@@ -127,6 +128,12 @@ def test_design_options_are_two_link_only():
     (["decentralized", "--links", "3", "--levels", "5"], "--levels: two-link options"),
     (["--ship", "centralized_tuned", "--levels", "5"], "--ship takes everything"),
     (["centralized", "--argmax-beyond", "200"], r"--argmax-beyond must lie in \[10, 180\]"),
+    (["centralized", "--model", "full", "--agent2-link1", "locked"],
+     "agent2_link1 is how the decentralized agent 2 reads link 1"),
+    (["decentralized", "--agent2-link1", "locked"], r"under \(11\) link 2 does not depend"),
+    (["decentralized", "--links", "3", "--agent2-link1", "locked"],
+     "--agent2-link1: two-link options"),
+    (["--ship", "decentralized_edge", "--agent2-link1", "locked"], "--ship takes everything"),
 ])
 def test_bad_design_options_are_one_line_exit_2_and_nothing_written(tmp_path, capsys, argv,
                                                                       match):
@@ -153,3 +160,39 @@ def test_the_edge_designs_are_the_tuned_designs_on_the_edge_bins():
         e, t = SHIPPED[edge].synthesis_options(), SHIPPED[tuned].synthesis_options()
         assert e.pop("bins") == "edge" and "bins" not in t
         assert e == t and SHIPPED[edge].tuned and not SHIPPED[edge].paper
+
+
+def test_agent2_holding_joint1_sees_link2_swing_alone():
+    from twolink.control.problems import agent2_problem, check_link1
+
+    free = agent2_problem(TABLE_I, "full", levels=3)
+    held = agent2_problem(TABLE_I, "full", levels=3, link1="locked")
+    assert held.next_points.shape == free.next_points.shape == (84, 3, 2)
+    # joint 1 held: dtheta2' = -b2/P2 dtheta2 + tau2/P2, solved exactly over Ts
+    p, c = TABLE_I, held.grid.centers()
+    rows = np.abs(c[:, 1]) < 1.0                     # no speed clamp
+    w0, tau = c[rows, 1][:, None], held.actions[None, :, 0]
+    k = p.b2 / p.P2
+    exact = tau / p.b2 + (w0 - tau / p.b2) * np.exp(-k * 0.05)
+    assert np.allclose(held.next_points[rows][..., 1], exact, atol=1e-8)
+    # free, link 1 recoils and link 2 turns further under the same torque
+    moved = np.abs(free.next_points[..., 1] - held.next_points[..., 1])
+    assert moved.max() > 0.05
+    with pytest.raises(ValueError, match="unknown reading of link 1 by agent 2 'rigid'; "
+                                         "choose one of free, locked"):
+        check_link1("rigid")
+    with pytest.raises(ValueError, match=r"under \(11\) link 2 does not depend on link 1"):
+        agent2_problem(TABLE_I, "simplified", link1="locked")
+
+
+def test_a_locked_design_records_its_reading_and_the_registry_rebuilds_it(tmp_path):
+    e = SHIPPED["decentralized_edge_locked"]
+    opts = e.synthesis_options()
+    assert opts["agent2_link1"] == "locked" and opts["bins"] == "edge"
+    assert main(["synthesize", "decentralized", "--model", "full", "--context", "propagated",
+                 "--agent2-link1", "locked", "-o", str(tmp_path / "p.npz")]) == 0
+    policy = Policy.load(tmp_path / "p.npz")
+    assert policy.meta["agent2_link1"] == "locked"
+    paper = synthesize("decentralized", model="full", context="propagated")
+    assert "agent2_link1" not in paper.meta
+    assert not np.array_equal(policy.agents[0].q, paper.agents[0].q)

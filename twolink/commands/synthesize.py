@@ -31,6 +31,7 @@ from twolink.commands._options import add_arm_options, arm_of
 from twolink.control.problems import (
     CONTEXTS,
     IDENTIFIED_MODELS,
+    LINK1_READINGS,
     KINDS,
     SWEEPS,
     SYNTHESIS_MODELS,
@@ -59,9 +60,9 @@ DEFAULT_SEED = 0
 def default_file_name(kind: str, model: str = "simplified", context: str = "frozen",
                       sweeps: str = "synchronous", refine: int = 1,
                       robust: str | None = None, levels: int = PAPER_LEVELS,
-                      bins: str = "paper") -> str:
+                      bins: str = "paper", agent2_link1: str = "free") -> str:
     """``<kind>[_<model>][_<context>][_<sweeps>][_refine<K>][_<L>levels][_<bins>bins]
-    [_robust|_mean].npz``, each part
+    [_locked][_robust|_mean].npz``, each part
     only when not the default (so the five shipped nominal combinations get their registry
     names)."""
     name = kind + ("" if model == "simplified" else f"_{model}")
@@ -75,6 +76,8 @@ def default_file_name(kind: str, model: str = "simplified", context: str = "froz
         name += f"_{levels}levels"
     if bins != "paper":
         name += f"_{bins}bins"
+    if agent2_link1 != "free":
+        name += f"_{agent2_link1}"
     if robust is not None:
         name += "_robust" if robust == "worst" else f"_{robust}"
     return f"{name}.npz"
@@ -129,6 +132,11 @@ def add_parser(sub):
                         f"to 180), act by the argmax of the interpolated Q instead of (14)'s "
                         f"weighted greedy actions (twolink.policy.readout; default: (14) "
                         f"everywhere), recorded in the file")
+    p.add_argument("--agent2-link1", choices=LINK1_READINGS, default=None,
+                   help="how agent 2's transitions read link 1 (decentralized, full model "
+                        "only): free (the paper's: link 1 at rest, recoiling under link "
+                        "2's reaction; the default) or locked (joint 1 held), recorded in "
+                        "the file")
     p.add_argument("--robust", choices=ROBUST_MODES, default=None,
                    help="robust synthesis over --draws models: worst (Q = min over the "
                         "models of rho_k + gamma T_k V) or mean (their average)")
@@ -242,6 +250,8 @@ def _design_options(args) -> dict:
                              f"got {args.argmax_beyond}")
     if width or beyond is not None:
         opts["readout"] = Readout(speed_dead_zone=width, argmax_beyond_deg=beyond)
+    if args.agent2_link1 is not None:
+        opts["agent2_link1"] = args.agent2_link1
     return opts
 
 
@@ -296,12 +306,12 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
                 or args.seed is not None or args.params is not None or links != 2 \
                 or args.rule != "tapered" or args.levels is not None \
                 or args.bins is not None or args.speed_dead_zone is not None \
-                or args.argmax_beyond is not None:
+                or args.argmax_beyond is not None or args.agent2_link1 is not None:
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
                              "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
-                             "--levels, --bins, --speed-dead-zone, --argmax-beyond, -o or "
-                             "--force with it")
+                             "--levels, --bins, --speed-dead-zone, --argmax-beyond, "
+                             "--agent2-link1, -o or --force with it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
@@ -313,7 +323,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     if links != 2:
         given = [o for o, v in (("--levels", args.levels), ("--bins", args.bins),
                                 ("--speed-dead-zone", args.speed_dead_zone),
-                                ("--argmax-beyond", args.argmax_beyond)) if v is not None]
+                                ("--argmax-beyond", args.argmax_beyond),
+                                ("--agent2-link1", args.agent2_link1)) if v is not None]
         if given:
             raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "
                              f"the paper's levels and bins")
@@ -332,7 +343,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         check_robust_size(args.kind, refine, robust["draws"], levels, bins)
     p, source = _parameters(args)
     out, folders = output_file(args.output, default_file_name(
-        args.kind, model, context, sweeps, refine, robust.get("robust"), levels, bins))
+        args.kind, model, context, sweeps, refine, robust.get("robust"), levels, bins,
+        design.get("agent2_link1", "free")))
     check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")

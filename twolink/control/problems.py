@@ -72,6 +72,11 @@ MAX_ROBUST_BYTES = 2 * 2**30
 #: actions inner, as the ``'serial'`` option of Busoniu's ApproxRL ``fuzzyqi.m``).
 SWEEPS = ("synchronous", "serial")
 CONTEXTS = ("frozen", "propagated")
+#: How agent 2's transitions read link 1 (:func:`agent2_problem`): ``free`` - link 1
+#: starts at rest and moves freely under link 2's reaction (the paper's reading, exact
+#: under (11), where link 2 does not depend on link 1); ``locked`` - joint 1 is held, so
+#: link 2 swings alone about a fixed joint (the full model (6) only).
+LINK1_READINGS = ("free", "locked")
 KINDS = ("centralized", "decentralized")
 #: How T is stored for the sweeps: ``fixed`` (:func:`twolink.fqi.iteration.transition_table`, every
 #: row's memberships; the agents and serial sweeps) or ``factored``
@@ -186,15 +191,37 @@ def centralized_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *
                    centralized_reward(nxt), time.perf_counter() - start)
 
 
+def check_link1(link1: str, model: str = "full") -> str:
+    """``link1`` if it names a reading of :data:`LINK1_READINGS` that ``model`` allows,
+    else a ValueError naming the readings."""
+    if link1 not in LINK1_READINGS:
+        raise ValueError(f"unknown reading of link 1 by agent 2 {link1!r}; choose one of "
+                         f"{', '.join(LINK1_READINGS)}")
+    if link1 == "locked" and dynamics_of(model) != "full":
+        raise ValueError("agent 2 holding joint 1 (locked) is a reading of the full model "
+                         "(6); under (11) link 2 does not depend on link 1")
+    return link1
+
+
+def _joint1_locked(p: ArmParameters, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """ddtheta of (6) with joint 1 held: 0 for joint 1, link 2 alone about a fixed joint."""
+    return dynamics.chain_acceleration(p, x, tau, locked=(True, False))
+
+
 def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
                    refine: int = 1, axes: Optional[tuple] = None, compiled: bool = False,
-                   levels: int = 3, bins: str = "paper") -> Problem:
+                   levels: int = 3, bins: str = "paper", link1: str = "free") -> Problem:
     """Agent 2's MDP over (theta2, dtheta2), u = tau2.
 
     Under (11) link 2 does not depend on link 1. Under the full model agent 2 cannot see
-    link 1 and assumes it at rest (theta1 = dtheta1 = 0, tau1 = 0). ``axes`` replaces
-    the (theta2, dtheta2) axes of the layout ``bins`` (each refined ``refine`` times).
+    link 1: ``link1="free"`` assumes it at rest and free (theta1 = dtheta1 = 0, tau1 = 0,
+    link 1 recoiling under link 2's reaction), ``"locked"`` holds joint 1 fixed, as
+    agent 1's torque opposes that recoil (:data:`LINK1_READINGS`; the transitions then
+    come from the numpy RK4 of :func:`twolink.arm.dynamics.chain_acceleration` whatever
+    ``compiled`` says). ``axes`` replaces the (theta2, dtheta2) axes of the layout
+    ``bins`` (each refined ``refine`` times).
     """
+    check_link1(link1, model)
     if axes is None:
         axes = (fuzzy.angle_axis("theta2", bins), fuzzy.speed_axis("dtheta2", bins))
     if tuple(a.name for a in axes) != ("theta2", "dtheta2"):
@@ -209,7 +236,10 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
     x[:, 1], x[:, 3] = c[:, 0], c[:, 1]
     tau = np.zeros((len(actions), 2))
     tau[:, 1] = actions[:, 0]
-    nxt = model_step(model, p, x[:, None, :], tau[None, :, :], compiled=compiled)
+    if link1 == "locked":
+        nxt = sample_step(_joint1_locked, p, x[:, None, :], tau[None, :, :])
+    else:
+        nxt = model_step(model, p, x[:, None, :], tau[None, :, :], compiled=compiled)
     return Problem("agent2", grid, actions, ("tau2",), nxt[..., [1, 3]],
                    agent_reward(nxt, 2), time.perf_counter() - start)
 

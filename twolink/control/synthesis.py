@@ -55,6 +55,7 @@ from twolink.control.problems import (
     centralized_problem,
     check_refine,
     check_robust,
+    check_link1,
     check_robust_size,
     check_size,
     check_sweeps,
@@ -82,7 +83,7 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
                seed: int = 0, source: Optional[dict] = None,
                progress: bool = False, links: int = 2, rule: str = "tapered",
                levels: int = PAPER_LEVELS, bins: str = "paper",
-               readout: Optional[Readout] = None) -> Policy:
+               readout: Optional[Readout] = None, agent2_link1: str = "free") -> Policy:
     """The centralized policy (16) or the decentralized pair (18), synthesised on ``model``
     with ``sweeps`` of Alg. 1 (:data:`SWEEPS`) over the paper's bins, each subdivided
     ``refine`` times (:meth:`fuzzy.Axis.refined`; 1: the paper's grid). Both are recorded
@@ -99,7 +100,9 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     paper's 3), the bin layout ``bins`` (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`; the
     paper's "paper") and the ``readout`` of the readings
     (:class:`twolink.policy.readout.Readout`; none) are recorded in ``meta`` when they are
-    not the paper's.
+    not the paper's, as is ``agent2_link1``, how agent 2's transitions read link 1
+    (:data:`twolink.control.problems.LINK1_READINGS`: ``free``, the paper's, or
+    ``locked``, joint 1 held; decentralized on the full model only).
 
     ``links`` > 2: the decentralized agents of the arm ``parameters.chain(links, rule,
     base=p)`` on its full model (:func:`twolink.control.links_decentralized.synthesize_chain`; ``context``
@@ -116,10 +119,15 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
         design["bins"] = bins
     if readout is not None and readout.active:
         design["readout"] = readout.as_dict()
+    if agent2_link1 != "free":
+        if kind != "decentralized":
+            raise ValueError(f"agent2_link1 is how the decentralized agent 2 reads link 1; "
+                             f"the {kind} policy takes none")
+        design["agent2_link1"] = check_link1(agent2_link1)
     if check_links(links) > 2:
         if design:
-            raise ValueError(f"levels, bins and readout are two-link options; a {links}-link "
-                             f"arm takes none of them")
+            raise ValueError(f"levels, bins, readout and agent2_link1 are two-link options; "
+                             f"a {links}-link arm takes none of them")
         return _synthesize_links(kind, p, model, context, gamma, delta, sweeps, refine,
                                  (robust, draws, spread, seed), source, progress, links, rule)
     model = "simplified" if model is None else model
@@ -132,6 +140,7 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     if kind == "decentralized" and context not in CONTEXTS:
         raise ValueError(f"unknown agent-1 context {context!r}; choose one of "
                          f"{', '.join(CONTEXTS)}")
+    check_link1(agent2_link1, model)
     if dynamics_of(model) == "full":
         check_sampling(p)
     more = {"sweeps": sweeps, "refine": refine, **design}
@@ -145,7 +154,7 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
             raise ValueError("draws, spread and seed apply to a robust synthesis only: "
                              "give robust='worst' or 'mean'")
         return _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine,
-                                   progress, more, levels, bins)
+                                   progress, more, levels, bins, agent2_link1)
     robust, draws, spread, seed = check_robust(robust, draws, spread, seed)
     if sweeps != "synchronous":
         raise ValueError("robust synthesis runs synchronous sweeps only")
@@ -161,21 +170,22 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
         agent = solve_robust([centralized_problem(m, **build) for m in models], **opts,
                              layout="factored")
         return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
-    a2 = solve_robust([agent2_problem(m, **build) for m in models], **opts)
+    a2 = solve_robust([agent2_problem(m, **build, link1=agent2_link1) for m in models],
+                      **opts)
     a1 = solve_robust([agent1_problem(a2, m, context=context, **build) for m in models],
                       **opts, extra={"context": context})
     return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))
 
 
 def _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine, progress,
-                        more, levels, bins) -> Policy:
+                        more, levels, bins, link1) -> Policy:
     opts = {"gamma": gamma, "delta": delta, "sweeps": sweeps, "progress": progress}
     design = {"refine": refine, "levels": levels, "bins": bins}
     if kind == "centralized":
         agent = solve(centralized_problem(p, model, compiled=True, **design), **opts,
                       layout="factored")
         return Policy(kind, [agent], _meta(p, model, gamma, delta, **more))
-    a2 = solve(agent2_problem(p, model, **design), **opts)
+    a2 = solve(agent2_problem(p, model, **design, link1=link1), **opts)
     a1 = solve(agent1_problem(a2, p, model, context, **design), **opts,
                extra={"context": context})
     return Policy(kind, [a2, a1], _meta(p, model, gamma, delta, context=context, **more))

@@ -34,6 +34,7 @@ class ShippedPolicy:
     bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)
     speed_dead_zone: float = 0.0    # read-out dead zone on the speeds, rad/s (policy.readout)
     argmax_beyond_deg: Optional[float] = None  # read-out: argmax of Q beyond this angle
+    agent2_link1: str = "free"      # agent 2's reading of link 1 (control.problems.LINK1_READINGS)
     tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
     @property
@@ -55,6 +56,8 @@ class ShippedPolicy:
             opts["levels"] = self.levels
         if self.bins != "paper":
             opts["bins"] = self.bins
+        if self.agent2_link1 != "free":
+            opts["agent2_link1"] = self.agent2_link1
         if self.speed_dead_zone or self.argmax_beyond_deg is not None:
             from twolink.policy.readout import Readout
             opts["readout"] = Readout(speed_dead_zone=self.speed_dead_zone,
@@ -122,6 +125,12 @@ SHIPPED = {p.name: p for p in (
                   "band's edge: 4 and 9 deg around it, the paper's angle bins halved "
                   "elsewhere)", levels=7, bins="edge", speed_dead_zone=0.06,
                   argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("decentralized_edge_locked", "decentralized", "full", "propagated", False,
+                  "the decentralized agents (18) on (6) with 7 torque levels per joint on "
+                  "the edge bins, agent 2's transitions holding joint 1 fixed, propagated "
+                  "context, a 0.02 rad/s dead zone on the speed readings and the argmax of "
+                  "Q beyond 30 deg", levels=7, bins="edge", agent2_link1="locked",
+                  speed_dead_zone=0.02, argmax_beyond_deg=30.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
