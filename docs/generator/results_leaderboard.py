@@ -115,15 +115,25 @@ def fuzzy_designs_page(report: dict) -> str:
                    "renders/fuzzy_design/design.json`: every lever on the tuning seeds "
                    f"{design['seeds']} ({design['poses']} poses at rest nominal; 32 of them "
                    "on 8 plants under medium and hard), k/n [95 % interval] and the median "
-                   "settle time.\n\n")
+                   "settle time; settle / T\\*: median and worst over the 64 states of a "
+                   "tuning grid at rest (`ratio_grid` of the study: the evaluation set's "
+                   "8 x 8 grid at other angles, T\\* in "
+                   "`renders/fuzzy_design/tuning_limits.json`), '-' where not measured.\n\n")
         cols = ("none", "medium", "medium compensated", "hard", "hard compensated")
 
         def fmt(c):
             lo, hi = wilson_interval(c["successes"], c["n"])
             settle = "never" if c["median_settle"] is None else f"{c['median_settle']:.2f} s"
             return f"{c['successes']}/{c['n']} [{100 * lo:.0f}, {100 * hi:.0f}], {settle}"
-        out.append(_table(("variant", *cols, "synthesis"),
+        def ratio(c):
+            if c is None:
+                return "-"
+            med, worst = (("never" if v is None else f"{v:.2f}")
+                          for v in (c["median"], c["worst"]))
+            return f"{med}, {worst} ({c['successes']}/{c['n']})"
+        out.append(_table(("variant", *cols, "settle / T\\*", "synthesis"),
                           [(_cell(r["variant"]), *[fmt(r[c]) for c in cols],
-                            f"{r['synthesis_seconds']:.1f} s") for r in design["rows"]]))
+                            ratio(r.get("ratio")), f"{r['synthesis_seconds']:.1f} s")
+                           for r in design["rows"]]))
         out.append("\n")
     return "".join(out)

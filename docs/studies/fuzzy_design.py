@@ -10,7 +10,9 @@ figure uses (:data:`twolink.policy.registry.TUNING_SEEDS`):
   seed 9302 (its noise and faults too), plain and compensated.
 
 Each cell is k/n with the 95 % Wilson interval and the median settle time (failures
-never settle). The shipped designs ``centralized_tuned``, ``decentralized_tuned``,
+never settle). The settle / T* column runs every variant nominally from the 64 states of a
+tuning grid (:func:`ratio_grid`, built as the evaluation set's grid at other angles): the
+median and worst settle time over the time-optimal limit T* of each state. The shipped designs ``centralized_tuned``, ``decentralized_tuned``,
 ``centralized_robust_tuned`` and the ``*_edge`` ones were chosen from this table; the
 leaderboard (``twolink leaderboard``) reports them on the evaluation set and the
 leaderboard's own seed. Beside the levers the package offers (``levels``, ``bins``,
@@ -53,6 +55,12 @@ POSES = random_poses(2, 48, seed=POSE_SEED)
 CHALLENGE_POSES, CHALLENGE_PLANTS = 32, 8
 #: Seed of the noise offsets of :func:`noise_expectation`.
 NOISE_SEED = 9303
+#: Angles (deg) of the tuning grid of the settle / T* column (:func:`ratio_grid`).
+RATIO_ANGLES_DEG = (-160.0, -100.0, -55.0, -12.0, 12.0, 55.0, 100.0, 160.0)
+#: T* of that grid: ``twolink limits --model full --degrees --x0 A B 0 0 ... --write``
+#: over the 64 pairs, in the order of :func:`ratio_grid`.
+RATIO_LIMITS = Path(__file__).resolve().parents[2] / "renders" / "fuzzy_design" \
+    / "tuning_limits.json"
 
 
 def _dz(width: float, argmax=None):
@@ -61,11 +69,29 @@ def _dz(width: float, argmax=None):
 
 
 def _policy(kind, levels=3, bins="paper", context=None, dead_zone=0.0, argmax=None,
-            robust=False, refine=1):
+            robust=False, refine=1, link1="free"):
     worst = {"robust": "worst", "draws": 8, "spread": 0.2, "seed": ROBUST_SEED} if robust \
         else {}
     return lambda: synthesize(kind, model="full", levels=levels, bins=bins, context=context,
-                              refine=refine, readout=_dz(dead_zone, argmax), **worst)
+                              refine=refine, readout=_dz(dead_zone, argmax),
+                              agent2_link1=link1, **worst)
+
+
+def ratio_grid() -> tuple:
+    """The states of the settle / T* column and their T* (s): the 8 x 8 angle pairs of
+    :data:`RATIO_ANGLES_DEG` at rest, as the evaluation set's grid is made but at other
+    angles, with T* of the full model (6) from :data:`RATIO_LIMITS` (``upper`` x Ts;
+    inf where the limit found none)."""
+    from twolink.control.time_optimal.table import tables_from_json
+
+    table = tables_from_json(RATIO_LIMITS.read_text())["full"]
+    a = np.deg2rad(RATIO_ANGLES_DEG)
+    t1, t2 = np.meshgrid(a, a, indexing="ij")
+    want = np.stack([t1.ravel(), t2.ravel(), 0 * t1.ravel(), 0 * t1.ravel()], -1)
+    if not np.allclose(table.states, want):
+        raise ValueError(f"{RATIO_LIMITS} does not hold the tuning grid of RATIO_ANGLES_DEG")
+    seconds = np.array([np.inf if r.upper is None else r.seconds for r in table.rows])
+    return want, seconds
 
 
 def noise_expectation(levels=5, bins="goal", draws=8, angle_deg=1.0, speed=0.02,
@@ -347,6 +373,18 @@ VARIANTS = {
     "argmax 30 deg":
         _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0,
                 robust=True),
+    "decentralized 7 levels, propagated, edge bins, agent 2 holds joint 1, dead zone 0.02, "
+    "argmax 30 deg (decentralized_edge_locked)":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.02, argmax=30.0,
+                link1="locked"),
+    "decentralized 7 levels, propagated, edge bins, agent 2 holds joint 1, dead zone 0.06, "
+    "argmax 30 deg":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0,
+                link1="locked"),
+    "decentralized 7 levels, propagated, paper bins, agent 2 holds joint 1, dead zone 0.02, "
+    "argmax 30 deg":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.02, argmax=30.0,
+                link1="locked"),
     "decentralized_edge, agent 2 the worst case over tau1 in +-10 % of its limit":
         lambda: agent2_worst_over_link1(tau1_fraction=0.1),
     "decentralized_edge, agent 2 the worst case over dtheta1 in +-0.05 rad/s":
@@ -381,6 +419,13 @@ def measure(label: str) -> dict:
     controller = VARIANTS[label]()
     row = {"variant": label, "synthesis_seconds": time.perf_counter() - t0}
     row["none"] = _cell(evaluate(controller, x0=POSES))
+    states, limit = ratio_grid()
+    grid = evaluate(controller, x0=states)
+    ratio = grid.settle.ravel() / limit
+    row["ratio"] = {"successes": int(grid.success.sum()), "n": int(grid.success.size),
+                    "median": float(np.median(ratio)) if np.isfinite(np.median(ratio))
+                    else None,
+                    "worst": float(np.max(ratio)) if np.isfinite(np.max(ratio)) else None}
     for level in ("medium", "hard"):
         for compensate in (False, True):
             e = evaluate(controller, x0=POSES[:CHALLENGE_POSES], challenge=level,
@@ -392,14 +437,25 @@ def measure(label: str) -> dict:
 COLUMNS = ("none", "medium", "medium compensated", "hard", "hard compensated")
 
 
+def ratio_text(cell) -> str:
+    """The settle / T* cell: median and worst over the tuning grid, or '-' (a row measured
+    before the column existed)."""
+    if cell is None:
+        return "-"
+    med = "never" if cell["median"] is None else f"{cell['median']:.2f}"
+    worst = "never" if cell["worst"] is None else f"{cell['worst']:.2f}"
+    return f"{med}, {worst} ({cell['successes']}/{cell['n']})"
+
+
 def markdown(rows: list) -> str:
     def fmt(c):
         lo, hi = wilson_interval(c["successes"], c["n"])
         settle = "never" if c["median_settle"] is None else f"{c['median_settle']:.2f} s"
         return f"{c['successes']}/{c['n']} [{100 * lo:.0f}, {100 * hi:.0f}] {settle}"
-    lines = ["| variant | " + " | ".join(COLUMNS) + " |", "|---" * (len(COLUMNS) + 1) + "|"]
-    lines += [f"| {r['variant']} | " + " | ".join(fmt(r[c]) for c in COLUMNS) + " |"
-              for r in rows]
+    lines = ["| variant | " + " | ".join(COLUMNS) + " | settle / T* |",
+             "|---" * (len(COLUMNS) + 2) + "|"]
+    lines += [f"| {r['variant']} | " + " | ".join(fmt(r[c]) for c in COLUMNS)
+              + f" | {ratio_text(r.get('ratio'))} |" for r in rows]
     return "\n".join(lines)
 
 
