@@ -315,6 +315,13 @@ VARIANTS = {
                                                                dead_zone=0.08),
     "centralized 7 levels, goal bins, dead zone 0.08, argmax beyond 30 deg":
         _policy("centralized", 7, "goal", dead_zone=0.08, argmax=30.0),
+    "centralized 7 levels, goal bins, dead zone 0.04, argmax beyond 30 deg":
+        _policy("centralized", 7, "goal", dead_zone=0.04, argmax=30.0),
+    "centralized 9 levels, goal bins, dead zone 0.04, argmax beyond 30 deg":
+        _policy("centralized", 9, "goal", dead_zone=0.04, argmax=30.0),
+    "centralized 9 levels, goal bins, dead zone 0.04, argmax beyond 45 deg "
+    "(centralized_9levels)":
+        _policy("centralized", 9, "goal", dead_zone=0.04, argmax=45.0),
     "centralized 5 levels, goal bins, noise expectation": noise_expectation,
     "centralized_robust (worst of 8 models within +-20 %)": _policy("centralized", robust=True),
     "centralized_robust, argmax beyond 30 deg": _policy("centralized", argmax=30.0, robust=True),

@@ -152,6 +152,9 @@ def test_the_tuned_designs_are_registered_with_their_options():
                                                        argmax_beyond_deg=30.0)
     assert d.synthesis_options()["levels"] == 7 and d.context == "propagated"
     assert not c.paper and not d.paper and c.tuned and d.tuned
+    nine = SHIPPED["centralized_9levels"].synthesis_options()
+    assert (nine["levels"], nine["bins"], nine["readout"]) == (
+        9, "goal", Readout(speed_dead_zone=0.04, argmax_beyond_deg=45.0))
 
 
 def test_the_edge_designs_are_the_tuned_designs_on_the_edge_bins():

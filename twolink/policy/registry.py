@@ -125,6 +125,11 @@ SHIPPED = {p.name: p for p in (
                   "band's edge: 4 and 9 deg around it, the paper's angle bins halved "
                   "elsewhere)", levels=7, bins="edge", speed_dead_zone=0.06,
                   argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("centralized_9levels", "centralized", "full", None, False,
+                  "the centralized policy (16) on (6) with 9 torque levels per joint, bins "
+                  "concentrated at the goal band, a 0.04 rad/s dead zone on the speed "
+                  "readings and the argmax of Q beyond 45 deg", levels=9, bins="goal",
+                  speed_dead_zone=0.04, argmax_beyond_deg=45.0, tuned=True),
     ShippedPolicy("decentralized_edge_locked", "decentralized", "full", "propagated", False,
                   "the decentralized agents (18) on (6) with 7 torque levels per joint on "
                   "the edge bins, agent 2's transitions holding joint 1 fixed, propagated "
