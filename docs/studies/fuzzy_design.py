@@ -388,6 +388,10 @@ VARIANTS = {
     "argmax 30 deg":
         _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06, argmax=30.0,
                 link1="locked"),
+    "decentralized 7 levels, propagated, agent 2 holds joint 1, dead zone 0.1, argmax 30 deg "
+    "(decentralized_locked)":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0,
+                link1="locked"),
     "decentralized 7 levels, propagated, paper bins, agent 2 holds joint 1, dead zone 0.02, "
     "argmax 30 deg":
         _policy("decentralized", 7, context="propagated", dead_zone=0.02, argmax=30.0,

@@ -136,6 +136,11 @@ SHIPPED = {p.name: p for p in (
                   "context, a 0.02 rad/s dead zone on the speed readings and the argmax of "
                   "Q beyond 30 deg", levels=7, bins="edge", agent2_link1="locked",
                   speed_dead_zone=0.02, argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("decentralized_locked", "decentralized", "full", "propagated", False,
+                  "decentralized_tuned's design with agent 2's transitions holding joint 1 "
+                  "fixed and a 0.1 rad/s dead zone on the speed readings",
+                  levels=7, agent2_link1="locked", speed_dead_zone=0.1,
+                  argmax_beyond_deg=30.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
