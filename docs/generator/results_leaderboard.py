@@ -45,9 +45,10 @@ def fuzzy_designs_page(report: dict) -> str:
     kinds = _kinds(dict.fromkeys(r["controller"] for r in report["rows"]))
     out = [_stamp("renders/leaderboard/leaderboard.json"),
            "# Fuzzy designs against the yardstick\n\n",
-           "The tuned fuzzy designs (`*_tuned`: more torque levels, other bins, a read-out "
-           "with a speed dead zone and the argmax of Q far from the goal; `*_edge`: the "
-           "same designs on bins with no centre on the goal band's edge; "
+           "The tuned fuzzy designs (`*_tuned` and `centralized_9levels`: more torque "
+           "levels, other bins, a read-out with a speed dead zone and the argmax of Q far "
+           "from the goal; `*_edge`: the same designs on bins with no centre on the goal "
+           "band's edge; `*_locked`: agent 2's transitions holding joint 1; "
            "[Synthesis](../guides/synthesis.md)) on the committed "
            f"leaderboard: {report['states']} evaluation states, {report['plants']} plants "
            f"per perturbed level, seed {report['seed']}, on MuJoCo. Their designs were "
