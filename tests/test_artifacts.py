@@ -203,10 +203,16 @@ def test_a_signal_wrapped_by_a_foreign_call_is_reported_as_the_signal(
         libc_abs(-3)
 
     monkeypatch.setattr("twolink.commands.limits.run", run)
-    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
-    assert cli.main(["limits"]) == code
+    # a shell's background job starts with SIGINT ignored, and the CLI keeps an ignored
+    # signal ignored: give this process Python's own SIGINT handler while the test runs
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+        assert cli.main(["limits"]) == code
+        assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+    finally:
+        signal.signal(signal.SIGINT, inherited)
     assert capsys.readouterr().err.strip() == line
-    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
 
 
 def test_an_unexpected_exception_without_a_signal_is_not_hidden(monkeypatch):
