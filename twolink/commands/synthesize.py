@@ -31,8 +31,8 @@ from twolink.commands._options import add_arm_options, arm_of
 from twolink.control.problems import (
     CONTEXTS,
     IDENTIFIED_MODELS,
-    LINK1_READINGS,
     KINDS,
+    LINK1_READINGS,
     SWEEPS,
     SYNTHESIS_MODELS,
     check_robust,

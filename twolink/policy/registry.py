@@ -34,7 +34,7 @@ class ShippedPolicy:
     bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)
     speed_dead_zone: float = 0.0    # read-out dead zone on the speeds, rad/s (policy.readout)
     argmax_beyond_deg: Optional[float] = None  # read-out: argmax of Q beyond this angle
-    agent2_link1: str = "free"      # agent 2's reading of link 1 (control.problems.LINK1_READINGS)
+    agent2_link1: str = "free"      # agent 2's reading of link 1 (problems.LINK1_READINGS)
     tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
     @property
@@ -75,8 +75,9 @@ TUNING_SEEDS = (9301, 9302)
 
 #: Every shipped policy, in report order: the paper's three, the two on (6), the two
 #: robust ones (worst case over K = 8 models within +-20 %, on (6)), the three-link
-#: agents, then the tuned designs (more torque levels, other bins, a read-out dead zone)
-#: and the same designs on the edge bins (:data:`twolink.fqi.fuzzy.EDGE_ANGLE_BINS_DEG`).
+#: agents, then the tuned designs (more torque levels, other bins, a read-out dead zone),
+#: among them designs on the edge bins (:data:`twolink.fqi.fuzzy.EDGE_ANGLE_BINS_DEG`) and
+#: with agent 2 holding joint 1 (``agent2_link1="locked"``).
 SHIPPED = {p.name: p for p in (
     ShippedPolicy("centralized", "centralized", "simplified", None, True,
                   "the centralized policy (16) on the simplified model (11)"),
