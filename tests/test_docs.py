@@ -373,3 +373,43 @@ def test_the_scaling_page_shows_the_reach_study_beside_the_table(tmp_path, monke
     run.update(reachable=16, answers=[{"reachable": True, "seconds": 20.0}] * 16)
     path.write_text(json.dumps({"schema": "twolink.links_reach", "version": 1, "runs": [run]}))
     assert "Every pose tried was reachable" in rs._reach_block(report)
+
+
+def test_the_scaling_page_counts_successes_by_own_motor_time(tmp_path, monkeypatch):
+    """The own-motor section: per class of own-motor time the poses and each controller's
+    successes with intervals, the poses over the deadline named with their joint and
+    the reach study's answers for them, and whether the totals equal the table's."""
+    import json
+
+    gen = _generator()
+    from generator import results_scaling as rs
+
+    report = json.loads((ROOT / "renders/scaling/scaling.json").read_text())
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    assert rs._own_motor_block(report) == ""                 # no study data: no section
+    own = [1.0, 2.0, 4.0, 6.0, 8.0, 9.0]
+    run = {"links": 6, "rule": "tapered", "poses": 6, "own_motor_s": own,
+           "slowest_joint": [1, 2, 6, 6, 6, 6],
+           "success": {"decentralized": [1, 1, 0, 1, 0, 0],
+                       "decentralized_levels": [1, 1, 1, 1, 1, 0], "pd": [1, 0, 0, 0, 0, 0]}}
+    path = tmp_path / rs.OWN_MOTOR
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps({"schema": "twolink.links_own_motor", "version": 1,
+                                "runs": [run]}))
+    reach = {"links": 6, "rule": "tapered", "poses": 5, "reachable": 5, "hold": 2,
+             "deadline_s": 7.0, "answers": [{"reachable": True, "seconds": 1.0}] * 5}
+    (tmp_path / rs.REACH).write_text(json.dumps({"schema": "twolink.links_reach",
+                                                 "version": 1, "runs": [reach]}))
+    text = rs._own_motor_block(report)
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()
+            if line.startswith("| 6 | tapered |")]
+    assert [r[2:4] for r in rows] == [["≤ 3 s", "2"], ["3–5 s", "1"], ["5–7 s", "1"],
+                                      ["> 7 s", "2"]]
+    assert rows[0][4].startswith("2/2 = 100.0 %") and rows[0][6].startswith("1/2 = 50.0 %")
+    assert rows[3][5].startswith("1/2 = 50.0 %")
+    assert ("tapered N = 6: 2 of 6 poses are over 7 s (set by joint 6); the controllers "
+            "settle 0, 1, 0 of them") in text
+    assert "of the first 5, which the reach study solved, 1 are over 7 s and 1 of those " \
+           "are reachable" in text
+    assert "(totals differ from the table's rows)" in text
+    assert "at N = 6 joint 6 turns at most 0.312 rad/s" in text

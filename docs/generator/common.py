@@ -163,6 +163,7 @@ SCHEMAS = {
     "renders/grid_study/grid_study.json": ("twolink.grid_study", 1),
     "renders/identification/identification.json": ("twolink.identification_study", 1),
     "renders/links_reach/reach.json": ("twolink.links_reach", 1),
+    "renders/links_reach/own_motor.json": ("twolink.links_own_motor", 1),
     "renders/iteration_norms/iteration_norms.json": ("twolink.iteration_norms", 1),
     "renders/deep_rl/ppo_agent_seed0.json": {"algo", "minutes_cap", "saved", "seed", "steps"},
     "renders/mismatch-3link/report.json": {"command", "duration", "gap", "links", "poses",

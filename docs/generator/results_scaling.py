@@ -1,6 +1,8 @@
 """docs/results/scaling.md, from ``renders/scaling/scaling.json`` (:func:`scaling_page`),
 judged against :data:`~generator.targets.SCALING_TARGETS`, with the physical ceiling of
-``renders/links_reach/reach.json`` (``docs/studies/links_reach.py``) where it exists.
+``renders/links_reach/reach.json`` (``docs/studies/links_reach.py``) and the own-motor
+times of ``renders/links_reach/own_motor.json`` (``docs/studies/links_own_motor.py``)
+where they exist.
 """
 from __future__ import annotations
 
@@ -9,6 +11,13 @@ from .targets import scaling_targets
 
 #: The reach study's data (:mod:`twolink.control.time_optimal.links`).
 REACH = "renders/links_reach/reach.json"
+#: The own-motor study's data (``docs/studies/links_own_motor.py``).
+OWN_MOTOR = "renders/links_reach/own_motor.json"
+#: Own-motor time classes of the poses, in seconds (the last bound is the deadline, 7 s).
+OWN_MOTOR_EDGES = (3.0, 5.0, 7.0)
+#: The own-motor study's controllers, by scaling row name, and their column titles.
+OWN_MOTOR_COLUMNS = (("decentralized", "decentralized"), ("decentralized_levels", "5 levels"),
+                     ("pd", "per-joint PD"))
 
 
 def _reach_block(report: dict) -> str:
@@ -55,6 +64,87 @@ def _reach_block(report: dict) -> str:
         if every else
         "Where a pose was not found reachable, no controller is known to settle it by 8 s; "
         "the rates above are to be read against the reachable share.") + "\n\n")
+    return "".join(out)
+
+
+def _own_motor_block(report: dict) -> str:
+    """The own-motor study: each controller's successes by the poses' own-motor time,
+    the poses over the deadline named with the reach study's answers for them."""
+    import numpy as np
+
+    from twolink.arm.task import own_motor_speed
+    from twolink.arm.parameters import chain
+    from twolink.viz.formatting import format_rate
+
+    data = _load(OWN_MOTOR, SCHEMAS[OWN_MOTOR])
+    if data is None or not data["runs"]:
+        return ""
+    reach = _load(REACH, SCHEMAS[REACH]) or {"runs": []}
+    reached = {(r["links"], r["rule"]): r for r in reach["runs"]}
+    rows = {(r["scheme"], r["rule"], r["links"]): r for r in report["rows"]}
+    edges = (0.0,) + OWN_MOTOR_EDGES + (np.inf,)
+    deadline = OWN_MOTOR_EDGES[-1]
+    names = ([f"≤ {edges[1]:g} s"]
+             + [f"{a:g}–{b:g} s" for a, b in zip(edges[1:-2], edges[2:-1])]
+             + [f"> {deadline:g} s"])
+    out = ["## What a joint's own motor can do\n\n",
+           "With every other joint held, joint i turns about a fixed axis and its motion "
+           "reduces to J_i θ̈_i = τ_i − b_i θ̇_i, so from rest it never turns faster than "
+           "τ_i max / b_i (`twolink.arm.task.own_motor_speed`). Tapered links halve the "
+           "torque per link and keep link 2's damping: "
+           + "; ".join(f"at N = {n} joint {n} turns at most "
+                       f"{own_motor_speed(chain(n, 'tapered'))[-1]:.3g} rad/s"
+                       for n in sorted({r["links"] for r in data["runs"]
+                                        if r["rule"] == "tapered"}))
+           + ". A pose's *own-motor time* is the largest over its joints of |θ_i| over that "
+           "speed (`own_motor_seconds`), a lower bound on the time its slowest joint needs "
+           f"on its own. Above {deadline:g} s (settled 1 s before the end of 8 s) a pose can "
+           "succeed only if the other joints' motion turns that joint too. "
+           "`python docs/studies/links_own_motor.py --links N --rule R` runs the table's "
+           "controllers again on the table's poses and records each pose's success beside "
+           "its own-motor time:\n\n",
+           "| N | links | own-motor time | poses | "
+           + " | ".join(t for _, t in OWN_MOTOR_COLUMNS) + " |\n|---|---|---|---|"
+           + "---|" * len(OWN_MOTOR_COLUMNS) + "\n"]
+    notes = []
+    for run in data["runs"]:
+        n, rule = run["links"], run["rule"]
+        own = np.asarray(run["own_motor_s"])
+        cls = np.digitize(own, edges[1:-1], right=True)
+        for c, name in enumerate(names):
+            m = cls == c
+            if not m.any():
+                continue
+            cells = [format_rate(int(np.asarray(run["success"][k])[m].sum()), int(m.sum()))
+                     for k, _ in OWN_MOTOR_COLUMNS]
+            out.append(f"| {n} | {rule} | {name} | {int(m.sum())} | " + " | ".join(cells)
+                       + " |\n")
+        late = own > deadline
+        slow = np.asarray(run["slowest_joint"])[late]
+        line = (f"{rule} N = {n}: {int(late.sum())} of {run['poses']} poses are over "
+                f"{deadline:g} s")
+        if late.any():
+            joints = sorted(set(slow.tolist()))
+            line += (" (set by joint " + " or ".join(map(str, joints)) + "); the controllers "
+                     "settle " + ", ".join(
+                         f"{int(np.asarray(run['success'][k])[late].sum())}" for k, _ in
+                         OWN_MOTOR_COLUMNS) + " of them (" + ", ".join(
+                         t for _, t in OWN_MOTOR_COLUMNS) + ")")
+            r = reached.get((n, rule))
+            if r:
+                k = r["poses"]
+                hit = late[:k]
+                ok = sum(a["reachable"] for a, h in zip(r["answers"], hit) if h)
+                line += (f"; of the first {k}, which the reach study solved, {int(hit.sum())} "
+                         f"are over {deadline:g} s and {ok} of those are reachable")
+        same = all(
+            (key := (scheme, rule, n)) in rows and rows[key]["status"] == "run"
+            and rows[key]["evaluation"]["horizons"]["8"]["successes"]
+            == sum(run["success"][scheme]) and run["poses"] == rows[key]["evaluation"]["poses"]
+            for scheme, _ in OWN_MOTOR_COLUMNS)
+        notes.append(line + (" (totals equal the table's rows)" if same else
+                             " (totals differ from the table's rows)") + ".")
+    out.append("\n" + "\n".join(f"- {t}" for t in notes) + "\n\n")
     return "".join(out)
 
 
@@ -105,6 +195,9 @@ def _scaling_findings(report: dict) -> str:
             + f": the {top['links']}-link agents hold {_int(s['q_values'])} and "
             f"synthesise in {s['wall_seconds']:.1f} s wall and "
             f"{s['peak_bytes'] / 2**20:.0f} MiB (the targets below).\n")
+    from twolink.arm.task import own_motor_speed
+    from twolink.arm.parameters import chain
+
     bad = [(k, at(k)) for k in (("decentralized", "tapered", 5), ("decentralized", "tapered", 6),
                                 ("decentralized", "copied", 4)) if at(k)]
     if bad:
@@ -112,10 +205,14 @@ def _scaling_findings(report: dict) -> str:
             "- **Where decentralization stops working**, at 8 s: "
             + ", ".join(f"{k[1]} N = {k[2]} {format_rate(h['successes'], h['n'])}"
                         for k, h in bad) + ". "
-            "Each inner joint at full torque puts a reaction on the outermost joint, and "
-            "summed over the inner joints that reaction grows with N; the outermost agent "
-            "sees only its own link, so it is overpowered: the tapered failures end with the "
-            "outer link out of the band and every link drifting. In the copied arms the "
+            "In the tapered arms the outermost joint is the slowest: its torque halves with "
+            "every link while its damping stays link 2's, so on its own it turns at most "
+            "τ_N max / b_N ("
+            + ", ".join(f"{own_motor_speed(chain(n, 'tapered'))[-1]:.3g} rad/s at N = {n}"
+                        for n in (5, 6)) + "), and the poses that "
+            "start it far from home fail most (see [what a joint's own motor can do]"
+            "(#what-a-joints-own-motor-can-do)); from the other poses the middle joints "
+            "fall into slow limit cycles, pushing in phase. In the copied arms the "
             "middle links keep swinging in limit cycles: each middle agent carries the heavy "
             "outer chain, and its one-hop model does not see the reactions from links two or "
             "more joints away. A diagnostic run over 30 s (not committed data) found copied "
@@ -202,7 +299,7 @@ def scaling_page(report: dict) -> str:
     block = ("## Targets\n\nWhat the table should show (the targets live in "
              "`docs/generate.py`, which judges this report's data against them):\n\n"
              + "\n".join(lines or ["- none of the targeted rows was measured"]) + "\n\n")
-    block = _scaling_findings(report) + _reach_block(report) + block
+    block = _scaling_findings(report) + _reach_block(report) + _own_motor_block(report) + block
     at = text.find("\nMachine: ")
     text = text + "\n" + block if at < 0 else text[:at + 1] + block + text[at + 1:]
     return "".join([

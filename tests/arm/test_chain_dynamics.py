@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from twolink.arm import dynamics, mjcf
+from twolink.arm import dynamics, mjcf, task
 from twolink.arm.integrate import (
     SUBSTEPS,
     finish_sample,
@@ -284,3 +284,51 @@ def test_bad_input_is_refused():
         sample_step(acc, c, x, np.zeros(2))
     with pytest.raises(ValueError, match="the compiled step is for two links"):
         sample_step_compiled("full", c, x, tau)
+
+
+# --------------------------------------------------------------------------- own motor
+def test_own_motor_speed_is_torque_over_damping_within_the_speed_limit():
+    c = chain(6, "tapered")
+    speed = task.own_motor_speed(c)
+    assert speed.shape == (6,)
+    np.testing.assert_allclose(speed, np.minimum(np.array(c.tau_max) / np.array(c.dampings),
+                                                 c.speed_limits))
+    assert speed[-1] == pytest.approx(0.00625 / 0.02)          # the tapered joint 6
+    import dataclasses
+    free = dataclasses.replace(c, dampings=(1e-4,) * 6)         # light: the speed limit
+    np.testing.assert_allclose(task.own_motor_speed(free), c.speed_limits)
+
+
+def test_a_joint_turned_by_its_own_motor_with_the_rest_held_stays_under_the_bound():
+    """The bound on the model itself: joint 6 of the tapered six-link arm at full torque
+    from rest, joints 1-5 locked, for 3 s: it approaches tau/b from below and has turned
+    less than (tau/b) t."""
+    c = chain(6, "tapered")
+    bound = task.own_motor_speed(c)[-1]
+    locked = (True,) * 5 + (False,)
+    tau = np.zeros(6)
+    tau[-1] = c.tau_max[-1]
+    x = np.zeros(12)
+    x[:5] = [0.3, -1.0, 2.0, 0.5, -0.7]                          # any held pose
+
+    def accel(p, s, t):
+        return dynamics.chain_acceleration(p, s, t, locked=locked)
+    steps = int(round(3.0 / TS))
+    for _ in range(steps):
+        x = sample_step(accel, c, x, tau)
+    assert 0.99 * bound < x[-1] < bound
+    assert 0 < x[5] < bound * steps * TS
+    np.testing.assert_allclose(x[:5], [0.3, -1.0, 2.0, 0.5, -0.7])
+
+
+def test_own_motor_seconds_per_joint_and_bad_angles():
+    c = chain(5, "tapered")
+    a = np.deg2rad([[10.0, -20.0, 30.0, 150.0, -150.0], [0, 0, 0, 0, 360.0 + 90.0]])
+    t = task.own_motor_seconds(c, a)
+    assert t.shape == (2, 5)
+    np.testing.assert_allclose(t[0], np.abs(a[0]) / task.own_motor_speed(c))
+    assert t[1, -1] == pytest.approx(np.pi / 2 / 0.625)          # wrapped: 450 deg is 90
+    with pytest.raises(ValueError, match=r"shape \(\.\.\., 5\)"):
+        task.own_motor_seconds(c, np.zeros(4))
+    with pytest.raises(ValueError, match="finite"):
+        task.own_motor_seconds(c, [0, 0, np.nan, 0, 0])

@@ -1,0 +1,112 @@
+"""Which N-link poses a joint's own motor cannot bring home in time, and who settles them.
+
+``python docs/studies/links_own_motor.py --links N [--rule tapered|copied] [--json FILE]``
+runs the scaling table's N-link controllers (the default decentralized agents, the
+5-level agents and the tuned per-joint PD, built as ``twolink scaling`` builds them) on
+the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 8 s on MuJoCo, and
+records beside each pose's success its own-motor time: the largest over the joints of
+:func:`twolink.arm.task.own_motor_seconds`, the time joint i's own motor needs at the
+least to turn it home with every other joint held (its speed stays below tau_i max / b_i).
+A pose whose own-motor time exceeds 7 s (settled 1 s before the end of 8 s) can be
+settled in time only if the other joints' motion turns that joint too; a controller whose
+joints act each on their own reading does not plan that. The runs merge into the JSON file
+(one per arm; an arm measured again replaces its run); the docs generator writes the
+result into ``docs/results/scaling.md``. About 2 min per arm on this machine (the 5-level
+agents' synthesis is most of it).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+import numpy as np  # noqa: E402
+
+from twolink.arm.task import own_motor_seconds  # noqa: E402
+from twolink.arm.parameters import CHAIN_HORIZON, LINK_RULES, chain  # noqa: E402
+from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
+from twolink.control.links_pd import tuned  # noqa: E402
+from twolink.sim.metrics import random_poses, success  # noqa: E402
+from twolink.sim.plants import make_plant  # noqa: E402
+from twolink.sim.rollout import rollout  # noqa: E402
+from twolink.studies.scaling.measure import EVAL_SEED  # noqa: E402
+from twolink.studies.scaling.synthesis import cell_policy  # noqa: E402
+from twolink.validate import whole  # noqa: E402
+
+SCHEMA, VERSION = "twolink.links_own_motor", 1
+#: The scaling table's poses per arm.
+POSES = 256
+#: The controllers, by the scaling table's row names.
+CONTROLLERS = ("decentralized", "decentralized_levels", "pd")
+DEFAULT_JSON = Path("renders/links_reach/own_motor.json")
+
+
+def controller(links: int, rule: str, scheme: str):
+    """The scaling table's controller of row ``scheme`` for this arm."""
+    if scheme == "pd":
+        return tuned(chain(links, rule))
+    return cell_policy(links, rule, scheme, 2 * 2**30)[0]
+
+
+def measure(links: int, rule: str, poses: int = POSES) -> dict:
+    """Every controller's success on the first ``poses`` poses of the table's set at 8 s,
+    with each pose's own-motor time and the joint that sets it."""
+    t0 = time.perf_counter()
+    p = chain(links, rule)
+    x0 = random_poses(links, POSES, EVAL_SEED + links)[:poses]
+    own = own_motor_seconds(p, x0[:, :links])
+    out = {"links": links, "rule": rule, "poses": poses, "seed": EVAL_SEED + links,
+           "horizon_s": CHAIN_HORIZON,
+           "own_motor_s": [round(float(v), 4) for v in own.max(axis=1)],
+           "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {}}
+    for scheme in CONTROLLERS:
+        print(f"  {scheme}: building", flush=True)
+        policy = controller(links, rule, scheme)
+        with make_plant("mujoco", p) as plant:
+            traj = rollout(policy, plant, x0, duration=CHAIN_HORIZON)
+        ok = success(traj)
+        out["success"][scheme] = [int(v) for v in ok]
+        print(f"  {scheme}: {int(ok.sum())}/{poses} settled", flush=True)
+    out["seconds"] = round(time.perf_counter() - t0, 1)
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--links", type=int, required=True, help="links N, 3 to 6")
+    ap.add_argument("--rule", choices=LINK_RULES, default="tapered")
+    ap.add_argument("--poses", type=int, default=POSES,
+                    help=f"the first K poses of the {POSES} of the scaling table "
+                         f"(default {POSES})")
+    ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
+    args = ap.parse_args(argv)
+    try:
+        whole(args.links, "--links", 3, 6)
+        whole(args.poses, "--poses", 1, POSES)
+        data = read_runs(args.json, SCHEMA, VERSION)
+    except ValueError as exc:
+        print(f"links_own_motor: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{args.links} {args.rule} links, {args.poses} poses, {CHAIN_HORIZON:g} s",
+          flush=True)
+    run = measure(args.links, args.rule, args.poses)
+    runs = [r for r in data["runs"] if (r["links"], r["rule"]) != (args.links, args.rule)]
+    runs.append(run)
+    runs.sort(key=lambda r: (r["rule"], r["links"]))
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    write_json(args.json, {"schema": SCHEMA, "version": VERSION, "runs": runs,
+                           "provenance": provenance()})
+    late = int(np.sum(np.asarray(run["own_motor_s"]) > CHAIN_HORIZON - 1))
+    print(json.dumps({"links": run["links"], "rule": run["rule"], "poses": run["poses"],
+                      "own_motor_over_deadline": late,
+                      **{k: sum(v) for k, v in run["success"].items()}}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

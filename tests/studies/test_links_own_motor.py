@@ -1,0 +1,68 @@
+"""docs/studies/links_own_motor.py: each pose's own-motor time beside each controller's
+success on the scaling table's poses, merged per arm; bad options and foreign files get
+one error line, exit 2 and nothing written."""
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twolink.arm.task import own_motor_seconds
+from twolink.arm.parameters import chain
+from twolink.sim.metrics import random_poses
+
+PATH = Path(__file__).resolve().parents[2] / "docs" / "studies" / "links_own_motor.py"
+
+
+@pytest.fixture
+def study(monkeypatch):
+    spec = importlib.util.spec_from_file_location("links_own_motor", PATH)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "links_own_motor", module)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path, capsys):
+    out = tmp_path / "own.json"
+    assert study.main(["--links", "3", "--poses", "3", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert (data["schema"], data["version"]) == (study.SCHEMA, study.VERSION)
+    (run,) = data["runs"]
+    x0 = random_poses(3, study.POSES, 20061122 + 3)[:3]
+    own = own_motor_seconds(chain(3, "tapered"), x0[:, :3])
+    np.testing.assert_allclose(run["own_motor_s"], own.max(axis=1), atol=1e-4)
+    assert run["slowest_joint"] == [int(j) + 1 for j in own.argmax(axis=1)]
+    assert sorted(run["success"]) == sorted(study.CONTROLLERS)
+    assert all(len(v) == 3 and set(v) <= {0, 1} for v in run["success"].values())
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["pd"] == sum(run["success"]["pd"])
+    other = dict(run, rule="copied")                     # another arm's run is kept
+    data["runs"].append(other)
+    out.write_text(json.dumps(data))
+    assert study.main(["--links", "3", "--poses", "3", "--json", str(out)]) == 0
+    kept = json.loads(out.read_text())["runs"]
+    assert [(r["links"], r["rule"]) for r in kept] == [(3, "copied"), (3, "tapered")]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--links", "7"], "--links must be a whole number from 3 to 6"),
+    (["--links", "3", "--poses", "0"], "--poses must be a whole number from 1 to 256"),
+])
+def test_bad_options_are_one_line_and_exit_2(study, tmp_path, capsys, argv, message):
+    out = tmp_path / "own.json"
+    assert study.main(argv + ["--json", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("links_own_motor: error:") and message in err
+    assert len(err.splitlines()) == 1 and not out.exists()
+
+
+def test_a_foreign_file_is_refused_and_left_alone(study, tmp_path, capsys):
+    out = tmp_path / "own.json"
+    out.write_text(json.dumps({"schema": "twolink.links_reach", "version": 1, "runs": []}))
+    before = out.read_text()
+    assert study.main(["--links", "3", "--json", str(out)]) == 2
+    assert "is not a twolink.links_own_motor version 1 file" in capsys.readouterr().err
+    assert out.read_text() == before
