@@ -281,4 +281,3 @@ def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
     for i, k in enumerate(free):
         out[k] = z[i]
     return np.stack(out, -1)
-
