@@ -31,7 +31,7 @@ def blocks(pages: dict) -> dict:
     """``{file: {block name: content}}`` of the generated blocks in hand-written files."""
     return {
         "README.md": {"commands": commands_table("docs/"),
-                      "policies": policies_table(),
+                      "policies": policies_table(tuned=False),
                       "leaderboard": leaderboard_headline()},
         "docs/index.md": {"commands": commands_table("")},
         "docs/guides/synthesis.md": {"policies": policies_table()},

@@ -19,11 +19,15 @@ from .common import (_cell, _duration, _load, _machine, _overlap, SCHEMAS, _sci,
                      _table)
 
 
-def policies_table(link_prefix: str = "") -> str:
+def policies_table(link_prefix: str = "", tuned: bool = True) -> str:
+    """The shipped-policy table; without ``tuned`` the designs chosen on tuning seeds are
+    named after it instead (with a link to the synthesis guide's full table)."""
     from twolink.policy.registry import SHIPPED
 
     rows = []
     for p in SHIPPED.values():
+        if p.tuned and not tuned:
+            continue
         how = [f"{p.kind} {'(16)' if p.kind == 'centralized' else '(18)'}",
                f"on {'(11)' if p.model == 'simplified' else '(6)'}"]
         if p.context:
@@ -43,11 +47,19 @@ def policies_table(link_prefix: str = "") -> str:
             how.append(f"speed dead zone {p.speed_dead_zone:g} rad/s")
         if p.argmax_beyond_deg is not None:
             how.append(f"argmax of Q beyond {p.argmax_beyond_deg:g}°")
+        if p.near_gain < 1:
+            how.append(f"near-goal gain {p.near_gain:g} from {p.near_deg:g}°")
         if p.tuned:
             how.append("chosen on tuning seeds")
         rows.append((f"`{p.name}`", p.links, "yes" if p.paper else "", ", ".join(how),
                      _cell(p.description)))
-    return _table(("policy", "links", "paper's", "synthesis", "what it is"), rows)
+    table = _table(("policy", "links", "paper's", "synthesis", "what it is"), rows)
+    if tuned:
+        return table
+    names = [f"`{n}`" for n, p in SHIPPED.items() if p.tuned]
+    return (table + f"\n\nand {len(names)} designs chosen on tuning seeds (more torque levels, "
+            "other bins, read-outs; each in the [synthesis guide]"
+            f"({link_prefix}docs/guides/synthesis.md)'s table): " + ", ".join(names) + ".")
 
 
 def leaderboard_headline() -> str:

@@ -9,6 +9,10 @@ from .common import _cell, _load, SCHEMAS, _stamp, _table
 from .targets import FUZZY_TARGETS
 
 
+#: The near-goal gain study's data (docs/studies/near_gain.py).
+NEAR_GAIN = "renders/fuzzy_design/near_gain.json"
+
+
 def leaderboard_page(report: dict) -> str:
     from twolink.studies.leaderboard.report import markdown
 
@@ -48,7 +52,8 @@ def fuzzy_designs_page(report: dict) -> str:
            "The tuned fuzzy designs (`*_tuned` and `centralized_9levels`: more torque "
            "levels, other bins, a read-out with a speed dead zone and the argmax of Q far "
            "from the goal; `*_edge`: the same designs on bins with no centre on the goal "
-           "band's edge; `*_locked`: agent 2's transitions holding joint 1; "
+           "band's edge; `*_locked`: agent 2's transitions holding joint 1; `*_gain`: "
+           "a read-out that lowers the torque near the goal; "
            "[Synthesis](../guides/synthesis.md)) on the committed "
            f"leaderboard: {report['states']} evaluation states, {report['plants']} plants "
            f"per perturbed level, seed {report['seed']}, on MuJoCo. Their designs were "
@@ -137,4 +142,50 @@ def fuzzy_designs_page(report: dict) -> str:
                             ratio(r.get("ratio")), f"{r['synthesis_seconds']:.1f} s")
                            for r in design["rows"]]))
         out.append("\n")
+    out.append(_near_gain_block())
     return "".join(out)
+
+
+def _near_gain_block() -> str:
+    """The near-goal gain study (docs/studies/near_gain.py): per tried policy its plain
+    read-out, the gain chosen and the registry name that ships it."""
+    from twolink.policy.registry import SHIPPED
+
+    data = _load(NEAR_GAIN, SCHEMAS[NEAR_GAIN])
+    if data is None or not data["runs"]:
+        return ""
+    cols = ("none", "medium", "medium compensated", "hard", "hard compensated")
+    grid = data["grid"]
+    out = ["\n## The near-goal gain\n\n`python docs/studies/near_gain.py`: each design "
+           "below with the read-out's near-goal gain (joint i's torque times g + (1 − g) "
+           "min(|θ_i| / A, 1), `twolink.policy.readout`) at every A in "
+           + ", ".join(f"{a:g}" for a in grid["angles_deg"]) + " degrees and g in "
+           + ", ".join(f"{g:g}" for g in grid["gains"]) + ", on the tuning table's seeds "
+           "and columns (successes). The gain chosen keeps every nominal pose and has the "
+           "most successes summed over the four challenge columns (ties: the larger g, "
+           "then the smaller A); a second choice has the most successes under `hard` with "
+           "compensation alone.\n\n"]
+    body = []
+    for run in data["runs"]:
+        base = SHIPPED[run["policy"]]
+        body.append((f"`{run['policy']}`", "—", *[str(run["base"][c]) for c in cols],
+                     f"{sum(run['base'][c] for c in cols[1:])}", ""))
+        for criterion, pick in run["chosen"].items():
+            if pick is None:
+                body.append(("", f"{criterion}: none keeps every nominal pose",
+                             *[""] * 6, ""))
+                continue
+            row = next(r for r in run["rows"] if (r["angle_deg"], r["gain"])
+                       == (pick["angle_deg"], pick["gain"]))
+            ships = [n for n, e in SHIPPED.items() if e.near_gain == pick["gain"]
+                     and e.near_deg == pick["angle_deg"]
+                     and e.synthesis_options() | {"readout": None}
+                     == base.synthesis_options() | {"readout": None}]
+            body.append(("", f"{criterion}: A {pick['angle_deg']:g}°, g {pick['gain']:g}",
+                         *[str(row["cells"][c]) for c in cols],
+                         f"{sum(row['cells'][c] for c in cols[1:])}",
+                         ", ".join(f"`{n}`" for n in ships) or "not shipped"))
+    n = {"none": 48}
+    out.append(_table(("design", "near-goal gain", *[f"{c} (/{n.get(c, 256)})" for c in cols],
+                       "challenge sum", "shipped as"), body))
+    return "".join(out) + "\n"

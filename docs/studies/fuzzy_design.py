@@ -21,8 +21,9 @@ controllers: the expectation over the reading noise inside the transition model
 (:func:`delay_aware`), per-agent grids (:func:`per_agent`), agent 2 as the worst case
 over link 1's motion (:func:`agent2_worst_over_link1`), a hold region that zeroes a
 joint's torque near the goal (:class:`Hold`), the same with hysteresis
-(:class:`Hysteresis`) and a one-step look-ahead on the model far from the goal
-(:class:`LookAhead`). About 15 minutes on two cores; ``--merge --only LABEL ...``
+(:class:`Hysteresis`), a one-step look-ahead on the model far from the goal
+(:class:`LookAhead`) and the read-out's near-goal gain (the gains
+``docs/studies/near_gain.py`` chose). About 15 minutes on two cores; ``--merge --only LABEL ...``
 measures some variants again and puts them into an existing ``--json`` table.
 """
 from __future__ import annotations
@@ -62,17 +63,18 @@ RATIO_LIMITS = Path(__file__).resolve().parents[2] / "renders" / "fuzzy_design" 
     / "tuning_limits.json"
 
 
-def _dz(width: float, argmax=None):
-    return Readout(speed_dead_zone=width, argmax_beyond_deg=argmax) \
-        if width or argmax is not None else None
+def _dz(width: float, argmax=None, near=None):
+    gain, deg = near or (1.0, None)
+    return Readout(speed_dead_zone=width, argmax_beyond_deg=argmax, near_gain=gain,
+                   near_deg=deg) if width or argmax is not None or near else None
 
 
 def _policy(kind, levels=3, bins="paper", context=None, dead_zone=0.0, argmax=None,
-            robust=False, refine=1, link1="free"):
+            robust=False, refine=1, link1="free", near=None):
     worst = {"robust": "worst", "draws": 8, "spread": 0.2, "seed": ROBUST_SEED} if robust \
         else {}
     return lambda: synthesize(kind, model="full", levels=levels, bins=bins, context=context,
-                              refine=refine, readout=_dz(dead_zone, argmax),
+                              refine=refine, readout=_dz(dead_zone, argmax, near),
                               agent2_link1=link1, **worst)
 
 
@@ -414,6 +416,15 @@ VARIANTS = {
     "decentralized_edge with a hysteresis hold (in 4 deg, 0.05 rad/s; out 7 deg, 0.15 rad/s)":
         lambda: Hysteresis(_policy("decentralized", 7, "edge", context="propagated",
                                    dead_zone=0.06, argmax=30.0)(), 4.0, 0.05, 7.0, 0.15),
+    "decentralized_edge, near-goal gain 0.2 from 90 deg (decentralized_edge_gain)":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06,
+                argmax=30.0, near=(0.2, 90.0)),
+    "decentralized_edge, near-goal gain 0.5 from 180 deg (decentralized_edge_gain_hard)":
+        _policy("decentralized", 7, "edge", context="propagated", dead_zone=0.06,
+                argmax=30.0, near=(0.5, 180.0)),
+    "decentralized_locked, near-goal gain 0.3 from 60 deg (decentralized_locked_gain)":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0,
+                link1="locked", near=(0.3, 60.0)),
     "centralized_tuned with a one-step look-ahead on (6) beyond 15 deg":
         lambda: LookAhead(_policy("centralized", 5, "goal", dead_zone=0.08, argmax=30.0)(), 15.0),
 }

@@ -111,6 +111,43 @@ def test_a_dead_zone_wider_than_the_band_is_refused(bad, match):
         Readout(**bad)
 
 
+def test_the_near_goal_gain_ramps_each_joint_by_its_own_angle(tmp_path):
+    """tau_i = (g + (1 - g) min(|theta_i| / A, 1)) times (14)'s, theta_i as read (before
+    the dead zone), on the torques sent: at the goal g times, beyond A untouched."""
+    base = synthesize("decentralized", model="full", levels=5,
+                      readout=Readout(speed_dead_zone=0.05))
+    rule = Readout(speed_dead_zone=0.05, near_gain=0.25, near_deg=40.0)
+    assert rule.as_dict() == {"speed_dead_zone": 0.05, "angle_dead_zone_deg": 0.0,
+                              "near_gain": 0.25, "near_deg": 40.0}
+    policy = Policy(base.kind, base.agents, {**base.meta, "readout": rule.as_dict()})
+    rng = np.random.default_rng(11)
+    x = np.c_[rng.uniform(-np.pi, np.pi, (500, 2)), rng.uniform(-3, 3, (500, 2))]
+    x[:5, :2] = np.radians([[0, 0], [10, -20], [40, -40], [90, 3], [-179, 179]])
+    theta = np.abs(x[:, :2])
+    s = 0.25 + 0.75 * np.minimum(theta / np.radians(40.0), 1.0)
+    np.testing.assert_allclose(policy(x), s * base(x), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(s[:3], [[0.25, 0.25], [0.4375, 0.625], [1.0, 1.0]])
+    wrapped = x.copy()
+    wrapped[:, :2] += 2 * np.pi                              # read as wrapped angles
+    np.testing.assert_allclose(policy(wrapped), policy(x), atol=1e-12)
+    loaded = Policy.load(policy.save(tmp_path / "g.npz"))
+    assert loaded.readout == rule and np.array_equal(loaded(x), policy(x))
+    assert Readout(near_gain=1.0).as_dict() == Readout().as_dict()   # 1: off, not recorded
+    assert not Readout(near_gain=1.0).active and rule.active
+
+
+@pytest.mark.parametrize("bad, match", [
+    ({"near_gain": 0.0, "near_deg": 40.0}, r"near_gain must be a number in \(0, 1\]"),
+    ({"near_gain": 1.5, "near_deg": 40.0}, r"near_gain must be a number in \(0, 1\]"),
+    ({"near_gain": 0.5}, "a near-goal gain of 0.5 needs near_deg"),
+    ({"near_gain": 0.5, "near_deg": 4.0}, r"near_deg must be a number in \[5, 180\]"),
+    ({"near_gain": 0.5, "near_deg": float("inf")}, "near_deg must be"),
+])
+def test_a_near_goal_gain_outside_its_range_is_refused(bad, match):
+    with pytest.raises(ValueError, match=match):
+        Readout(**bad)
+
+
 def test_design_options_are_two_link_only():
     with pytest.raises(ValueError,
                        match="levels, bins, readout and agent2_link1 are two-link options"):
@@ -134,6 +171,17 @@ def test_design_options_are_two_link_only():
     (["decentralized", "--links", "3", "--agent2-link1", "locked"],
      "--agent2-link1: two-link options"),
     (["--ship", "decentralized_edge", "--agent2-link1", "locked"], "--ship takes everything"),
+    (["decentralized", "--near-gain", "0.5"], "--near-gain needs --near-deg"),
+    (["decentralized", "--near-gain", "0", "--near-deg", "40"],
+     r"--near-gain must lie in \(0, 1\], got 0"),
+    (["decentralized", "--near-gain", "nan", "--near-deg", "40"],
+     "--near-gain must be a number, got .nan."),
+    (["decentralized", "--near-gain", "0.5", "--near-deg", "2"],
+     r"--near-deg must lie in \[5, 180\] degrees, got 2"),
+    (["decentralized", "--near-deg", "40"], "--near-deg goes with --near-gain"),
+    (["decentralized", "--links", "3", "--near-gain", "0.5", "--near-deg", "40"],
+     "--near-gain, --near-deg: two-link options"),
+    (["--ship", "decentralized_edge", "--near-gain", "0.5"], "--ship takes everything"),
 ])
 def test_bad_design_options_are_one_line_exit_2_and_nothing_written(tmp_path, capsys, argv,
                                                                       match):
@@ -199,3 +247,22 @@ def test_a_locked_design_records_its_reading_and_the_registry_rebuilds_it(tmp_pa
     paper = synthesize("decentralized", model="full", context="propagated")
     assert "agent2_link1" not in paper.meta
     assert not np.array_equal(policy.agents[0].q, paper.agents[0].q)
+
+
+@pytest.mark.parametrize("gain, base", [
+    ("decentralized_edge_gain", "decentralized_edge"),
+    ("decentralized_edge_gain_hard", "decentralized_edge"),
+    ("decentralized_locked_gain", "decentralized_locked"),
+    ("centralized_robust_edge_gain", "centralized_robust_edge"),
+])
+def test_the_gain_designs_are_their_base_with_a_near_goal_gain(gain, base):
+    """Each `*_gain` policy is its base design (the same Q-tables in its file) whose
+    read-out adds the near-goal gain, and the CLI rebuilds its read-out from the flags."""
+    g, b = SHIPPED[gain].synthesis_options(), SHIPPED[base].synthesis_options()
+    rg, rb = g.pop("readout"), b.pop("readout")
+    assert g == b and SHIPPED[gain].tuned
+    assert rg.near_gain < 1 and (rg.speed_dead_zone, rg.argmax_beyond_deg) == \
+        (rb.speed_dead_zone, rb.argmax_beyond_deg) and rb.near_gain == 1
+    pg, pb = Policy.load(SHIPPED[gain].file), Policy.load(SHIPPED[base].file)
+    assert all(np.array_equal(a.q, c.q) for a, c in zip(pg.agents, pb.agents))
+    assert pg.readout == rg and pb.readout == rb

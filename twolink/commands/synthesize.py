@@ -45,7 +45,7 @@ from twolink.fqi.iteration import ROBUST_MODES
 from twolink.policy.fuzzy_policy import (
     MAX_Q_BYTES,  # what Policy.load accepts per Q-table
 )
-from twolink.policy.readout import MIN_ARGMAX_DEG, Readout
+from twolink.policy.readout import MIN_ARGMAX_DEG, NEAR_DEG_RANGE, Readout
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.sim.perturbations import MAX_SPREAD
@@ -132,6 +132,14 @@ def add_parser(sub):
                         f"to 180), act by the argmax of the interpolated Q instead of (14)'s "
                         f"weighted greedy actions (twolink.policy.readout; default: (14) "
                         f"everywhere), recorded in the file")
+    p.add_argument("--near-gain", default=None, metavar="G",
+                   help="lower the torque near the goal: joint i's torque times G + (1 - G) "
+                        "min(|theta_i| / A, 1), 0 < G <= 1, A from --near-deg "
+                        "(twolink.policy.readout; default 1: (14)'s torque), recorded in "
+                        "the file")
+    p.add_argument("--near-deg", default=None, metavar="A",
+                   help=f"the angle (degrees, {NEAR_DEG_RANGE[0]:g} to {NEAR_DEG_RANGE[1]:g}) "
+                        f"beyond which --near-gain leaves the torque full; needed with it")
     p.add_argument("--agent2-link1", choices=LINK1_READINGS, default=None,
                    help="how agent 2's transitions read link 1 (decentralized, full model "
                         "only): free (the paper's: link 1 at rest, recoiling under link "
@@ -248,8 +256,24 @@ def _design_options(args) -> dict:
         if not MIN_ARGMAX_DEG <= beyond <= 180.0:
             raise ValueError(f"--argmax-beyond must lie in [{MIN_ARGMAX_DEG:g}, 180] degrees, "
                              f"got {args.argmax_beyond}")
-    if width or beyond is not None:
-        opts["readout"] = Readout(speed_dead_zone=width, argmax_beyond_deg=beyond)
+    gain, near = 1.0, None
+    if args.near_gain is not None:
+        gain = _number(args.near_gain, "--near-gain", float)
+        if not 0.0 < gain <= 1.0:
+            raise ValueError(f"--near-gain must lie in (0, 1], got {args.near_gain}")
+        if args.near_deg is None and gain < 1.0:
+            raise ValueError("--near-gain needs --near-deg, the angle (degrees) at which the "
+                             "torque is full again")
+    if args.near_deg is not None:
+        if args.near_gain is None:
+            raise ValueError("--near-deg goes with --near-gain")
+        near = _number(args.near_deg, "--near-deg", float)
+        if not NEAR_DEG_RANGE[0] <= near <= NEAR_DEG_RANGE[1]:
+            raise ValueError(f"--near-deg must lie in [{NEAR_DEG_RANGE[0]:g}, "
+                             f"{NEAR_DEG_RANGE[1]:g}] degrees, got {args.near_deg}")
+    if width or beyond is not None or gain < 1.0:
+        opts["readout"] = Readout(speed_dead_zone=width, argmax_beyond_deg=beyond,
+                                  near_gain=gain, near_deg=near)
     if args.agent2_link1 is not None:
         opts["agent2_link1"] = args.agent2_link1
     return opts
@@ -306,12 +330,14 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
                 or args.seed is not None or args.params is not None or links != 2 \
                 or args.rule != "tapered" or args.levels is not None \
                 or args.bins is not None or args.speed_dead_zone is not None \
-                or args.argmax_beyond is not None or args.agent2_link1 is not None:
+                or args.argmax_beyond is not None or args.agent2_link1 is not None \
+                or args.near_gain is not None or args.near_deg is not None:
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
                              "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
                              "--levels, --bins, --speed-dead-zone, --argmax-beyond, "
-                             "--agent2-link1, -o or --force with it")
+                             "--near-gain, --near-deg, --agent2-link1, -o or --force with "
+                             "it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
         entries = [shipped(n) for n in names]
         if source_checkout() is None:
@@ -324,6 +350,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         given = [o for o, v in (("--levels", args.levels), ("--bins", args.bins),
                                 ("--speed-dead-zone", args.speed_dead_zone),
                                 ("--argmax-beyond", args.argmax_beyond),
+                                ("--near-gain", args.near_gain),
+                                ("--near-deg", args.near_deg),
                                 ("--agent2-link1", args.agent2_link1)) if v is not None]
         if given:
             raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "

@@ -206,6 +206,7 @@ class Policy:
             raise ValueError(f"policy input must have shape (..., {width}), got {x.shape}{arm}")
         if not np.all(np.isfinite(x)):
             raise ValueError("policy input contains NaN or infinite values")
+        gain = self._readout.gain(x, self._links)
         x = self._readout.apply(x, self._links)
         signals = {name: x[..., k] for k, name in enumerate(self._state_names)}
         for agent in self.agents:
@@ -217,7 +218,8 @@ class Policy:
                 out[far] = agent.actions[greedy_indices(q, agent.tie_tolerance)]
             for k, name in enumerate(agent.outputs):
                 signals[name] = out[..., k]
-        return np.stack([signals[name] for name in self._outputs], -1)
+        tau = np.stack([signals[name] for name in self._outputs], -1)
+        return tau if gain is None else tau * gain
 
     @property
     def q_sizes(self) -> dict:

@@ -19,6 +19,18 @@ Where neighbouring bins choose opposite torques (the two ways round a joint, nea
 +-180 deg) the weighted average of (14) cancels to almost no torque and the arm drifts;
 the argmax picks one of them. Near the goal (14) stays, so the torque stays smooth there.
 
+Near the goal a third rule may lower the torque (``near_gain`` g < 1, ``near_deg`` A):
+joint i's torque is multiplied by
+
+    s_i = g + (1 - g) min(|theta_i| / A, 1),
+
+theta_i its own wrapped angle as read (before any dead zone), so the torque falls
+linearly from full at A degrees to g times (14)'s at the goal. (14) is the time-optimal
+policy of a model that answers at once: under delayed readings its full torque near the
+goal overshoots the band and the arm limit-cycles around it, as a PD with too high a gain
+does. The gain applies to the torques the policy sends; agents that read a neighbour's
+torque (18) read it as (14) gives it.
+
 A policy records its read-out in ``meta["readout"]``; without one it reads the states
 as they are and acts by (14) everywhere.
 """
@@ -36,7 +48,10 @@ from twolink.validate import real
 
 #: The smallest angle of the argmax rule: beyond the goal band by a bin's width.
 MIN_ARGMAX_DEG = 10.0
-_FIELDS = ("speed_dead_zone", "angle_dead_zone_deg", "argmax_beyond_deg")
+_FIELDS = ("speed_dead_zone", "angle_dead_zone_deg", "argmax_beyond_deg", "near_gain",
+           "near_deg")
+#: The range of the near-goal rule's angle A (degrees): from the goal band's edge to 180.
+NEAR_DEG_RANGE = (math.degrees(GOAL_ANGLE), 180.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,11 +59,15 @@ class Readout:
     """Dead zones on the readings of a policy: speeds in rad/s, angles in degrees, each in
     [0, the goal band's half-width] (a wider dead zone would hide the band's edge); the
     argmax rule beyond ``argmax_beyond_deg`` degrees (None: off; else from
-    :data:`MIN_ARGMAX_DEG` to 180)."""
+    :data:`MIN_ARGMAX_DEG` to 180); the near-goal gain ``near_gain`` in (0, 1] (1: off),
+    reached at the goal from full torque at ``near_deg`` degrees (:data:`NEAR_DEG_RANGE`;
+    needed when the gain is below 1)."""
 
     speed_dead_zone: float = 0.0
     angle_dead_zone_deg: float = 0.0
     argmax_beyond_deg: Optional[float] = None
+    near_gain: float = 1.0
+    near_deg: Optional[float] = None
 
     def __post_init__(self):
         object.__setattr__(self, "speed_dead_zone", real(
@@ -58,11 +77,32 @@ class Readout:
         if self.argmax_beyond_deg is not None:
             object.__setattr__(self, "argmax_beyond_deg", real(
                 self.argmax_beyond_deg, "argmax_beyond_deg", MIN_ARGMAX_DEG, 180.0))
+        object.__setattr__(self, "near_gain", real(
+            self.near_gain, "near_gain", 0.0, 1.0, open_low=True))
+        if self.near_deg is not None:
+            object.__setattr__(self, "near_deg", real(
+                self.near_deg, "near_deg", *NEAR_DEG_RANGE))
+        if self.near_gain < 1.0 and self.near_deg is None:
+            raise ValueError(f"a near-goal gain of {self.near_gain:g} needs near_deg, the "
+                             f"angle (degrees) at which the torque is full again")
 
     @property
     def active(self) -> bool:
         """Whether the read-out changes anything."""
-        return self.shrinks or self.argmax_beyond_deg is not None
+        return self.shrinks or self.argmax_beyond_deg is not None or self.scales
+
+    @property
+    def scales(self) -> bool:
+        """Whether the near-goal gain lowers any torque."""
+        return self.near_gain < 1.0
+
+    def gain(self, x: np.ndarray, links: int) -> Optional[np.ndarray]:
+        """The near-goal gains s_i (..., N) of the readings x (..., 2N) (None when off)."""
+        if not self.scales:
+            return None
+        theta = np.abs(np.mod(x[..., :links] + math.pi, 2 * math.pi) - math.pi)
+        ramp = np.minimum(theta / math.radians(self.near_deg), 1.0)
+        return self.near_gain + (1.0 - self.near_gain) * ramp
 
     @property
     def shrinks(self) -> bool:
@@ -94,6 +134,8 @@ class Readout:
                "angle_dead_zone_deg": self.angle_dead_zone_deg}
         if self.argmax_beyond_deg is not None:
             out["argmax_beyond_deg"] = self.argmax_beyond_deg
+        if self.scales:
+            out["near_gain"], out["near_deg"] = self.near_gain, self.near_deg
         return out
 
     @classmethod

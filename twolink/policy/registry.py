@@ -34,6 +34,8 @@ class ShippedPolicy:
     bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)
     speed_dead_zone: float = 0.0    # read-out dead zone on the speeds, rad/s (policy.readout)
     argmax_beyond_deg: Optional[float] = None  # read-out: argmax of Q beyond this angle
+    near_gain: float = 1.0          # read-out: torque gain at the goal (1: off)
+    near_deg: Optional[float] = None  # read-out: the angle (deg) of full torque again
     agent2_link1: str = "free"      # agent 2's reading of link 1 (problems.LINK1_READINGS)
     tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
@@ -58,10 +60,11 @@ class ShippedPolicy:
             opts["bins"] = self.bins
         if self.agent2_link1 != "free":
             opts["agent2_link1"] = self.agent2_link1
-        if self.speed_dead_zone or self.argmax_beyond_deg is not None:
+        if self.speed_dead_zone or self.argmax_beyond_deg is not None or self.near_gain < 1:
             from twolink.policy.readout import Readout
             opts["readout"] = Readout(speed_dead_zone=self.speed_dead_zone,
-                                      argmax_beyond_deg=self.argmax_beyond_deg)
+                                      argmax_beyond_deg=self.argmax_beyond_deg,
+                                      near_gain=self.near_gain, near_deg=self.near_deg)
         return opts
 
 
@@ -142,6 +145,30 @@ SHIPPED = {p.name: p for p in (
                   "fixed and a 0.1 rad/s dead zone on the speed readings",
                   levels=7, agent2_link1="locked", speed_dead_zone=0.1,
                   argmax_beyond_deg=30.0, tuned=True),
+    ShippedPolicy("decentralized_edge_gain", "decentralized", "full", "propagated", False,
+                  "decentralized_edge with the near-goal gain docs/studies/near_gain.py "
+                  "chose on the tuning seeds: joint i's torque falls from full at 90 deg to "
+                  "0.2 times (14)'s at the goal", levels=7, bins="edge",
+                  speed_dead_zone=0.06, argmax_beyond_deg=30.0, near_gain=0.2,
+                  near_deg=90.0, tuned=True),
+    ShippedPolicy("decentralized_locked_gain", "decentralized", "full", "propagated", False,
+                  "decentralized_locked with the near-goal gain docs/studies/near_gain.py "
+                  "chose on the tuning seeds: joint i's torque falls from full at 60 deg to "
+                  "0.3 times (14)'s at the goal", levels=7, agent2_link1="locked",
+                  speed_dead_zone=0.1, argmax_beyond_deg=30.0, near_gain=0.3, near_deg=60.0,
+                  tuned=True),
+    ShippedPolicy("decentralized_edge_gain_hard", "decentralized", "full", "propagated",
+                  False, "decentralized_edge with the near-goal gain docs/studies/near_gain.py "
+                  "chose for the hard level with compensation on the tuning seeds: joint "
+                  "i's torque falls from full at 180 deg to 0.5 times (14)'s at the goal",
+                  levels=7, bins="edge", speed_dead_zone=0.06, argmax_beyond_deg=30.0,
+                  near_gain=0.5, near_deg=180.0, tuned=True),
+    ShippedPolicy("centralized_robust_edge_gain", "centralized", "full", None, False,
+                  "centralized_robust_edge with the near-goal gain docs/studies/near_gain.py "
+                  "chose on the tuning seeds: joint i's torque falls from full at 90 deg to "
+                  "0.1 times (14)'s at the goal", robust="worst", draws=8, spread=0.2,
+                  seed=ROBUST_SEED, bins="edge", speed_dead_zone=0.04,
+                  argmax_beyond_deg=30.0, near_gain=0.1, near_deg=90.0, tuned=True),
 )}
 #: The shipped policies of the paper's two-link arm (what two-link reports iterate over).
 TWO_LINK = tuple(n for n, p in SHIPPED.items() if p.links == 2)
