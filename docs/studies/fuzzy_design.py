@@ -425,6 +425,16 @@ VARIANTS = {
     "decentralized_locked, near-goal gain 0.3 from 60 deg (decentralized_locked_gain)":
         _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0,
                 link1="locked", near=(0.3, 60.0)),
+    "decentralized_locked, near-goal gain 0.5 from 60 deg (decentralized_locked_gain_medium)":
+        _policy("decentralized", 7, context="propagated", dead_zone=0.1, argmax=30.0,
+                link1="locked", near=(0.5, 60.0)),
+    "centralized_robust_edge, near-goal gain 0.1 from 90 deg (centralized_robust_edge_gain)":
+        _policy("centralized", bins="edge", dead_zone=0.04, argmax=30.0, robust=True,
+                near=(0.1, 90.0)),
+    "centralized_robust_edge, near-goal gain 0.2 from 60 deg "
+    "(centralized_robust_edge_gain_medium)":
+        _policy("centralized", bins="edge", dead_zone=0.04, argmax=30.0, robust=True,
+                near=(0.2, 60.0)),
     "centralized_tuned with a one-step look-ahead on (6) beyond 15 deg":
         lambda: LookAhead(_policy("centralized", 5, "goal", dead_zone=0.08, argmax=30.0)(), 15.0),
 }

@@ -9,7 +9,11 @@ and hard, with and without compensation, all from the tuning seeds). :func:`choo
 per policy the gain that keeps every nominal pose and has the most successes summed over
 the four challenge columns (ties: the larger g, the smaller A: the least change), and
 the gain with the most successes in the hard level with compensation alone (the
-decentralized target the all-round gain leaves below the best baseline). The runs merge
+decentralized target the all-round gain leaves below the best baseline). The grid's
+``medium`` column is nearly full for every gain, so ``--medium-wide`` measures the
+policies' gains again under ``medium`` without compensation on all 48 poses and
+:data:`WIDE_PLANTS` plants of the tuning seeds (``medium_wide`` in each row) and adds a
+third choice by it. The runs merge
 into the JSON file (one per policy; ``--choose-only`` applies :func:`choose` to the
 file's runs again without measuring); the docs generator writes the choices into
 ``docs/results/fuzzy-designs.md``, and the registry ships chosen designs under new
@@ -65,7 +69,10 @@ def cells(controller) -> dict:
 
 
 #: The choices the study makes: a name and the columns whose successes it sums.
-CRITERIA = {"challenge sum": COLUMNS[1:], "hard compensated": ("hard compensated",)}
+CRITERIA = {"challenge sum": COLUMNS[1:], "hard compensated": ("hard compensated",),
+            "medium (wide)": ("medium_wide",)}
+#: Plants of the wide ``medium`` measurement (``--medium-wide``): the tuning seeds' first 32.
+WIDE_PLANTS = 32
 
 
 def choose(rows: list, columns=COLUMNS[1:], nominal: int = len(POSES)) -> dict:
@@ -84,10 +91,32 @@ def choices(run: dict) -> dict:
     None}."""
     out = {}
     for name, columns in CRITERIA.items():
+        if not all(c in r["cells"] for r in run["rows"] for c in columns):
+            continue                        # not measured for this policy
         pick = choose(run["rows"], columns)
         out[name] = None if pick is None else {"angle_deg": pick["angle_deg"],
                                                "gain": pick["gain"]}
     return out
+
+
+def wide_medium(controller) -> int:
+    """Successes under ``medium`` without compensation on all 48 poses and
+    :data:`WIDE_PLANTS` plants of the tuning seeds."""
+    return int(evaluate(controller, x0=POSES, challenge="medium", seed=PLANT_SEED,
+                        count=WIDE_PLANTS).score.successes)
+
+
+def add_wide_medium(run: dict) -> dict:
+    """``run`` with ``medium_wide`` measured for its base and every row."""
+    base = load_policy(run["policy"])
+    run["base"]["medium_wide"] = wide_medium(base)
+    print(f"{run['policy']}: medium (wide) {run['base']['medium_wide']}", flush=True)
+    for row in run["rows"]:
+        row["cells"]["medium_wide"] = wide_medium(with_gain(base, row["gain"],
+                                                            row["angle_deg"]))
+        print(f"  A {row['angle_deg']:g} deg, g {row['gain']:g}: medium (wide) "
+              f"{row['cells']['medium_wide']}", flush=True)
+    return run
 
 
 def measure(name: str) -> dict:
@@ -113,6 +142,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
     ap.add_argument("--choose-only", action="store_true",
                     help="measure nothing: apply the choice to the file's runs again")
+    ap.add_argument("--medium-wide", action="store_true",
+                    help=f"add medium without compensation on 48 poses x {WIDE_PLANTS} "
+                         f"plants to the file's runs of --policies (measured before)")
     args = ap.parse_args(argv)
     try:
         unknown = [n for n in args.policies if n not in TWO_LINK]
@@ -128,8 +160,14 @@ def main(argv=None) -> int:
         print(f"near_gain: error: {exc}", file=sys.stderr)
         return 2
     runs = {r["policy"]: r for r in data["runs"]}
+    if args.medium_wide:
+        missing = [n for n in args.policies if n not in runs]
+        if missing:
+            print(f"near_gain: error: --medium-wide needs the grid of {missing[0]} in "
+                  f"{args.json} first", file=sys.stderr)
+            return 2
     for name in () if args.choose_only else dict.fromkeys(args.policies):
-        runs[name] = measure(name)
+        runs[name] = add_wide_medium(runs[name]) if args.medium_wide else measure(name)
     for name, run in runs.items():
         run["chosen"] = choices(run)
         print(json.dumps({"policy": name, "chosen": run["chosen"]}), flush=True)

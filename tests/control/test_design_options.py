@@ -253,7 +253,9 @@ def test_a_locked_design_records_its_reading_and_the_registry_rebuilds_it(tmp_pa
     ("decentralized_edge_gain", "decentralized_edge"),
     ("decentralized_edge_gain_hard", "decentralized_edge"),
     ("decentralized_locked_gain", "decentralized_locked"),
+    ("decentralized_locked_gain_medium", "decentralized_locked"),
     ("centralized_robust_edge_gain", "centralized_robust_edge"),
+    ("centralized_robust_edge_gain_medium", "centralized_robust_edge"),
 ])
 def test_the_gain_designs_are_their_base_with_a_near_goal_gain(gain, base):
     """Each `*_gain` policy is its base design (the same Q-tables in its file) whose

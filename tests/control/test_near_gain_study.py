@@ -91,3 +91,14 @@ def test_a_foreign_file_is_refused_and_left_alone(study, tmp_path, capsys):
     assert study.main(["--policies", "decentralized_edge", "--json", str(out)]) == 2
     assert "is not a twolink.near_gain version 1 file" in capsys.readouterr().err
     assert json.loads(out.read_text())["schema"] == "twolink.links_reach"
+
+
+def test_medium_wide_needs_the_grid_first_and_adds_a_third_choice(study, tmp_path, capsys):
+    out = tmp_path / "g.json"
+    assert study.main(["--medium-wide", "--policies", "decentralized_edge",
+                       "--json", str(out)]) == 2
+    assert "--medium-wide needs the grid of decentralized_edge" in capsys.readouterr().err
+    assert not out.exists()
+    rows = [_row(20, 0.2, 48, 200, 250, 100, 240), _row(60, 0.5, 48, 1, 1, 1, 250)]
+    rows[0]["cells"]["medium_wide"], rows[1]["cells"]["medium_wide"] = 1500, 1530
+    assert study.choices({"rows": rows})["medium (wide)"] == {"angle_deg": 60, "gain": 0.5}

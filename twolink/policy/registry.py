@@ -163,6 +163,20 @@ SHIPPED = {p.name: p for p in (
                   "i's torque falls from full at 180 deg to 0.5 times (14)'s at the goal",
                   levels=7, bins="edge", speed_dead_zone=0.06, argmax_beyond_deg=30.0,
                   near_gain=0.5, near_deg=180.0, tuned=True),
+    ShippedPolicy("decentralized_locked_gain_medium", "decentralized", "full", "propagated",
+                  False, "decentralized_locked with the near-goal gain "
+                  "docs/studies/near_gain.py chose for the medium level without "
+                  "compensation on the tuning seeds (48 poses x 32 plants): joint i's "
+                  "torque falls from full at 60 deg to 0.5 times (14)'s at the goal",
+                  levels=7, agent2_link1="locked", speed_dead_zone=0.1,
+                  argmax_beyond_deg=30.0, near_gain=0.5, near_deg=60.0, tuned=True),
+    ShippedPolicy("centralized_robust_edge_gain_medium", "centralized", "full", None, False,
+                  "centralized_robust_edge with the near-goal gain docs/studies/near_gain.py "
+                  "chose for the medium level without compensation on the tuning seeds (48 "
+                  "poses x 32 plants): joint i's torque falls from full at 60 deg to 0.2 "
+                  "times (14)'s at the goal", robust="worst", draws=8, spread=0.2,
+                  seed=ROBUST_SEED, bins="edge", speed_dead_zone=0.04,
+                  argmax_beyond_deg=30.0, near_gain=0.2, near_deg=60.0, tuned=True),
     ShippedPolicy("centralized_robust_edge_gain", "centralized", "full", None, False,
                   "centralized_robust_edge with the near-goal gain docs/studies/near_gain.py "
                   "chose on the tuning seeds: joint i's torque falls from full at 90 deg to "
