@@ -413,3 +413,42 @@ def test_the_scaling_page_counts_successes_by_own_motor_time(tmp_path, monkeypat
            "are reachable" in text
     assert "(totals differ from the table's rows)" in text
     assert "at N = 6 joint 6 turns at most 0.312 rad/s" in text
+
+
+def test_the_fuzzy_designs_page_shows_the_near_goal_gain_choices_and_parts(tmp_path,
+                                                                          monkeypatch):
+    """The near-goal gain section: a design's plain read-out, each criterion's choice with
+    its cells and the registry name that ships it, and which part of hard the gain answers
+    most, all from the study's data."""
+    import json
+
+    gen = _generator()
+    from generator import results_leaderboard as rl
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    assert rl._near_gain_block() == ""                      # no study data: no section
+    cells = {"none": 48, "medium": 240, "medium compensated": 250, "hard": 100,
+             "hard compensated": 240}
+    run = {"policy": "decentralized_locked", "base": dict(cells, hard=70),
+           "rows": [{"angle_deg": 60.0, "gain": 0.3, "cells": cells},
+                    {"angle_deg": 20.0, "gain": 0.1, "cells": dict(cells, none=47)}],
+           "chosen": {"challenge sum": {"angle_deg": 60.0, "gain": 0.3},
+                      "hard compensated": None},
+           "parts": {"gain": 0.3, "angle_deg": 60.0, "runs": {
+               "delays": {"plain read-out": 200, "with the gain": 250, "pd_deadzone": 256},
+               "noise": {"plain read-out": 100, "with the gain": 240, "pd_deadzone": 216}}}}
+    path = tmp_path / rl.NEAR_GAIN
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps({"schema": "twolink.near_gain", "version": 1, "runs": [run],
+                                "grid": {"angles_deg": [20.0, 60.0], "gains": [0.1, 0.3]}}))
+    text = rl._near_gain_block()
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()
+            if line.startswith("|") and "---" not in line]
+    assert rows[1][:9] == ["`decentralized_locked`", "—", "48", "240", "250", "70", "240",
+                           "800", ""]
+    assert rows[2][1] == "challenge sum: A 60°, g 0.3" and rows[2][7] == "830"
+    assert rows[2][-1] == "`decentralized_locked_gain`"       # the registry ships it
+    assert rows[3][1] == "hard compensated: none keeps every nominal pose"
+    assert "`decentralized_locked` most under its noise (+140 of 256)" in text
+    assert ["`decentralized_locked`", "delays alone", "200/256", "250/256",
+            "256/256"] in rows

@@ -192,6 +192,26 @@ def _near_gain_block() -> str:
                          f"{sum(row['cells'][c] for c in cols[1:])}", wide(row["cells"]),
                          ", ".join(f"`{n}`" for n in ships) or "not shipped"))
     n = {"none": 48}
+    parts = [(run["policy"], run["parts"]) for run in data["runs"] if "parts" in run]
+    tail = ""
+    if parts:
+        rows = []
+        for name, part in parts:
+            for what, cells in part["runs"].items():
+                rows.append((f"`{name}`", f"{what} alone",
+                             f"{cells['plain read-out']}/256", f"{cells['with the gain']}/256",
+                             f"{cells['pd_deadzone']}/256"))
+        lifts = []
+        for name, part in parts:
+            gain = {k: c["with the gain"] - c["plain read-out"] for k, c in part["runs"].items()}
+            top = max(gain, key=gain.get)
+            lifts.append(f"`{name}` most under its {top} ({gain[top]:+d} of 256)")
+        tail = ("\n\nWhich part of `hard` the gain answers (`--parts`: each design without and "
+                "with its all-round gain, beside `pd_deadzone`, under each part of the level "
+                "alone, on the tuning table's 32 poses and 8 plants, plain). The gain helps "
+                + "; ".join(lifts) + ".\n\n"
+                + _table(("design", "challenge", "plain read-out", "with the gain",
+                          "`pd_deadzone`"), rows))
     out.append(_table(("design", "near-goal gain", *[f"{c} (/{n.get(c, 256)})" for c in cols],
                        "challenge sum", "medium, wide (/1536)", "shipped as"), body))
-    return "".join(out) + "\n"
+    return "".join(out) + tail + "\n"

@@ -13,7 +13,9 @@ decentralized target the all-round gain leaves below the best baseline). The gri
 ``medium`` column is nearly full for every gain, so ``--medium-wide`` measures the
 policies' gains again under ``medium`` without compensation on all 48 poses and
 :data:`WIDE_PLANTS` plants of the tuning seeds (``medium_wide`` in each row) and adds a
-third choice by it. The runs merge
+third choice by it. ``--parts`` tests the explanation: it measures each policy with
+and without its all-round gain, beside ``pd_deadzone``, under each part of the ``hard``
+level alone (:data:`PARTS`: its delays, its noise, its plants, its faults). The runs merge
 into the JSON file (one per policy; ``--choose-only`` applies :func:`choose` to the
 file's runs again without measuring); the docs generator writes the choices into
 ``docs/results/fuzzy-designs.md``, and the registry ships chosen designs under new
@@ -99,6 +101,42 @@ def choices(run: dict) -> dict:
     return out
 
 
+def _parts() -> dict:
+    from twolink.sim.challenges import LEVELS, Challenge
+
+    h = LEVELS["hard"]
+    return {"delays": Challenge("delays", action_delay=h.action_delay,
+                                observation_delay=h.observation_delay),
+            "noise": Challenge("noise", angle_noise_deg=h.angle_noise_deg,
+                               speed_noise=h.speed_noise),
+            "plants": Challenge("plants", spread=h.spread, torque_limit=h.torque_limit),
+            "faults": Challenge("faults", dropout=h.dropout, stuck=h.stuck)}
+
+
+#: The parts of the ``hard`` level, each alone (``--parts``).
+PARTS = tuple(_parts())
+
+
+def measure_parts(run: dict) -> dict:
+    """Successes of ``run``'s policy without and with its all-round gain and of
+    ``pd_deadzone`` under each part of ``hard`` alone, on the tuning table's 32 poses and 8
+    plants without compensation."""
+    from twolink.control.baselines import baseline
+
+    pick = run["chosen"]["challenge sum"]
+    base = load_policy(run["policy"])
+    controllers = {"plain read-out": base,
+                   "with the gain": with_gain(base, pick["gain"], pick["angle_deg"]),
+                   "pd_deadzone": baseline("pd_deadzone")}
+    out = {}
+    for part, challenge in _parts().items():
+        out[part] = {k: int(evaluate(c, x0=POSES[:CHALLENGE_POSES], challenge=challenge,
+                                     seed=PLANT_SEED, count=CHALLENGE_PLANTS
+                                     ).score.successes) for k, c in controllers.items()}
+        print(f"{run['policy']}, {part} alone: {out[part]}", flush=True)
+    return {"gain": pick["gain"], "angle_deg": pick["angle_deg"], "runs": out}
+
+
 def wide_medium(controller) -> int:
     """Successes under ``medium`` without compensation on all 48 poses and
     :data:`WIDE_PLANTS` plants of the tuning seeds."""
@@ -145,6 +183,9 @@ def main(argv=None) -> int:
     ap.add_argument("--medium-wide", action="store_true",
                     help=f"add medium without compensation on 48 poses x {WIDE_PLANTS} "
                          f"plants to the file's runs of --policies (measured before)")
+    ap.add_argument("--parts", action="store_true",
+                    help="measure --policies (their grids measured before) with and without "
+                         "the all-round gain under each part of hard alone")
     args = ap.parse_args(argv)
     try:
         unknown = [n for n in args.policies if n not in TWO_LINK]
@@ -160,17 +201,19 @@ def main(argv=None) -> int:
         print(f"near_gain: error: {exc}", file=sys.stderr)
         return 2
     runs = {r["policy"]: r for r in data["runs"]}
-    if args.medium_wide:
+    for flag, given in (("--medium-wide", args.medium_wide), ("--parts", args.parts)):
         missing = [n for n in args.policies if n not in runs]
-        if missing:
-            print(f"near_gain: error: --medium-wide needs the grid of {missing[0]} in "
+        if given and missing:
+            print(f"near_gain: error: {flag} needs the grid of {missing[0]} in "
                   f"{args.json} first", file=sys.stderr)
             return 2
-    for name in () if args.choose_only else dict.fromkeys(args.policies):
+    for name in () if args.choose_only or args.parts else dict.fromkeys(args.policies):
         runs[name] = add_wide_medium(runs[name]) if args.medium_wide else measure(name)
     for name, run in runs.items():
         run["chosen"] = choices(run)
         print(json.dumps({"policy": name, "chosen": run["chosen"]}), flush=True)
+    for name in dict.fromkeys(args.policies) if args.parts else ():
+        runs[name]["parts"] = measure_parts(runs[name])
     order = [n for n in TWO_LINK if n in runs]
     args.json.parent.mkdir(parents=True, exist_ok=True)
     write_json(args.json, {"schema": SCHEMA, "version": VERSION,

@@ -102,3 +102,16 @@ def test_medium_wide_needs_the_grid_first_and_adds_a_third_choice(study, tmp_pat
     rows = [_row(20, 0.2, 48, 200, 250, 100, 240), _row(60, 0.5, 48, 1, 1, 1, 250)]
     rows[0]["cells"]["medium_wide"], rows[1]["cells"]["medium_wide"] = 1500, 1530
     assert study.choices({"rows": rows})["medium (wide)"] == {"angle_deg": 60, "gain": 0.5}
+
+
+def test_parts_needs_the_grid_first(study, tmp_path, capsys):
+    out = tmp_path / "g.json"
+    assert study.main(["--parts", "--policies", "decentralized_edge", "--json", str(out)]) == 2
+    assert "--parts needs the grid of decentralized_edge" in capsys.readouterr().err
+    assert not out.exists()
+    assert study.PARTS == ("delays", "noise", "plants", "faults")
+    from twolink.sim.challenges import LEVELS
+    p = study._parts()
+    assert (p["noise"].angle_noise_deg, p["noise"].speed_noise, p["noise"].action_delay) == \
+        (LEVELS["hard"].angle_noise_deg, LEVELS["hard"].speed_noise, 0)
+    assert (p["delays"].action_delay, p["delays"].observation_delay) == (1, 1)

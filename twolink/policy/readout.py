@@ -25,10 +25,11 @@ joint i's torque is multiplied by
     s_i = g + (1 - g) min(|theta_i| / A, 1),
 
 theta_i its own wrapped angle as read (before any dead zone), so the torque falls
-linearly from full at A degrees to g times (14)'s at the goal. (14) is the time-optimal
-policy of a model that answers at once: under delayed readings its full torque near the
-goal overshoots the band and the arm limit-cycles around it, as a PD with too high a gain
-does. The gain applies to the torques the policy sends; agents that read a neighbour's
+linearly from full at A degrees to g times (14)'s at the goal. (14) is near time-optimal
+for a model that is read exactly and answers at once: with readings late, its full torque
+near the goal overshoots the band and the arm limit-cycles around it; with readings
+noisy, it answers the noise with large torques that push the arm out of the band, as a PD
+with too high a gain does. The gain applies to the torques the policy sends; agents that read a neighbour's
 torque (18) read it as (14) gives it.
 
 A policy records its read-out in ``meta["readout"]``; without one it reads the states
