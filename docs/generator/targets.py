@@ -71,6 +71,12 @@ SCALING_TARGETS = (
      ("success", 8.0, 0.90), "decentralized_levels"),
     ("decentralized N = 6 synthesis ≤ 60 s (tapered, 5 levels)", "tapered", 6,
      ("synthesis", 60.0, 2 * 2**30), "decentralized_levels"),
+    ("tapered N = 5 ≥ 95 % at 8 s (5 levels, argmax)", "tapered", 5,
+     ("success", 8.0, 0.95), "decentralized_argmax"),
+    ("tapered N = 6 ≥ 90 % at 8 s (5 levels, argmax)", "tapered", 6,
+     ("success", 8.0, 0.90), "decentralized_argmax"),
+    ("copied N = 4 ≥ 90 % at 8 s (5 levels, argmax)", "copied", 4,
+     ("success", 8.0, 0.90), "decentralized_argmax"),
 )
 
 

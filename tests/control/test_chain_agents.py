@@ -185,3 +185,27 @@ def test_memory_estimate_and_refusals():
         synthesize("decentralized", links=3, robust="worst", draws=2, spread=0.1)
     with pytest.raises(ValueError, match="agent 4: an arm of 3 links has agents 1 to 3"):
         agent_problem(4, chain(3), CHAIN_DEFAULT)
+
+
+def test_a_chain_policy_records_its_read_out_and_acts_by_it():
+    """synthesize_chain(readout=...) keeps the agents and records the read-out: beyond the
+    argmax angle the agents act by the largest interpolated Q."""
+    from twolink.arm.parameters import chain
+    from twolink.control.links_decentralized import synthesize_chain
+    from twolink.policy.fuzzy_policy import greedy_indices
+    from twolink.policy.readout import Readout
+
+    p = chain(3, "copied")
+    plain = synthesize_chain(p)
+    read = synthesize_chain(p, readout=Readout(argmax_beyond_deg=20.0))
+    assert read.meta["readout"] == {"speed_dead_zone": 0.0, "angle_dead_zone_deg": 0.0,
+                                    "argmax_beyond_deg": 20.0}
+    assert "readout" not in plain.meta
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(plain.agents, read.agents))
+    x = np.zeros((1, 6))
+    x[0, 2] = np.radians(170.0)                      # the outermost joint far from home
+    agent3 = read.agents[0]
+    q = agent3.q_values(x[:, [2, 5]])
+    assert read(x)[0, 2] == agent3.actions[greedy_indices(q, agent3.tie_tolerance)][0, 0]
+    with pytest.raises(TypeError, match="readout must be a twolink.policy.readout.Readout"):
+        synthesize_chain(p, readout={"argmax_beyond_deg": 20.0})

@@ -28,7 +28,8 @@ def test_horizons_grow_past_two_links():
 
 def test_plan_measures_two_links_once_and_quick_stops_at_four():
     cells = scaling.plan([3, 2], ["tapered", "copied"])
-    three = ["centralized", "decentralized", "decentralized_levels", "pd"]
+    three = ["centralized", "decentralized", "decentralized_levels", "decentralized_argmax",
+             "pd"]
     assert cells == [(2, "tapered", "centralized"), (2, "tapered", "decentralized")] + \
         [(3, r, s) for r in ("tapered", "copied") for s in three]
     with pytest.raises(ValueError, match="quick runs go up to 4 links"):

@@ -72,6 +72,7 @@ from twolink.artifacts import VERSION as __version__
 from twolink.control.problems import CONTEXTS, Problem, check_sweeps, model_step, solve
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Agent, Policy
+from twolink.policy.readout import Readout
 from twolink.sim.progress import progress_bar
 
 #: Which speed axes get the two extra bins at +-:data:`EXTRA_SPEED_DEG`.
@@ -307,7 +308,8 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                      beyond: Optional[str] = None, levels: int = PAPER_LEVELS,
                      bins: str = "paper", gamma: float = GAMMA,
                      delta: float = DELTA, sweeps: str = "synchronous",
-                     max_bytes: int = MAX_BYTES, progress: bool = False) -> Policy:
+                     max_bytes: int = MAX_BYTES, readout=None,
+                     progress: bool = False) -> Policy:
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
     take the default for N links and the rule of ``p`` (:func:`construction`: the paper's
@@ -316,7 +318,8 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
     transitions take (refused over ``max_bytes``) are checked before any work. The
     policy's ``meta`` records the links, the rule, the parameters, the construction (and
     the design when it is not the paper's), gamma, delta, Ts, the RK4 substeps and every
-    agent's sweeps and timings."""
+    agent's sweeps and timings; ``readout`` (a :class:`twolink.policy.readout.Readout`,
+    e.g. the argmax of Q far from the goal) is recorded there as the policy's read-out."""
     p = as_chain(p)
     n = p.links
     c = construction(n, p.rule, context=context, speed_context=speed_context,
@@ -327,6 +330,9 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
         raise ValueError(f"gamma must lie in (0, 1), got {gamma!r}")
     if not (isinstance(delta, (int, float)) and delta > 0.0):
         raise ValueError(f"delta must be positive, got {delta!r}")
+    if readout is not None and not isinstance(readout, Readout):
+        raise TypeError(f"readout must be a twolink.policy.readout.Readout, got "
+                        f"{type(readout).__name__}")
     need = check_size(p, c, max_bytes, made)
     start = time.perf_counter()
     agents = []
@@ -350,4 +356,6 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
                        for a in agents}}
     if made != PAPER_DESIGN:
         meta["design"] = made.as_dict()
+    if readout is not None and readout.active:
+        meta["readout"] = readout.as_dict()
     return Policy("decentralized", agents, meta)

@@ -11,8 +11,9 @@ schemes, the centralized policy (16) and one decentralized agent per joint (18):
   :data:`EVAL_SEED` + N, at the horizon of :func:`horizon` (and at the paper's 5 s
   beside it for N >= 3).
 
-For N >= 3 two more rows stand beside them (:data:`CHAIN_SCHEMES`): the decentralized
-agents with :data:`LEVER_LEVELS` torque levels per joint, and the per-joint saturated PD
+For N >= 3 three more rows stand beside them (:data:`CHAIN_SCHEMES`): the decentralized
+agents with :data:`LEVER_LEVELS` torque levels per joint, the same agents read through
+the argmax of Q beyond :data:`LEVER_ARGMAX_DEG` degrees, and the per-joint saturated PD
 of :mod:`twolink.control.links_pd` with the gains it was tuned to on its own seeds (the
 control only: a PD has no synthesis).
 
@@ -54,6 +55,7 @@ from twolink.sim.plants import make_plant
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import Trajectory, rollout
 from twolink.studies.scaling.synthesis import (
+    LEVER_ARGMAX_DEG,
     LEVER_LEVELS,
     ProcessDied,
     Synthesis,
@@ -69,9 +71,10 @@ EVAL_SEED = 20061122
 #: The two schemes of the paper, in table order.
 SCHEMES = ("centralized", "decentralized")
 #: Rows measured beside them for N >= 3, in table order: the decentralized agents with
-#: :data:`LEVER_LEVELS` torque levels per joint, and the per-joint saturated PD
+#: :data:`LEVER_LEVELS` torque levels per joint (plain, and read through the argmax of Q
+#: beyond :data:`LEVER_ARGMAX_DEG` degrees), and the per-joint saturated PD
 #: (:mod:`twolink.control.links_pd`, gains tuned off the evaluation seeds).
-CHAIN_SCHEMES = ("decentralized_levels", "pd")
+CHAIN_SCHEMES = ("decentralized_levels", "decentralized_argmax", "pd")
 #: Every row kind of the table.
 ALL_SCHEMES = SCHEMES + CHAIN_SCHEMES
 #: Horizon for N >= 3 links (:data:`twolink.arm.parameters.CHAIN_HORIZON`).
@@ -314,7 +317,7 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
         row.evaluation = evaluate(tuned(chain(links, rule)), links, rule, poses=poses,
                                   seed=seed)
         return row
-    if scheme == "decentralized_levels":
+    if scheme in ("decentralized_levels", "decentralized_argmax"):
         row.estimate = decentralized_estimate(links, rule, LEVER_LEVELS)
     elif scheme == "decentralized":
         row.estimate = decentralized_estimate(links, rule)

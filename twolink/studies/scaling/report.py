@@ -12,16 +12,22 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from twolink.artifacts import atomic_path, write_json, write_text  # noqa: E402
-from twolink.studies.scaling.measure import ALL_SCHEMES, LEVER_LEVELS  # noqa: E402
+from twolink.studies.scaling.measure import (  # noqa: E402
+    ALL_SCHEMES,
+    LEVER_ARGMAX_DEG,
+    LEVER_LEVELS,
+)
 from twolink.viz.formatting import format_rate  # noqa: E402
 
 #: The files :func:`write` writes into its folder.
 FILES = {"markdown": "scaling.md", "figure": "scaling.png", "json": "scaling.json"}
 _COLORS = {"centralized": "C0", "decentralized": "C1", "decentralized_levels": "C2",
-           "pd": "C3"}
+           "decentralized_argmax": "C4", "pd": "C3"}
 #: How the table names each row kind.
 LABELS = {"centralized": "centralized", "decentralized": "decentralized",
           "decentralized_levels": f"decentralized, {LEVER_LEVELS} levels",
+          "decentralized_argmax": f"decentralized, {LEVER_LEVELS} levels, argmax beyond "
+                                  f"{LEVER_ARGMAX_DEG:g}°",
           "pd": "per-joint PD"}
 _RULE_STYLES = {"Table I": "-", "tapered": "-", "copied": "--"}
 
@@ -133,6 +139,15 @@ def _constructions(report: dict) -> list:
         out.append(f"- **Decentralized, {LEVER_LEVELS} levels**: the same agents with "
                    f"{LEVER_LEVELS} torque levels per joint instead of three (the "
                    "`levels` option of `synthesize_chain`).")
+    if any(r["scheme"] == "decentralized_argmax" for r in report["rows"]):
+        out.append(f"- **Decentralized, {LEVER_LEVELS} levels, argmax beyond "
+                   f"{LEVER_ARGMAX_DEG:g}°**: the {LEVER_LEVELS}-level agents read "
+                   f"through the argmax of Q wherever an agent reads an angle beyond "
+                   f"{LEVER_ARGMAX_DEG:g}° (the `readout` option of `synthesize_chain`, "
+                   "`twolink.policy.readout`), chosen on the tapered five-link arm's "
+                   "development poses (`twolink.studies.scaling.synthesis.LEVER_ARGMAX_DEG`)."
+                   " Near ±180° neighbouring bins turn a joint opposite ways and (14) "
+                   "averages their torques to almost none.")
     pd = [f"N = {r['links']} {r['rule']}: {r['note'].split(': ', 1)[-1]}"
           for r in report["rows"] if r["scheme"] == "pd" and r.get("note")]
     if pd:

@@ -18,6 +18,11 @@ from twolink.policy.registry import SHIPPED
 
 #: The torque levels per joint of the ``decentralized_levels`` cells.
 LEVER_LEVELS = 5
+#: The read-out of the ``decentralized_argmax`` cells (:data:`LEVER_LEVELS` levels): the
+#: argmax of Q beyond this many degrees (twolink.policy.readout). Chosen among 10, 20,
+#: 30 and 45 on the tapered five-link arm's development poses, random_poses(5, 64,
+#: 7100 + 5) and random_poses(5, 256, 7200 + 5): the most successes at 8 s summed.
+LEVER_ARGMAX_DEG = 20.0
 
 #: How the peak memory of one synthesis is measured: ``"process"`` runs it in a fresh
 #: process, after the imports and a warm-up (the two-link decentralized synthesis, which
@@ -81,12 +86,17 @@ def cell_policy(links: int, rule: str, scheme: str, max_bytes: int):
         return (synthesize(entry.kind, TABLE_I, **entry.synthesis_options()),
                 f"{name} (registry): {entry.description}")
     p = chain(links, rule)
-    if scheme in ("decentralized", "decentralized_levels"):
+    if scheme in ("decentralized", "decentralized_levels", "decentralized_argmax"):
         from twolink.control.links_decentralized import synthesize_chain
-        levels = {"levels": LEVER_LEVELS} if scheme == "decentralized_levels" else {}
+        from twolink.policy.readout import Readout
+        levels = {"levels": LEVER_LEVELS} if scheme != "decentralized" else {}
+        if scheme == "decentralized_argmax":
+            levels["readout"] = Readout(argmax_beyond_deg=LEVER_ARGMAX_DEG)
         policy = synthesize_chain(p, **levels)
         c = ", ".join(f"{k}={v}" for k, v in policy.meta.get("construction", {}).items())
         c += "".join(f", {k}={v}" for k, v in policy.meta.get("design", {}).items())
+        if "readout" in policy.meta:
+            c += f", argmax beyond {policy.meta['readout']['argmax_beyond_deg']:g} deg"
         return policy, f"one agent per joint on the full N-link model " \
                        f"(twolink.control.links_decentralized.synthesize_chain; {c})"
     from twolink.control.links_centralized import synthesize_centralized
