@@ -17,7 +17,7 @@ OWN_MOTOR = "renders/links_reach/own_motor.json"
 OWN_MOTOR_EDGES = (3.0, 5.0, 7.0)
 #: The own-motor study's controllers, by scaling row name, and their column titles.
 OWN_MOTOR_COLUMNS = (("decentralized", "decentralized"), ("decentralized_levels", "5 levels"),
-                     ("pd", "per-joint PD"))
+                     ("decentralized_argmax", "5 levels, argmax"), ("pd", "per-joint PD"))
 
 
 def _reach_block(report: dict) -> str:
@@ -82,6 +82,7 @@ def _own_motor_block(report: dict) -> str:
     reach = _load(REACH, SCHEMAS[REACH]) or {"runs": []}
     reached = {(r["links"], r["rule"]): r for r in reach["runs"]}
     rows = {(r["scheme"], r["rule"], r["links"]): r for r in report["rows"]}
+    columns = [c for c in OWN_MOTOR_COLUMNS if all(c[0] in r["success"] for r in data["runs"])]
     edges = (0.0,) + OWN_MOTOR_EDGES + (np.inf,)
     deadline = OWN_MOTOR_EDGES[-1]
     names = ([f"≤ {edges[1]:g} s"]
@@ -104,8 +105,8 @@ def _own_motor_block(report: dict) -> str:
            "controllers again on the table's poses and records each pose's success beside "
            "its own-motor time:\n\n",
            "| N | links | own-motor time | poses | "
-           + " | ".join(t for _, t in OWN_MOTOR_COLUMNS) + " |\n|---|---|---|---|"
-           + "---|" * len(OWN_MOTOR_COLUMNS) + "\n"]
+           + " | ".join(t for _, t in columns) + " |\n|---|---|---|---|"
+           + "---|" * len(columns) + "\n"]
     notes = []
     for run in data["runs"]:
         n, rule = run["links"], run["rule"]
@@ -116,7 +117,7 @@ def _own_motor_block(report: dict) -> str:
             if not m.any():
                 continue
             cells = [format_rate(int(np.asarray(run["success"][k])[m].sum()), int(m.sum()))
-                     for k, _ in OWN_MOTOR_COLUMNS]
+                     for k, _ in columns]
             out.append(f"| {n} | {rule} | {name} | {int(m.sum())} | " + " | ".join(cells)
                        + " |\n")
         late = own > deadline
@@ -128,8 +129,8 @@ def _own_motor_block(report: dict) -> str:
             line += (" (set by joint " + " or ".join(map(str, joints)) + "); the controllers "
                      "settle " + ", ".join(
                          f"{int(np.asarray(run['success'][k])[late].sum())}" for k, _ in
-                         OWN_MOTOR_COLUMNS) + " of them (" + ", ".join(
-                         t for _, t in OWN_MOTOR_COLUMNS) + ")")
+                         columns) + " of them (" + ", ".join(
+                         t for _, t in columns) + ")")
             r = reached.get((n, rule))
             if r:
                 k = r["poses"]
@@ -141,7 +142,7 @@ def _own_motor_block(report: dict) -> str:
             (key := (scheme, rule, n)) in rows and rows[key]["status"] == "run"
             and rows[key]["evaluation"]["horizons"]["8"]["successes"]
             == sum(run["success"][scheme]) and run["poses"] == rows[key]["evaluation"]["poses"]
-            for scheme, _ in OWN_MOTOR_COLUMNS)
+            for scheme, _ in columns)
         notes.append(line + (" (totals equal the table's rows)" if same else
                              " (totals differ from the table's rows)") + ".")
     out.append("\n" + "\n".join(f"- {t}" for t in notes) + "\n\n")

@@ -2,7 +2,8 @@
 
 ``python docs/studies/links_own_motor.py --links N [--rule tapered|copied] [--json FILE]``
 runs the scaling table's N-link controllers (the default decentralized agents, the
-5-level agents and the tuned per-joint PD, built as ``twolink scaling`` builds them) on
+5-level agents plain and read through the argmax of Q, and the tuned per-joint PD, built
+as ``twolink scaling`` builds them) on
 the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 8 s on MuJoCo, and
 records beside each pose's success its own-motor time: the largest over the joints of
 :func:`twolink.arm.task.own_motor_seconds`, the time joint i's own motor needs at the
@@ -42,7 +43,7 @@ SCHEMA, VERSION = "twolink.links_own_motor", 1
 #: The scaling table's poses per arm.
 POSES = 256
 #: The controllers, by the scaling table's row names.
-CONTROLLERS = ("decentralized", "decentralized_levels", "pd")
+CONTROLLERS = ("decentralized", "decentralized_levels", "decentralized_argmax", "pd")
 DEFAULT_JSON = Path("renders/links_reach/own_motor.json")
 
 

@@ -36,6 +36,7 @@ def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path,
     np.testing.assert_allclose(run["own_motor_s"], own.max(axis=1), atol=1e-4)
     assert run["slowest_joint"] == [int(j) + 1 for j in own.argmax(axis=1)]
     assert sorted(run["success"]) == sorted(study.CONTROLLERS)
+    assert "decentralized_argmax" in study.CONTROLLERS
     assert all(len(v) == 3 and set(v) <= {0, 1} for v in run["success"].values())
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["pd"] == sum(run["success"]["pd"])
