@@ -223,19 +223,26 @@ def _scaling_findings(report: dict) -> str:
             "draw of poses. The remaining N = 3 and 4 failures are mostly a link at rest just "
             "beyond 5°, the band-edge stall of the ±5° bin centres (see "
             "[edge stalls](../concepts/task.md#edge-stalls)).\n")
-    pairs = [(n, r, at(("decentralized", r, n)), at(("decentralized_levels", r, n)))
-             for r in ("tapered", "copied") for n in report["options"]["links"]
-             if at(("decentralized", r, n)) and at(("decentralized_levels", r, n))]
-    if pairs:
+    def changes(old, new):
+        """Where row ``new`` beats and trails row ``old`` at 8 s, as a phrase (None when
+        no arm has both rows)."""
+        pairs = [(n, r, at((old, r, n)), at((new, r, n)))
+                 for r in ("tapered", "copied") for n in report["options"]["links"]
+                 if at((old, r, n)) and at((new, r, n))]
+        if not pairs:
+            return None
+
         def moved(p):
             n, rule, a, b = p
             return f"{rule} N = {n} {100 * a['rate']:.1f} → {100 * b['rate']:.1f} %"
         better = [p for p in pairs if p[3]["successes"] > p[2]["successes"]]
         worse = [p for p in pairs if p[3]["successes"] < p[2]["successes"]]
+        return ((", ".join(map(moved, better)) + " better" if better else "none better")
+                + "; " + (", ".join(map(moved, worse)) + " worse" if worse else "none worse"))
+    levels = changes("decentralized", "decentralized_levels")
+    if levels:
         line = ("- **Five torque levels** (the `decentralized, 5 levels` rows), at 8 s: "
-                + (", ".join(map(moved, better)) + " better" if better else "none better")
-                + "; " + (", ".join(map(moved, worse)) + " worse" if worse else "none worse")
-                + ".")
+                + levels + ".")
         l6 = ran(("decentralized_levels", "tapered", 6))
         l5 = ran(("decentralized_levels", "tapered", 5))
         if l6 and l5:
@@ -257,22 +264,12 @@ def _scaling_findings(report: dict) -> str:
                    "inner joints pushing in phase, the same from most poses, which none of "
                    "them broke. A two-hop context (θ_{i+2} in agent i's grid) was not tried: "
                    "a middle agent's transitions would exceed the 2 GiB cap.\n")
-    pairs = [(n, r, at(("decentralized_levels", r, n)), at(("decentralized_argmax", r, n)))
-             for r in ("tapered", "copied") for n in report["options"]["links"]
-             if at(("decentralized_levels", r, n)) and at(("decentralized_argmax", r, n))]
-    if pairs:
-        def moved2(p):
-            n, rule, a, b = p
-            return f"{rule} N = {n} {100 * a['rate']:.1f} → {100 * b['rate']:.1f} %"
-        better = [p for p in pairs if p[3]["successes"] > p[2]["successes"]]
-        worse = [p for p in pairs if p[3]["successes"] < p[2]["successes"]]
+    argmax = changes("decentralized_levels", "decentralized_argmax")
+    if argmax:
         out.append(
             "- **The argmax read-out** (the `argmax beyond` rows: the 5-level agents acting "
             "by the largest interpolated Q wherever an agent reads an angle beyond the "
-            "row's angle), against the 5-level rows at 8 s: "
-            + (", ".join(map(moved2, better)) + " better" if better else "none better")
-            + "; " + (", ".join(map(moved2, worse)) + " worse" if worse else "none worse")
-            + ". Near ±180° the bins on either side turn a joint opposite ways and (14) "
+            "row's angle), against the 5-level rows at 8 s: " + argmax + ". Near ±180° the bins on either side turn a joint opposite ways and (14) "
             "averages their torques to almost none, so a joint far from home starts slowly; "
             "that matters most where the outermost joint is slow (tapered N = 5). The angle "
             "was chosen on development poses, not the table's.\n")
