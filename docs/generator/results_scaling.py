@@ -269,7 +269,8 @@ def _scaling_findings(report: dict) -> str:
         out.append(
             "- **The argmax read-out** (the `argmax beyond` rows: the 5-level agents acting "
             "by the largest interpolated Q wherever an agent reads an angle beyond the "
-            "row's angle), against the 5-level rows at 8 s: " + argmax + ". Near ±180° the bins on either side turn a joint opposite ways and (14) "
+            "row's angle), against the 5-level rows at 8 s: " + argmax + ". Near ±180° the "
+            "bins on either side turn a joint opposite ways and (14) "
             "averages their torques to almost none, so a joint far from home starts slowly; "
             "that matters most where the outermost joint is slow (tapered N = 5). The angle "
             "was chosen on development poses, not the table's.\n")

@@ -85,8 +85,9 @@ def own_motor_speed(p: ArmParameters | ChainParameters) -> np.ndarray:
     """The fastest each joint turns on its own motor with every other joint held, shape (N,).
 
     With joints j != i locked the links beyond joint i move as one rigid body about a
-    fixed axis, so :func:`twolink.arm.dynamics.chain_acceleration` reduces to J_i ddtheta_i = tau_i -
-    b_i dtheta_i: the bias C vanishes (M_ii does not depend on theta_i) and J_i is the
+    fixed axis, so :func:`twolink.arm.dynamics.chain_acceleration` reduces to
+    J_i ddtheta_i = tau_i - b_i dtheta_i: the bias C vanishes (M_ii does not depend on
+    theta_i) and J_i is the
     inertia of links i..N about joint i. From rest the speed then stays below
     tau_i max / b_i, and within the joint's speed limit: min(tau_i max / b_i,
     speed limit_i) (every damping is positive: :class:`ChainParameters` checks it)."""

@@ -29,8 +29,8 @@ linearly from full at A degrees to g times (14)'s at the goal. (14) is near time
 for a model that is read exactly and answers at once: with readings late, its full torque
 near the goal overshoots the band and the arm limit-cycles around it; with readings
 noisy, it answers the noise with large torques that push the arm out of the band, as a PD
-with too high a gain does. The gain applies to the torques the policy sends; agents that read a neighbour's
-torque (18) read it as (14) gives it.
+with too high a gain does. The gain applies to the torques the policy sends; agents that
+read a neighbour's torque (18) read it as (14) gives it.
 
 A policy records its read-out in ``meta["readout"]``; without one it reads the states
 as they are and acts by (14) everywhere.
