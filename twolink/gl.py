@@ -60,8 +60,9 @@ def use_gl_backend():
     import mujoco
 
     name = gl_backend()
-    if name not in _BACKENDS:
-        raise unavailable_error()
+    if name not in _BACKENDS or (name == "glfw" and not os.environ.get("DISPLAY")
+                                 and not os.environ.get("WAYLAND_DISPLAY")):
+        raise unavailable_error()           # before GLFW prints warnings of its own
     try:
         context = importlib.import_module(_BACKENDS[name][0]).GLContext
     except Exception as exc:  # a missing library surfaces as several exception types
@@ -166,12 +167,46 @@ def _egl_vendor_files() -> list[str]:
 
 
 def diagnose(exc: BaseException | None = None) -> str:
-    """One line naming what stops headless EGL rendering (missing library, setting)."""
+    """One line naming what stops headless rendering on the chosen backend
+    (:func:`gl_backend`): a backend MuJoCo does not know, a missing library (EGL's
+    libEGL, vendor file and Mesa driver; OSMesa's libOSMesa; GLFW's library and an X
+    display), or the backend's own error."""
     fix = "run scripts/install-system-deps.sh as root, or apt-get install"
-    backend = os.environ.get("MUJOCO_GL", "")
-    if gl_backend() != "egl":
-        return (f"MUJOCO_GL={backend!r} is set; headless rendering needs MUJOCO_GL=egl "
-                f"(unset it or set it to egl)")
+    name = gl_backend()
+    if name not in _BACKENDS:
+        return (f"MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} is not a rendering "
+                f"backend; use egl (headless, the default), osmesa or glfw")
+    if name == "osmesa":
+        return _diagnose_osmesa(exc)
+    if name == "glfw":
+        return _diagnose_glfw(exc)
+    return _diagnose_egl(exc, fix)
+
+
+def _detail(exc: BaseException | None) -> str:
+    detail = f"{type(exc).__name__}: {exc}" if exc is not None else "unknown cause"
+    return " ".join(detail.split())
+
+
+def _diagnose_osmesa(exc: BaseException | None) -> str:
+    """MUJOCO_GL=osmesa: Mesa's off-screen library (being removed from Mesa)."""
+    if not _loadable("libOSMesa.so.8") and not _loadable("libOSMesa.so"):
+        return ("MUJOCO_GL=osmesa needs libOSMesa, which is not installed (apt-get install "
+                "libosmesa6; Mesa is removing OSMesa: prefer MUJOCO_GL=egl, which runs "
+                "on Mesa's software device without a GPU)")
+    return f"cannot create an OSMesa context ({_detail(exc)}); unset MUJOCO_GL to use EGL"
+
+
+def _diagnose_glfw(exc: BaseException | None) -> str:
+    """MUJOCO_GL=glfw: a windowing library that needs an X or Wayland display."""
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        return ("MUJOCO_GL=glfw needs a display (DISPLAY is not set); unset MUJOCO_GL "
+                "to render headless with EGL")
+    return f"cannot create a GLFW context ({_detail(exc)}); unset MUJOCO_GL to use EGL"
+
+
+def _diagnose_egl(exc: BaseException | None, fix: str) -> str:
+    """MUJOCO_GL=egl (the default): libEGL, a vendor file, Mesa's software driver."""
     if not _loadable("libEGL.so.1"):
         return f"libEGL.so.1 is missing ({fix} libegl1)"
     if not _loadable("libOpenGL.so.0") and not _loadable("libGL.so.1"):
@@ -187,9 +222,7 @@ def diagnose(exc: BaseException | None = None) -> str:
     if any("mesa" in os.path.basename(v) for v in vendors) and not glob.glob(
             "/usr/lib/*/dri/swrast_dri.so") and not _has_nvidia(vendors):
         return f"Mesa's software driver swrast_dri.so is missing ({fix} libgl1-mesa-dri)"
-    detail = f"{type(exc).__name__}: {exc}" if exc is not None else "unknown cause"
-    detail = " ".join(detail.split())
-    return f"cannot create an EGL context ({detail}); check the EGL driver ({fix} " \
+    return f"cannot create an EGL context ({_detail(exc)}); check the EGL driver ({fix} " \
            f"libegl1 libegl-mesa0 libgl1-mesa-dri)"
 
 

@@ -1,5 +1,6 @@
 """`twolink reproduce` (the main job) and `twolink synthesize` / `twolink mjcf`."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -35,6 +36,9 @@ def reproduced(tmp_path_factory):
     assert code == 0
     return json.loads(buf.getvalue()), fig, report
 
+
+#: The checkout.
+ROOT = Path(__file__).resolve().parents[2]
 
 #: Table II's Q-table sizes, per agent.
 SIZES = {"centralized": 63504, "agent1": 9072, "agent2": 252}
@@ -73,7 +77,8 @@ def recomputed():
 def test_reproduce_rollouts_are_those_of_the_shipped_policies(reproduced, recomputed):
     rep, _, _ = reproduced
     for (name, plant), (tr, ev) in recomputed.items():
-        assert rep["rollouts"][name][plant] == json.loads(json.dumps(summary(tr)))
+        assert rep["rollouts"][name][plant] == json.loads(json.dumps(
+            {**summary(tr), "stalled_at_band_edge": bool(stalled_at_band_edge(tr)[()])}))
         ok = success(ev)
         assert rep["evaluation_set"][name][plant] == {
             "states": 65, "successes": int(ok.sum()), "success_rate": float(ok.mean()),
@@ -155,6 +160,38 @@ def test_reproduce_table_is_printed(tmp_path, capsys):
     assert ("fresh synthesis equals the shipped policy bit for bit: centralized yes, "
             "decentralized yes, decentralized_propagated yes") in out
     assert out.rstrip().endswith(f"wrote {tmp_path / 'f.png'}")
+    assert "against the paper:" in out and "docs/findings/reproduction.md" in out
+
+
+def test_reproduce_ends_with_a_verdict_per_comparison(reproduced):
+    """Each comparison is decided from the report's numbers: the shipped run's verdicts,
+    then the same report with the decentralized settle time moved to the paper's."""
+    import copy
+
+    from twolink.studies.reproduce.table import FINDINGS, verdict_block, verdicts
+
+    rep, _, _ = reproduced
+    lines = verdicts(rep)
+    by_what = {line.split(":")[0].split(None, 1)[1]: line.split()[0] for line in lines}
+    assert by_what["Q-table sizes (Table II)"] == "matches"
+    assert by_what["agents' sweep counts"] == "matches"       # serial sweeps: 192 and 49
+    assert by_what["centralized sweep count"] == "differs"    # 80/73 against 125
+    assert by_what["centralized from x0 on the simplified model"] == "matches"
+    dec = rep["rollouts"]["decentralized"]["simplified"]
+    assert dec["settle_time"] is None and dec["stalled_at_band_edge"] is True
+    line = next(x for x in lines if "decentralized from x0" in x)
+    assert line.split()[0] == "differs" and "edge stall" in line
+    assert "decentralized_propagated settles in" in line
+    assert FINDINGS in verdict_block(rep) and (ROOT / FINDINGS).is_file()
+    moved = copy.deepcopy(rep)
+    moved["rollouts"]["decentralized"]["simplified"]["settle_time"] = 1.3
+    line = next(x for x in verdicts(moved) if "decentralized from x0" in x)
+    assert line.startswith("  matches") and "1.3 s" in line
+    # Table II's figure is the warm synthesis; the first call is reported apart.
+    first = rep["synthesis"]["centralized"]["first_call"]["centralized"]["cpu_seconds"]
+    assert 0 < rep["synthesis"]["centralized"]["agents"]["centralized"]["cpu_seconds"] <= \
+        first * 1.5
+    assert "first synthesis in the process" in table(rep)
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -20,7 +20,7 @@ from twolink.studies.reproduce.measure import (
     check_duration,
     reproduce,
 )
-from twolink.studies.reproduce.table import table, verdict
+from twolink.studies.reproduce.table import table, verdict, verdict_block
 from twolink.viz.plots import paper_fig3
 
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -61,5 +61,7 @@ def run(args) -> int:
     else:
         print(table(report))
         print(verdict(report))
+        print()
+        print(verdict_block(report))
         print(f"\nwrote {figure}")
     return 0

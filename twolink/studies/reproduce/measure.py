@@ -43,13 +43,20 @@ MAX_DURATION = 60.0
 REFERENCE_SUBSTEPS = 100
 _AGENT_INFO = ("q_size", "iterations", "seconds", "cpu_seconds", "transition_seconds",
                "sweep_seconds")
+#: The times of a process's first synthesis, reported apart from the warm ones: the first
+#: call also loads the compiled kernels.
+_TIMES = ("seconds", "cpu_seconds")
 
 
 @dataclasses.dataclass
 class Reproduction:
     """What :func:`reproduce` measured. Dictionaries are keyed by policy name (the
     registry's), then plant; ``trajectories`` by (policy, plant), from the paper's x0.
-    ``synthesis[name]["serial"]`` holds each agent's sweeps and times with serial sweeps."""
+    ``synthesis[name]["agents"]`` holds each agent's sweeps and times of a second, warm
+    synthesis (the figure Table II compares), ``["first_call"]`` the times of the first
+    one (which also loads the compiled kernels), ``["serial"]`` those with serial sweeps.
+    ``rollouts[name][plant]`` is the run's :func:`summary` and whether it is an edge stall
+    (:func:`twolink.sim.metrics.stalled_at_band_edge`)."""
 
     x0: list
     duration: float
@@ -124,6 +131,8 @@ def reproduce(duration: float = HORIZON, *, policies=PAPER_POLICIES,
         plants = {"simplified": simplified, "mujoco": mj}
         for name in policies:
             entry = SHIPPED[name]
+            first = synthesize(entry.kind, TABLE_I, progress=progress,
+                               **entry.synthesis_options())
             policy = synthesize(entry.kind, TABLE_I, progress=progress,
                                 **entry.synthesis_options())
             opts = {**entry.synthesis_options(), "sweeps": "serial"}
@@ -131,13 +140,15 @@ def reproduce(duration: float = HORIZON, *, policies=PAPER_POLICIES,
             res.synthesis[name] = {
                 "sweeps": policy.meta["sweeps"],
                 "agents": {a.name: {k: a.info[k] for k in _AGENT_INFO} for a in policy.agents},
+                "first_call": {a.name: {k: a.info[k] for k in _TIMES} for a in first.agents},
                 "serial": {a.name: {k: a.info[k] for k in _AGENT_INFO} for a in serial.agents},
                 "matches_shipped_policy": matches_shipped(name, policy)}
             res.rollouts[name], res.evaluation_set[name] = {}, {}
             for plant_name, plant in plants.items():
                 tr = rollout(policy, plant, x0, duration=duration, label=name)
                 res.trajectories[(name, plant_name)] = tr
-                res.rollouts[name][plant_name] = summary(tr)
+                res.rollouts[name][plant_name] = {
+                    **summary(tr), "stalled_at_band_edge": bool(stalled_at_band_edge(tr))}
                 ev = rollout(policy, plant, evaluation_set(), duration=duration, label=name)
                 res.evaluation_set[name][plant_name] = _evaluate(ev)
     return res
