@@ -5,8 +5,8 @@ Both do the same work: K sample periods of N arms, one ``mujoco.rollout`` call o
 nstep = Ts / timestep physics steps per period for all N arms, under the same torques
 (drawn once, uniform over the action box). The raw side is the engine alone: a
 prepared control array, the state handed from one call to the next, nothing else. The
-environment adds what a learner gets: action checks, the SPEC.md end of every period
-(wrapped angles, saturated speeds), reward (15), observations, truncation and next-step
+environment adds what a learner gets: action checks, the end of every period of
+docs/conventions.md (wrapped angles, saturated speeds), reward (15), observations, truncation and next-step
 autoreset. Gymnasium's ``SyncVectorEnv`` over N single environments (one plant call per
 arm) is timed beside them, as what the batched path replaces.
 """

@@ -1,4 +1,5 @@
-"""What agent 1's two contexts mean (SPEC.md), on the problem builders, with concrete numbers.
+"""What agent 1's two contexts mean (docs/concepts/agents.md), on the problem builders,
+with concrete numbers.
 
 (a) frozen: theta2 and tau2 stay as they are over agent 1's transition;
 (b) propagated: link 2 moves from dtheta2 = 0 under tau2, and the next tau2 is agent 2's

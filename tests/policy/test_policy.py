@@ -91,7 +91,7 @@ def test_ties_break_to_the_first_action(centralized):
 
 
 def test_near_ties_within_the_tolerance_go_to_the_first_action():
-    """SPEC.md: round-off must never decide an action."""
+    """docs/conventions.md: round-off must never decide an action."""
     q = np.array([[-3.0, -3.0 + 1e-14, -4.0],      # round-off apart: tied, first wins
                   [-3.0 - 1e-14, -3.0, -3.0],      # all three tied
                   [-2.0, -1.0, -1.0 - 1e-15],      # 1 and 2 tied, 0 genuinely worse

@@ -35,7 +35,7 @@ from twolink.sim.rollout import Trajectory, rollout, steps_for
 
 def _step_loop(p, x, tau):
     """One sample period of the N-link MJCF, row by row with ``mj_step``, then the
-    angles wrapped to [-pi, pi) and the speeds saturated (SPEC.md)."""
+    angles wrapped to [-pi, pi) and the speeds saturated (docs/conventions.md)."""
     model = mjcf.build_model(p)
     n = p.links
     out = np.empty_like(x)

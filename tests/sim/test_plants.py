@@ -1,5 +1,5 @@
-"""The plant contract, over every plant: shapes, batching, SPEC.md's conventions (wrap,
-saturation, clipping), determinism, refusal of bad input and loud failure."""
+"""The plant contract, over every plant: shapes, batching, the conventions of
+docs/conventions.md (wrap, saturation, clipping), determinism, refusal of bad input and loud failure."""
 import math
 import os
 import warnings

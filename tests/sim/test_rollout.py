@@ -1,4 +1,4 @@
-"""Closed-loop rollouts and the metrics of SPEC.md (the plants: test_plants.py)."""
+"""Closed-loop rollouts and the metrics of docs/conventions.md (the plants: test_plants.py)."""
 import numpy as np
 import pytest
 

@@ -139,7 +139,7 @@ def test_reproduce_table_lists_every_paper_policy(reproduced):
 
 
 def test_reproduce_reports_serial_sweeps_beside_the_shipped_synchronous_ones(reproduced):
-    """The shipped policies are synchronous (SPEC.md); serial sweeps, as ApproxRL's
+    """The shipped policies are synchronous (docs/conventions.md); serial sweeps, as ApproxRL's
     fuzzyqi.m runs them, reach the paper's 192 and 49 sweeps of the agents exactly."""
     rep, _, _ = reproduced
     s = rep["synthesis"]

@@ -6,7 +6,7 @@ schemes, the centralized policy (16) and one decentralized agent per joint (18):
 * the sizes: Q-values and non-zeros of T (Alg. 1's transition table (12)-(13));
 * the synthesis: wall and CPU seconds, sweeps per agent and the peak memory, measured
   per synthesis (:mod:`twolink.studies.scaling.synthesis`);
-* the control: success (settled one second before the end, SPEC.md) and median settle
+* the control: success (settled one second before the end, docs/conventions.md) and median settle
   time on MuJoCo over :func:`twolink.sim.metrics.random_poses` at rest, drawn from
   :data:`EVAL_SEED` + N, at the horizon of :func:`horizon` (and at the paper's 5 s
   beside it for N >= 3).
