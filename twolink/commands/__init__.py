@@ -11,6 +11,7 @@ SUMMARIES = {
     "mismatch": "model mismatch, its closure and robustness sweeps",
     "learn": "online fuzzy Q-learning on the MuJoCo arm (many arms, one theta)",
     "identify": "identify P1, P2, P3, b1, b2 from a logged MuJoCo experiment",
+    "controllers": "list the controller catalogue: every named controller, by tag",
     "evaluate": "score one controller (yours too) under a challenge level on MuJoCo",
     "leaderboard": "every controller under every challenge level, against the time-optimal limit",
     "scaling": "Table II extended to N links: memory, time and success of both schemes",

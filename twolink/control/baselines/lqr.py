@@ -22,8 +22,6 @@ changes.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
-import scipy.signal
 
 from twolink.arm.dynamics import mass_matrix
 from twolink.arm.parameters import TABLE_I, TS, ArmParameters
@@ -53,6 +51,8 @@ def discrete_linearisation(params: ArmParameters = TABLE_I, ts: float = TS
                            ) -> tuple[np.ndarray, np.ndarray]:
     """(Ad, Bd) of :func:`linearisation` sampled at ``ts`` with the torque held (ZOH)."""
     a, b = linearisation(params)
+    import scipy.signal              # imported here: the module loads without it (0.5 s)
+
     ad, bd, *_ = scipy.signal.cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), ts,
                                             method="zoh")
     return ad, bd
@@ -82,6 +82,8 @@ def lqr_gain(q, r, *, params: ArmParameters = TABLE_I, delay: int = 0, ts: float
     qm = np.zeros((len(a), len(a)))
     qm[:4, :4] = np.diag(q)
     rm = np.diag(r)
+    import scipy.linalg
+
     p = scipy.linalg.solve_discrete_are(a, b, qm, rm)
     return np.linalg.solve(rm + b.T @ p @ b, b.T @ p @ a)
 

@@ -68,6 +68,7 @@ class Entry:
     name: str
     cls: type
     description: str
+    kind: str = "decentralized"     # "centralized" (reads the whole state) or per joint
 
     def __call__(self, gains: dict | None = None):
         doc = _shipped() if gains is None else check_gains(gains)
@@ -88,9 +89,10 @@ BASELINES = {e.name: e for e in (
     Entry("pd_deadzone", SaturatedPD, "saturated decentralized PD with an angle dead zone, "
           "tuned on medium-challenge plants without compensation"),
     Entry("lqr", SaturatedLQR, "saturated discrete LQR of the ZOH linearisation of (6), "
-          "tuned on the nominal arm"),
+          "tuned on the nominal arm", "centralized"),
     Entry("lqr_delay", SaturatedLQR, "saturated LQR augmented with the last torque (the "
-          "medium challenge's one-sample actuation delay), tuned on medium plants"),
+          "medium challenge's one-sample actuation delay), tuned on medium plants",
+          "centralized"),
     Entry("bang_bang", ProximateTimeOptimal, "per-joint proximate time-optimal "
           "(bang-bang with a linear zone), tuned on the nominal arm"),
 )}
