@@ -1,6 +1,7 @@
 """A saved Stable-Baselines3 agent as a controller: the torques of the cos/sin features'
-deterministic action, one-line refusals of other zips, its leaderboard rows (plain only)
-and the default list's saved agents. Skipped where SB3 is not installed."""
+deterministic action, one-line refusals of other zips and its leaderboard rows (plain
+only); the safe loading itself is in test_sb3_safe_load.py. Skipped where SB3 is not
+installed."""
 from __future__ import annotations
 
 import json
@@ -16,7 +17,8 @@ from twolink.arm.observations import features  # noqa: E402
 from twolink.arm.parameters import TABLE_I  # noqa: E402
 from twolink.cli import main  # noqa: E402
 from twolink.control.controllers import resolve_controller  # noqa: E402
-from twolink.control.sb3_agent import saved_agents, sb3_algorithm  # noqa: E402
+from twolink.control.learned import default_learned_agents  # noqa: E402
+from twolink.control.sb3_agent import sb3_algorithm  # noqa: E402
 from twolink.sim.controller import ControllerError  # noqa: E402
 from twolink.sim.metrics import evaluation_set  # noqa: E402
 
@@ -85,7 +87,7 @@ def test_without_sb3_one_line_says_what_to_install(tiny, monkeypatch):
         resolve_controller(str(tiny[1]))
     assert str(e.value) == ("controller tiny_ppo.zip needs the rl extras: "
                             "pip install 'twolink[rl]'")
-    assert saved_agents(tiny[1].parent) == []          # the default list: silently none
+    assert default_learned_agents() == []          # the default list: silently none
 
 
 def test_the_leaderboard_gives_the_agent_plain_rows_only(tiny, tmp_path, capsys):
@@ -98,15 +100,3 @@ def test_the_leaderboard_gives_the_agent_plain_rows_only(tiny, tmp_path, capsys)
         ("tiny_ppo", "none", "plain"), ("tiny_ppo", "medium", "plain")]
     assert all(r["n"] > 0 and r["mean_abs_torque"] > 0 for r in rows)
 
-
-def test_the_default_list_holds_the_saved_agents(tiny, tmp_path, monkeypatch):
-    from twolink.commands.leaderboard import chosen_specs
-
-    (tmp_path / "deep_rl").mkdir()
-    agent = tmp_path / "deep_rl" / "a.zip"
-    agent.write_bytes(tiny[1].read_bytes())
-    monkeypatch.setenv("TWOLINK_OUTPUT", str(tmp_path))
-    specs = chosen_specs(None, [])
-    assert specs[-1] == str(agent) and "lqr" in specs
-    assert chosen_specs(None, [str(agent)]).count(str(agent)) == 1
-    assert str(agent) not in chosen_specs(["lqr"], [])

@@ -1,7 +1,7 @@
 """``twolink leaderboard``: every controller under every challenge level, in one table.
 
-The shipped fuzzy policies, the classical baselines, the trained deep-RL agents saved in
-renders/deep_rl/*.zip (where Stable-Baselines3 imports) and any --controller of yours
+The shipped fuzzy policies, the classical baselines, the learned agents shipped by name
+(ppo_seed0, where its file and Stable-Baselines3 are there) and any --controller of yours
 (module:callable, path/to/file.py:callable, a policy .npz or an SB3 agent .zip), under
 the levels none, easy, medium and hard, plain and (for controllers that name their
 model) compensated, on MuJoCo from the 65 states of the evaluation set: k/n with the
@@ -29,7 +29,8 @@ def add_parser(sub):
                        description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     p.add_argument("--controllers", nargs="+", default=None, metavar="NAME",
                    help="which controllers (default: every shipped two-link policy, "
-                        "every baseline and every SB3 agent in renders/deep_rl/*.zip)")
+                        "every baseline and the shipped learned agents such as ppo_seed0; "
+                        "no folder is searched for .zip agents)")
     p.add_argument("--controller", action="append", default=[], metavar="SPEC",
                    help="add a controller: module:callable, path/to/file.py:callable, a "
                         "policy .npz or an SB3 agent .zip (repeatable)")
@@ -64,20 +65,17 @@ def add_parser(sub):
 
 def chosen_specs(names, specs) -> list:
     """The specs a leaderboard runs: ``names`` (default every shipped two-link policy,
-    every baseline and every SB3 agent saved in the output folder's deep_rl/*.zip where
-    Stable-Baselines3 imports), then the extra ``specs`` (an agent already among the
-    defaults is not added twice)."""
+    every baseline and the shipped learned agents whose file exists where
+    Stable-Baselines3 imports, :func:`twolink.control.learned.default_learned_agents`; no
+    folder's ``*.zip`` is loaded unnamed), then the extra ``specs`` (an agent already among
+    the defaults is not added twice)."""
     from twolink.control.controllers import baseline_names
-    from twolink.control.sb3_agent import saved_agents
+    from twolink.control.learned import default_learned_agents
     from twolink.policy.registry import TWO_LINK
-    from twolink.resources import output_dir
 
     if names is not None:
         return [*names, *specs]
-    agents = saved_agents(output_dir(create=False) / "deep_rl")
-    given = {str(Path(s).resolve()) for s in specs if s.endswith(".zip")}
-    agents = [a for a in agents if str(Path(a).resolve()) not in given]
-    return [*TWO_LINK, *baseline_names(), *agents, *specs]
+    return [*TWO_LINK, *baseline_names(), *default_learned_agents(exclude=specs), *specs]
 
 
 def controllers_of(names, specs) -> dict:
@@ -124,6 +122,10 @@ def run(args) -> int:
     limits, source = state_limits(x0)
     if limits is None:
         raise ValueError(f"no time-optimal limit for these states ({source})")
+    if saved is not None:            # refused before any measurement
+        from twolink.studies.leaderboard.merge import check_joinable
+        check_joinable(saved, {"states": len(x0), "plants": plants, "seed": seed,
+                               "horizon": 5.0, "limits": source}, levels)
     # Ray is connected before any file is made: an address that does not answer leaves none.
     with _ray(args):
         return _measure_and_write(args, controllers, specs, x0, limits, source, levels,
@@ -181,8 +183,7 @@ def _measure_and_write(args, controllers, specs, x0, limits, source, levels, pla
     if saved is not None:
         from twolink.studies.leaderboard.merge import merged
         report = merged(saved, report)
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:              # all three files or none (staged, then moved in)
         paths = write(report, out)
     if args.json:
         print(json.dumps(report, indent=2))

@@ -1,6 +1,8 @@
 """Every controller by one name: shipped fuzzy policies, classical baselines, policy files,
-saved Stable-Baselines3 agents (a PPO or SAC ``.zip``, :mod:`twolink.control.sb3_agent`)
-and a user's own ``module:callable`` or ``path/to/file.py:callable``.
+saved Stable-Baselines3 agents (a PPO or SAC ``.zip``, :mod:`twolink.control.sb3_agent`,
+read as data, never unpickled), the learned agents shipped in the repository by name
+(:data:`twolink.control.learned.LEARNED_AGENTS`, e.g. ``ppo_seed0``) and a user's own
+``module:callable`` or ``path/to/file.py:callable``.
 
 :func:`resolve_controller` turns such a name into a controller of the protocol of
 :mod:`twolink.sim.controller`, checked (:func:`twolink.sim.controller.checked`); the
@@ -16,6 +18,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+from twolink.control.learned import learned_agent_names
 from twolink.policy.fuzzy_policy import load_policy, shipped_policies
 from twolink.sim.controller import Checked, ControllerError, checked
 
@@ -107,8 +110,10 @@ def _from_spec(spec: str):
 
 def resolve_controller(spec, *, links: int = 2) -> Checked:
     """The controller ``spec`` names, checked: a shipped policy (:func:`shipped_policies`),
-    a baseline (:func:`baseline_names`), a policy ``.npz`` file, a saved SB3 agent ``.zip``
-    (labelled by its file's stem), ``module:callable`` or ``file.py:callable``; or a
+    a baseline (:func:`baseline_names`), a shipped learned agent
+    (:func:`twolink.control.learned.learned_agent_names`), a policy ``.npz`` file, a saved
+    SB3 agent ``.zip`` (labelled by its file's stem; read as data, see
+    :mod:`twolink.control.sb3_agent`), ``module:callable`` or ``file.py:callable``; or a
     controller object itself. One-line ControllerError (a
     ValueError) for anything else."""
     if not isinstance(spec, str):
@@ -119,6 +124,10 @@ def resolve_controller(spec, *, links: int = 2) -> Checked:
         return checked(load_policy(spec), name=spec, links=links)
     if spec in baseline_names():
         return checked(_baseline(spec), name=spec, links=links)
+    if spec in learned_agent_names():
+        from twolink.control.learned import learned_agent
+
+        return checked(learned_agent(spec), name=spec, links=links)
     if spec.endswith(".npz"):
         return checked(load_policy(spec), name=Path(spec).stem, links=links)
     if spec.endswith(".zip"):
@@ -127,6 +136,6 @@ def resolve_controller(spec, *, links: int = 2) -> Checked:
         return checked(sb3_agent(spec), name=Path(spec).stem, links=links)
     if ":" in spec:
         return checked(_from_spec(spec), name=spec.rpartition(":")[2], links=links)
-    known = ", ".join((*shipped_policies(), *baseline_names()))
+    known = ", ".join((*shipped_policies(), *baseline_names(), *learned_agent_names()))
     raise ControllerError(f"unknown controller {spec!r}; give one of {known}, a policy .npz, "
                           f"an SB3 agent .zip, module:callable or path/to/file.py:callable")
