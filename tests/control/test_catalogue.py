@@ -144,3 +144,30 @@ def test_the_command_says_an_unknown_tag_in_one_line_within_a_second(tmp_path):
         "twolink controllers: error: unknown tag 'lernd' (did you mean 'learned'?); the tags "
         "are baseline, benchmark, fuzzy, learned, n-link, paper, tuned, user"]
     print(f"unknown tag answered in {took:.2f} s")
+
+
+def test_a_read_out_entry_is_data_over_a_stored_table():
+    """decentralized_locked_gain is decentralized_locked's file read through a gain."""
+    e = lookup("decentralized_locked_gain")
+    assert e.entry == "twolink.policy.fuzzy_policy:policy_with_readout"
+    assert e.data["table"] == "decentralized_locked" and e.data["readout"]["near_gain"] == 0.3
+    gain, base = e.load(), lookup("decentralized_locked").load()
+    x = np.array([[0.3, -0.2, 0.0, 0.0], [1.0, -2.0, 0.5, 0.0]])   # 17 deg: inside 60 deg
+    assert np.allclose(gain(x)[0, 0], base(x)[0, 0] * (0.3 + 0.7 * 0.3 / np.radians(60)))
+    assert all(a.q is b.q or np.array_equal(a.q, b.q) for a, b in zip(gain.agents,
+                                                                     base.agents))
+
+
+def test_a_user_read_out_over_a_table_of_another_arm_is_refused(tmp_path):
+    cat = _write(tmp_path / "cat.json", [
+        {"name": "my_gain", "entry": "twolink.policy.fuzzy_policy:policy_with_readout",
+         "data": {"table": "decentralized_3link", "readout": {"near_gain": 0.5,
+                                                              "near_deg": 60.0}},
+         "links": 2},
+        {"name": "bad_readout", "entry": "twolink.policy.fuzzy_policy:policy_with_readout",
+         "data": {"table": "decentralized", "readout": {"gain": 0.5}}}])
+    with pytest.raises(CatalogueError, match="'my_gain' .* is for 2 links, and what "
+                                             ".* made is for 3"):
+        catalogue([cat])["my_gain"].load()
+    with pytest.raises(CatalogueError, match="'bad_readout' .*readout must be a dict of"):
+        catalogue([cat])["bad_readout"].load()

@@ -104,6 +104,40 @@ def test_a_reship_of_changed_q_tables_rewrites_the_file(tmp_path, monkeypatch, c
     assert "unchanged" not in json.loads(capsys.readouterr().out)[0]
 
 
+def test_a_reship_of_a_read_out_entry_keeps_its_stored_table(tmp_path, monkeypatch, capsys):
+    """decentralized_locked_gain is decentralized_locked's Q-tables read through a gain:
+    --ship of it re-synthesises the table (read-out and all of decentralized_locked) and
+    writes no file of its own."""
+    folder = _checkout_copy(tmp_path, monkeypatch,
+                            {"decentralized_locked": "decentralized_locked"})
+    before = (folder / "decentralized_locked.npz").read_bytes()
+    assert main(["synthesize", "--ship", "decentralized_locked_gain", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [o["path"] for o in out] == [str(folder / "decentralized_locked.npz")]
+    assert out[0]["unchanged"] is True
+    assert sorted(p.name for p in folder.iterdir()) == ["decentralized_locked.npz"]
+    assert (folder / "decentralized_locked.npz").read_bytes() == before
+
+
+def test_no_two_shipped_files_hold_the_same_tables():
+    """A Q-table is stored once: every read-out variant names its table instead."""
+    from twolink.policy.fuzzy_policy import load_policy
+    from twolink.resources import shipped_policy_dir
+
+    files = sorted(shipped_policy_dir().glob("*.npz"))
+    assert {p.stem for p in files} == {e.table for e in SHIPPED.values()}
+    digests = {}
+    for path in files:
+        pol = Policy.load(path)
+        key = tuple(np.ascontiguousarray(a.q, dtype="<f8").tobytes() for a in pol.agents)
+        assert key not in digests, (path.stem, digests.get(key))
+        digests[key] = path.stem
+    for name, entry in SHIPPED.items():
+        pol = load_policy(name)
+        assert pol.readout == entry.readout()
+        assert pol.meta.get("table", name) == entry.table
+
+
 def _real_file(name):
     from twolink.resources import _package_dir
     return _package_dir("twolink._policies") / f"{name}.npz"

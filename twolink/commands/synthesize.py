@@ -339,7 +339,8 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
                              "--near-gain, --near-deg, --agent2-link1, -o or --force with "
                              "it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
-        entries = [shipped(n) for n in names]
+        # A read-out entry ships as the stored Q-tables it reads (its registry table).
+        entries = [SHIPPED[t] for t in dict.fromkeys(shipped(n).table for n in names)]
         if source_checkout() is None:
             raise RuntimeError("--ship writes into policies/ of a source checkout, and this "
                                "twolink is an installed package; use -o FILE instead")

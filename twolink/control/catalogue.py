@@ -94,7 +94,7 @@ class Entry:
             raise CatalogueError(f"catalogue entry {self.name!r} ({self.source}): {exc}") \
                 from None
         try:
-            return make(**self.data)
+            controller = make(**self.data)
         except ControllerError as exc:
             raise CatalogueError(f"catalogue entry {self.name!r} ({self.source}): {exc}") \
                 from None
@@ -102,6 +102,12 @@ class Entry:
             raise CatalogueError(f"catalogue entry {self.name!r} ({self.source}): "
                                  f"{self.entry}(**data) raised {type(exc).__name__}: {exc}") \
                 from None
+        links = getattr(controller, "links", self.links)
+        if isinstance(links, int) and links != self.links:
+            raise CatalogueError(f"catalogue entry {self.name!r} ({self.source}) is for "
+                                 f"{self.links} links, and what {self.entry} made is for "
+                                 f"{links}")
+        return controller
 
     def as_dict(self) -> dict:
         """JSON-ready: every field."""
@@ -141,11 +147,14 @@ def _shipped_policies() -> list:
         tags += ["tuned"] if p.tuned else []
         tags += ["n-link"] if p.links > 2 else []
         tags += ["benchmark"] if p.name in BENCHMARK else []
+        if p.table == p.name:
+            entry, data = "twolink.policy.fuzzy_policy:load_policy", {"name_or_path": p.name}
+        else:                       # a read-out over another entry's stored Q-tables
+            entry = "twolink.policy.fuzzy_policy:policy_with_readout"
+            data = {"table": p.table, "readout": p.readout().as_dict()}
         out.append(Entry(name=p.name, kind=p.kind, links=p.links,
                          rule=p.rule if p.links > 2 else None, tags=tuple(tags),
-                         entry="twolink.policy.fuzzy_policy:load_policy",
-                         data={"name_or_path": p.name},
-                         description=p.description))
+                         entry=entry, data=data, description=p.description))
     return out
 
 

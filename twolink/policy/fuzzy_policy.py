@@ -221,6 +221,20 @@ class Policy:
         tau = np.stack([signals[name] for name in self._outputs], -1)
         return tau if gain is None else tau * gain
 
+    def with_readout(self, readout: Readout, *, table: str | None = None) -> "Policy":
+        """This policy's agents (the same Q-tables, not copied) read through ``readout``
+        instead of its own; ``meta["table"]`` names where the tables come from when
+        given. A read-out is data over a table: it never changes the tables."""
+        if not isinstance(readout, Readout):
+            raise TypeError(f"readout must be a twolink.policy.readout.Readout, got "
+                            f"{type(readout).__name__}")
+        meta = {k: v for k, v in self.meta.items() if k != "readout"}
+        if readout.active:
+            meta["readout"] = readout.as_dict()
+        if table is not None:
+            meta["table"] = str(table)
+        return Policy(self.kind, self.agents, meta)
+
     @property
     def q_sizes(self) -> dict:
         return {a.name: int(a.q.size) for a in self.agents}
@@ -410,12 +424,29 @@ def shipped_policies() -> list[str]:
     return list(SHIPPED)
 
 
+def policy_with_readout(table: str | os.PathLike, readout) -> Policy:
+    """The policy ``table`` (a shipped name or a policy file, :func:`load_policy`) read
+    through ``readout`` (a :class:`Readout` or its ``as_dict()``): a design given as data
+    over a stored Q-table, as catalogue entries give it. A read-out that is not a dict of
+    the read-out's fields is one ValueError line."""
+    if isinstance(readout, dict):
+        try:
+            readout = Readout.from_dict(readout)
+        except TypeError as exc:
+            raise ValueError(f"readout {readout!r:.80}: {exc}") from None
+    return load_policy(table).with_readout(readout, table=str(table))
+
+
 def load_policy(name_or_path: str | os.PathLike) -> Policy:
     """A shipped policy by name (e.g. ``centralized``) or a policy file by path."""
     text = str(name_or_path)
     if os.sep not in text and not text.endswith(".npz"):
         if text in SHIPPED:
-            return Policy.load(SHIPPED[text].file)
+            entry = SHIPPED[text]
+            policy = Policy.load(entry.file)
+            if entry.table == text:
+                return policy
+            return policy.with_readout(entry.readout(), table=entry.table)
         raise PolicyFileError(f"unknown policy {text!r}; shipped policies: "
                               f"{', '.join(SHIPPED)} (or give a .npz path)")
     return Policy.load(Path(text))

@@ -1,5 +1,9 @@
 """The registry of shipped policies: one table that the CLI, reports, tests and README read.
 
+Policies whose synthesis settings differ only in the read-out share one committed file
+(:attr:`ShippedPolicy.table`): the Q-tables are stored once, and each entry's read-out is
+applied when it is loaded (:func:`twolink.policy.fuzzy_policy.load_policy`).
+
 Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
 (18), the model the transitions come from, agent 1's context, the sweeps of Alg. 1:
 synchronous as printed for all of them, docs/conventions.md; for the robust ones the worst case over
@@ -40,9 +44,31 @@ class ShippedPolicy:
     tuned: bool = False             # a design chosen on tuning seeds (TUNING_SEEDS)
 
     @property
+    def table(self) -> str:
+        """The shipped policy whose file holds this one's Q-tables: the first entry of
+        :data:`SHIPPED` with the same synthesis settings but for the read-out (this one
+        when none comes earlier). Policies that differ only in their read-out share one
+        file; the read-out is this entry's data (:meth:`readout`)."""
+        mine = self.table_options()
+        return next(p.name for p in SHIPPED.values() if p.table_options() == mine)
+
+    @property
     def file(self) -> Path:
+        """The committed file of :attr:`table` (the Q-tables; its read-out may differ)."""
         from twolink.resources import shipped_policy_dir
-        return shipped_policy_dir() / f"{self.name}.npz"
+        return shipped_policy_dir() / f"{self.table}.npz"
+
+    def readout(self):
+        """This entry's read-out (:class:`twolink.policy.readout.Readout`; off when it
+        names none)."""
+        from twolink.policy.readout import Readout
+        return self.synthesis_options().get("readout", Readout())
+
+    def table_options(self) -> dict:
+        """:meth:`synthesis_options` without the read-out: what the Q-tables depend on."""
+        opts = self.synthesis_options()
+        opts.pop("readout", None)
+        return {"kind": self.kind, "links": self.links, **opts}
 
     def synthesis_options(self) -> dict:
         """Keyword arguments of :func:`twolink.control.synthesis.synthesize` that rebuild it."""
