@@ -171,7 +171,7 @@ def test_read_runs_merges_only_files_of_its_own_schema(tmp_path):
         read_runs(good, "twolink.x", 2)
     broken = tmp_path / "broken.json"
     broken.write_text("{")
-    with pytest.raises(ValueError, match=r"broken.json is not JSON"):
+    with pytest.raises(ValueError, match=r"broken.json: not valid JSON"):
         read_runs(broken, "twolink.x", 1)
 
 

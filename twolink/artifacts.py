@@ -3,8 +3,9 @@
 Every file the package writes (policies, trajectories, figures, reports, videos) goes
 through :func:`atomic_path`: the content is written to a temporary file beside the
 target and renamed over it only when complete, so an error, Ctrl-C or SIGTERM never
-leaves a half-written file behind. Commands check all their outputs up front with
-:func:`check_outputs`, before any work.
+leaves a half-written file behind. A command that writes a set of files (a report with
+its JSON and figures) writes them through :func:`staged_set`: all of them or none.
+Commands check all their outputs up front with :func:`check_outputs`, before any work.
 """
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import contextlib
 import json
 import os
 import platform
+import shutil
 import signal
 import tempfile
 import threading
@@ -168,6 +170,123 @@ def atomic_path(path: os.PathLike):
                 os.unlink(tmp)
 
 
+#: Prefix of the staging folders of :func:`staged_set` (``.gitignore`` names it too).
+STAGING_PREFIX = ".staging-"
+
+
+@contextlib.contextmanager
+def _signals_deferred():
+    """Within the block (main thread only), SIGINT and SIGTERM are held back: they are
+    recorded and delivered again, to the handlers in force before, when the block ends."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list = []
+    previous = {s: signal.signal(s, lambda signum, frame: held.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        for s in dict.fromkeys(held):
+            signal.raise_signal(s)
+
+
+def _move_all(pairs) -> None:
+    """Rename each ``(source, target)`` of ``pairs`` onto its target (same filesystem).
+    On any error the targets moved in are removed and the files they replaced put
+    back (best effort), and the error is raised; the replaced files are deleted once
+    every rename succeeded."""
+    done: list = []              # (source, target, the replaced file set aside or None)
+    try:
+        for source, target in pairs:
+            backup = None
+            if os.path.lexists(target):
+                fd, backup = tempfile.mkstemp(prefix=f".{Path(target).name}.old-",
+                                              dir=Path(target).parent)
+                os.close(fd)
+                os.replace(target, backup)
+            done.append((source, target, backup))
+            os.replace(source, target)
+    except BaseException:
+        for source, target, backup in reversed(done):
+            with contextlib.suppress(OSError):
+                if not os.path.lexists(source):          # the new file went in: out again
+                    os.unlink(target)
+                if backup is not None:
+                    os.replace(backup, target)
+        raise
+    for _, _, backup in done:
+        if backup is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(backup)
+
+
+@contextlib.contextmanager
+def staged_set(dest: os.PathLike):
+    """Yield an empty staging folder for a set of files bound for the folder ``dest``:
+    the caller writes every file of the set into it; when the block ends without an
+    error the files are moved into ``dest`` together (all or none), else none is.
+
+    The staging folder is made on the same filesystem as ``dest`` (inside it when it
+    exists, else beside it), so that the moves are renames: a new ``dest`` is the
+    staging folder renamed, an existing one gets each file renamed over its namesake,
+    with SIGINT and SIGTERM held back until the renames are done and the replaced files
+    put back if one fails. Files of ``dest`` that the set does not name are kept. On an
+    error, Ctrl-C or (in the main thread) SIGTERM inside the block the staging folder
+    is removed and ``dest`` is left as it was; the exception propagates."""
+    dest = Path(dest)
+    if dest.exists() and not dest.is_dir():
+        raise OSError(f"cannot write into {dest}: it is a file; give a folder")
+    parent = dest if dest.is_dir() else (dest.parent if str(dest.parent) else Path("."))
+    if not parent.is_dir():
+        raise OSError(f"cannot write {dest}: directory {parent} does not exist")
+    staging = None
+    with sigterm_raises():
+        try:
+            staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=parent))
+            os.chmod(staging, 0o777 & ~_umask())
+            yield staging
+            with _signals_deferred():
+                if dest.is_dir():
+                    _move_all([(staging / name, dest / name)
+                               for name in sorted(os.listdir(staging))])
+                else:
+                    os.rename(staging, dest)
+                    staging = None
+        finally:
+            if staging is not None:
+                shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def staged_files(paths):
+    """Yield one temporary path beside each of ``paths`` (files anywhere, same suffix):
+    the caller writes the set into them; when the block ends without an error they are
+    renamed onto ``paths`` together (SIGINT and SIGTERM held back meanwhile, the replaced
+    files put back if a rename fails), else every temporary file is removed and
+    ``paths`` are left as they were: all of the set or none of it."""
+    paths = [check_writable(p) for p in paths]
+    temps: list = []
+    with sigterm_raises():
+        try:
+            for path in paths:
+                fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix,
+                                           dir=path.parent)
+                os.close(fd)
+                temps.append(Path(tmp))
+            yield list(temps)
+            for tmp in temps:
+                os.chmod(tmp, 0o666 & ~_umask())
+            with _signals_deferred():
+                _move_all(list(zip(temps, paths)))
+        finally:
+            for tmp in temps:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -193,8 +312,8 @@ def read_runs(path: os.PathLike, schema: str, version: int) -> dict:
         return {"runs": []}
     try:
         data = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not JSON ({exc})") from None
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict) or (data.get("schema"), data.get("version")) != (schema, version):
         raise ValueError(f"{path} is not a {schema} version {version} file; "
                          "give another --json PATH")

@@ -51,11 +51,12 @@ def output_dir(*, create: bool = True) -> Path:
 
 def protected_dirs() -> tuple[Path, ...]:
     """Folders no ordinary output may resolve into: the installed package itself and its
-    shipped data (``policies/`` and ``models/`` of a source checkout); only the ``--ship``
-    options write there."""
+    shipped data (``policies/``, ``models/`` and ``data/`` of a source checkout); only the
+    ``--ship`` options write there."""
     package = Path(__file__).resolve().parent
     return tuple(dict.fromkeys(p.resolve() for p in (package, shipped_policy_dir(),
-                                                     model_file().parent)))
+                                                     model_file().parent,
+                                                     _package_dir("twolink._data"))))
 
 
 def protected_target(path: os.PathLike) -> Path | None:

@@ -4,11 +4,14 @@ torque sequence brings the arm into the goal band to stay (twolink.control.time_
 Without states it prints the shipped table of the 65 evaluation states (``data/limits.json``,
 no CasADi needed); ``--x0`` or ``--evaluation-set`` computes (CasADi and IPOPT: ``pip install
 'twolink[limits]'``), and ``--write FILE`` saves what was computed in the shipped format
-(``twolink limits --evaluation-set --write data/limits.json`` re-creates the shipped file).
+(``twolink limits --evaluation-set --ship`` re-creates the shipped file; ``--write`` never
+writes into the package or its shipped data). The solver is silent unless ``--verbose``;
+Ctrl-C stops a computation within an IPOPT iteration and writes nothing.
 """
 from __future__ import annotations
 
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -41,6 +44,11 @@ def add_parser(sub):
     p.add_argument("--write", type=Path, default=None, metavar="FILE",
                    help="write the computed tables with their provenance to FILE (the "
                         "format of the shipped data/limits.json)")
+    p.add_argument("--ship", action="store_true",
+                   help="write the computed tables over the shipped data/limits.json (the "
+                        "only way to write into the package's data)")
+    p.add_argument("--verbose", action="store_true",
+                   help="let IPOPT and CasADi print their iterations and warnings")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes (default: one per CPU)")
     p.add_argument("--starts", type=int, default=None, metavar="N",
@@ -85,6 +93,8 @@ def _command_line(args) -> str:
             words += [flag, str(value)]
     if args.write is not None:
         words += ["--write", str(args.write)]
+    if args.ship:
+        words += ["--ship"]
     return " ".join(words)
 
 
@@ -105,22 +115,32 @@ def run(args) -> int:
 
     models = list(to.MODELS) if args.model == "both" else [args.model]
     states = _states(args)
+    if args.ship and args.write is not None:
+        raise ValueError("--ship writes the shipped data/limits.json; give no --write")
+    if args.ship:
+        from twolink.resources import limits_file
+        args.write = limits_file()
     if states is None:
         if args.write is not None:
-            raise ValueError("--write saves computed tables: give --x0 or --evaluation-set")
+            raise ValueError(f"{'--ship' if args.ship else '--write'} saves computed tables: "
+                             f"give --x0 or --evaluation-set")
         shipped = to.shipped_tables()
         tables = {m: shipped[m] for m in models}
         provenance = dict(next(iter(tables.values())).provenance)
         source = "shipped data/limits.json"
     else:
         if args.write is not None:
-            check_outputs({"--write": args.write})
+            check_outputs({"--ship" if args.ship else "--write": args.write}, ship=args.ship)
         options = {k: v for k, v in (("starts", args.starts),
                                      ("max_samples", args.max_samples)) if v is not None}
         t0 = time.perf_counter()
-        tables = {m: to.limit_table(states, m, workers=args.workers,
-                                    mujoco=not args.no_mujoco, windings=args.windings,
-                                    **options) for m in models}
+        tables = {}
+        for m in models:
+            print(f"limits: solving {len(states)} state{'s' * (len(states) != 1)} on the "
+                  f"{m} model", file=sys.stderr, flush=True)
+            tables[m] = to.limit_table(states, m, workers=args.workers,
+                                       mujoco=not args.no_mujoco, windings=args.windings,
+                                       verbose=args.verbose, **options)
         provenance = {**to.provenance(), "command": _command_line(args),
                       "time_s": round(time.perf_counter() - t0, 2),
                       "time_s_by_model": {m: t.provenance.get("time_s") for m, t in

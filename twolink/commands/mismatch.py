@@ -16,7 +16,7 @@ import json
 import sys
 from pathlib import Path
 
-from twolink.artifacts import write_json, write_text
+from twolink.artifacts import staged_set, write_json, write_text
 from twolink.commands import SUMMARIES
 from twolink.commands._options import (
     add_arm_options,
@@ -128,9 +128,9 @@ def _chain_section(args, links: int, params) -> int:
                + ("" if chosen.name == "full" else f" --plan {chosen.name}")
                + ("" if args.policies is None else " --policies " + " ".join(names))
                + ("" if args.seed is None else f" --seed {seed}"))
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "report.json", {"command": command, **section})
-    write_text(out / "report.md", chain_markdown(section, command))
+    with staged_set(out) as stage:                  # both files or neither
+        write_json(stage / "report.json", {"command": command, **section})
+        write_text(stage / "report.md", chain_markdown(section, command))
     if args.json:
         print(json.dumps(section, indent=2))
         return 0
@@ -156,9 +156,15 @@ def _written_by_mismatch(out: Path) -> bool:
 
 
 def check_report_folder(out: Path, *, force: bool) -> None:
-    """A folder the report may be written into: its parent exists, it is not a file, and a
+    """A folder the report may be written into: it does not resolve (through symlinks
+    too) into the package or its shipped data, its parent exists, it is not a file, and a
     report.md in it was written by an earlier run (:func:`_written_by_mismatch`) unless
     ``force``; a one-line OSError otherwise, before anything is written."""
+    from twolink.resources import protected_target
+
+    if protected_target(out) is not None:
+        raise OSError(f"cannot write {out}: it resolves into twolink's shipped files "
+                      f"({protected_target(out)}); write elsewhere")
     if out.exists() and not out.is_dir():
         raise OSError(f"--out {out} is a file; give a folder")
     if not out.parent.is_dir():

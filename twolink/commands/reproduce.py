@@ -11,7 +11,7 @@ import json
 from pathlib import Path
 
 from twolink.arm.parameters import HORIZON
-from twolink.artifacts import check_outputs, write_json
+from twolink.artifacts import check_outputs, staged_files, write_json
 from twolink.commands import SUMMARIES
 from twolink.resources import output_dir
 from twolink.studies.reproduce.measure import (
@@ -51,11 +51,13 @@ def run(args) -> int:
         output_dir()                         # the default folder, made on demand
 
     result = reproduce(args.duration, progress=not args.json)
-    paper_fig3(result.trajectories, figure, plants=PLANTS)
     report = result.report()
     report["figure"] = str(figure)
-    if args.report:
-        write_json(args.report, report)
+    targets = [figure] + ([args.report] if args.report else [])
+    with staged_files(targets) as temps:            # the figure and report, or neither
+        paper_fig3(result.trajectories, temps[0], plants=PLANTS)
+        if args.report:
+            write_json(temps[1], report)
     if args.json:
         print(json.dumps(report, indent=2))
     else:

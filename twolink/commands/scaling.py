@@ -113,9 +113,8 @@ def run(args) -> int:
     result = scaling(args.links, args.rules, quick=args.quick, poses=args.poses,
                      seed=args.seed, max_bytes=max_bytes, peak=args.peak,
                      progress=not args.json)
-    out.mkdir(exist_ok=True)
     report = result.report()
-    paths = write(report, out, _command(args))
+    paths = write(report, out, _command(args))        # all three files or none
     if args.json:
         print(json.dumps(json.loads(paths["json"].read_text()), indent=2))
     else:

@@ -35,6 +35,7 @@ from __future__ import annotations
 import datetime
 import multiprocessing
 import os
+import signal
 import time
 from concurrent.futures import ProcessPoolExecutor
 
@@ -135,10 +136,11 @@ def _solve(job) -> Limit:
     """One state's search in this process (the workers' entry point)."""
     from twolink.control.time_optimal.nlp import ProblemCache
 
-    x0, model, params, settings = job
-    cache = _CACHES.get(params)
+    x0, model, params, settings, *rest = job
+    verbose = bool(rest and rest[0])
+    cache = _CACHES.get((params, verbose))
     if cache is None:
-        cache = _CACHES[params] = ProblemCache(params)
+        cache = _CACHES[(params, verbose)] = ProblemCache(params, verbose=verbose)
     r = search(np.asarray(x0, float), model, cache, **settings)
     torques = np.zeros((0, 2)) if r.hold is None else r.hold.torques
     x = wrap_state(x0)
@@ -147,6 +149,38 @@ def _solve(job) -> Limit:
                  reach_slack=None if r.reach is None else r.reach.s,
                  hold_slack=None if r.hold is None else r.hold.s,
                  solves=r.solves, time_s=r.seconds)
+
+
+def _ignore_interrupt() -> None:
+    """A worker process's start: Ctrl-C (sent to the whole process group) is left to
+    the parent, which terminates the workers; SIGTERM ends a worker at once (not the
+    parent's handler, whose exception CasADi would swallow mid-solve)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _in_workers(jobs: list, workers: int) -> list:
+    """:func:`_solve` of every job in ``workers`` processes, in order. On any exception
+    in this process (Ctrl-C, SIGTERM raised as an exception, an error) the workers are
+    terminated at once instead of finishing their searches, and it propagates."""
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_interrupt,
+                               mp_context=multiprocessing.get_context(method))
+    try:
+        solved = list(pool.map(_solve, jobs, chunksize=1))
+    except BaseException:
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.join(timeout=0.5)
+            if process.is_alive():
+                process.kill()
+                process.join(timeout=0.5)
+        raise
+    pool.shutdown(wait=True)
+    return solved
 
 
 def _mirrors(x: np.ndarray) -> list:
@@ -211,14 +245,16 @@ def limit_table(states, model: str = "full", *, max_samples: int = DEFAULT_MAX_S
                 starts: int = DEFAULT_STARTS, hold: int = DEFAULT_HOLD,
                 params: ArmParameters = TABLE_I, workers: int | None = None,
                 mujoco: bool = True, mirror: bool = True,
-                windings: str = "all") -> LimitTable:
+                windings: str = "all", verbose: bool = False) -> LimitTable:
     """:func:`limit` of every state of ``states`` (n, 4) on ``model``, in ``workers``
     processes (default: one per CPU, at most n), with the run's provenance (CasADi
     version, model, parameters, Ts, substeps, settings, wall time). ``mujoco`` replays
     every upper bound's torques on the MuJoCo plant. ``mirror``: a state whose mirror
     image -x is an earlier row takes that row's answer mirrored (the models are odd:
     f(-x, -u) = -f(x, u)), its torques replayed on the numpy model to check it; a
-    mirror that fails the replay is searched itself."""
+    mirror that fails the replay is searched itself. ``verbose`` lets IPOPT print its
+    iterations (silent by default). Ctrl-C or SIGTERM stops it within an IPOPT
+    iteration: the worker processes ignore Ctrl-C and are terminated at once."""
     check_model(model)
     x = check_states(states, params)
     settings = _settings(max_samples, starts, hold, windings)
@@ -230,15 +266,12 @@ def limit_table(states, model: str = "full", *, max_samples: int = DEFAULT_MAX_S
     mirrors = _mirrors(x) if mirror else [None] * len(x)
     own = sorted((i for i, m in enumerate(mirrors) if m is None),     # longest first
                  key=lambda i: -estimate(x[i], params))
-    jobs = [(x[i], model, params, settings) for i in own]
+    jobs = [(x[i], model, params, settings, verbose) for i in own]
     t0 = time.perf_counter()
     if workers == 1 or len(jobs) == 1:
         solved = [_solve(j) for j in jobs]
     else:
-        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
-                                 mp_context=multiprocessing.get_context(method)) as pool:
-            solved = list(pool.map(_solve, jobs, chunksize=1))
+        solved = _in_workers(jobs, min(workers, len(jobs)))
     rows = [None] * len(x)
     for i, r in zip(own, solved):
         rows[i] = r
@@ -272,10 +305,16 @@ def provenance(params: ArmParameters = TABLE_I, settings: dict | None = None) ->
 
 def shipped_tables() -> dict:
     """{model: LimitTable} of the shipped ``data/limits.json`` (the 65 evaluation
-    states of :func:`twolink.sim.metrics.evaluation_set` on both models)."""
+    states of :func:`twolink.sim.metrics.evaluation_set` on both models); a damaged file
+    gives a one-line ValueError naming it."""
     from twolink.resources import limits_file
 
-    return tables_from_json(limits_file().read_text())
+    path = limits_file()
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: cannot be read ({exc})") from None
+    return tables_from_json(text, str(path))
 
 
 def shipped_limits(model: str = "full") -> LimitTable:

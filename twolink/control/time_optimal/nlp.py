@@ -16,7 +16,10 @@ is s: the band is reachable in the window iff min s <= 0.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
+import sys
 
 import numpy as np
 
@@ -35,6 +38,8 @@ IPOPT_OPTIONS = {
     "ipopt.mu_strategy": "adaptive",
     "print_time": False,
 }
+#: IPOPT's and CasADi's printing when asked for (``verbose``): the iterations and timings.
+VERBOSE_OPTIONS = {"ipopt.print_level": 5, "ipopt.sb": "no", "print_time": True}
 #: IPOPT's answers that count as converged.
 CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 #: Largest defect |f(x_k, u_k) - x_{k+1}| of an answer that counts as a trajectory.
@@ -81,8 +86,9 @@ class ShootingProblem:
     reused for every initial state, target and window)."""
 
     def __init__(self, model: str, samples: int, params: ArmParameters = TABLE_I,
-                 options: dict | None = None):
+                 options: dict | None = None, verbose: bool = False):
         ca = require_casadi()
+        self.verbose = bool(verbose)
         self.model = check_model(model)
         self.params = params
         self.samples = k = int(samples)
@@ -103,6 +109,7 @@ class ShootingProblem:
                 rows += [v - s, -v - s]
         g = ca.vertcat(defects, *rows, xs[2:, -1])
         opts = dict(IPOPT_OPTIONS)
+        opts.update(VERBOSE_OPTIONS if verbose else {})
         opts.update(options or {})
         self.solver = ca.nlpsol(f"limit_{model}_{k}", "ipopt",
                                 {"x": w, "p": targets, "f": s, "g": g}, opts)
@@ -141,8 +148,9 @@ class ShootingProblem:
         lbx[:4] = ubx[:4] = x0
         guess_torques = np.clip(guess_torques, -self.params.tau_max, self.params.tau_max)
         w0 = np.clip(self.pack(np.asarray(guess_states, float), guess_torques), lbx, ubx)
-        out = self.solver(x0=w0, p=np.asarray(targets, float), lbx=lbx, ubx=ubx,
-                          lbg=lbg, ubg=ubg)
+        with _solver_output(self.verbose):
+            out = self.solver(x0=w0, p=np.asarray(targets, float), lbx=lbx, ubx=ubx,
+                              lbg=lbg, ubg=ubg)
         stats = self.solver.stats()
         w = np.asarray(out["x"]).ravel()
         xu = w[:6 * k].reshape(k, 6)
@@ -153,19 +161,61 @@ class ShootingProblem:
                         iterations=int(stats.get("iter_count", 0)), defect=defect)
 
 
-class ProblemCache:
-    """One :class:`ShootingProblem` per (model, K), built on first use."""
+@contextlib.contextmanager
+def _solver_output(verbose: bool):
+    """Around one IPOPT solve: CasADi's printing (it writes through ``sys.stdout`` and
+    ``sys.stderr``) is swallowed unless ``verbose``, and a Ctrl-C or SIGTERM that arrived
+    during the solve is raised when it returns. CasADi turns the signal's exception into
+    a warning and an early return, so without this the search would go on."""
+    from twolink.artifacts import Terminated, signal_received
 
-    def __init__(self, params: ArmParameters = TABLE_I, options: dict | None = None):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.ExitStack() as stack:
+        if not verbose:
+            stack.enter_context(contextlib.redirect_stdout(out))
+            stack.enter_context(contextlib.redirect_stderr(err))
+        else:
+            stack.enter_context(contextlib.redirect_stderr(_Tee(sys.stderr, err)))
+        yield
+    if "KeyboardInterrupt" in err.getvalue():
+        if signal_received() == "SIGTERM":
+            raise Terminated("terminated by SIGTERM")
+        raise KeyboardInterrupt
+
+
+class _Tee(io.TextIOBase):
+    """A text stream writing to two others."""
+
+    def __init__(self, *streams):
+        self.streams = streams
+
+    def write(self, text):
+        for stream in self.streams:
+            stream.write(text)
+        return len(text)
+
+    def flush(self):
+        for stream in self.streams:
+            stream.flush()
+
+
+class ProblemCache:
+    """One :class:`ShootingProblem` per (model, K), built on first use; ``verbose``
+    lets IPOPT and CasADi print (silent by default)."""
+
+    def __init__(self, params: ArmParameters = TABLE_I, options: dict | None = None,
+                 verbose: bool = False):
         self.params = params
         self.options = options
+        self.verbose = bool(verbose)
         self.problems: dict = {}
         self.solves = 0
 
     def get(self, model: str, samples: int) -> ShootingProblem:
         key = (model, int(samples))
         if key not in self.problems:
-            self.problems[key] = ShootingProblem(model, samples, self.params, self.options)
+            self.problems[key] = ShootingProblem(model, samples, self.params, self.options,
+                                                 self.verbose)
         return self.problems[key]
 
     def solve(self, model: str, samples: int, x0, targets, states, torques, **kw) -> Solution:

@@ -177,18 +177,27 @@ def tables_to_json(tables, provenance: dict) -> str:
     return text + "\n"
 
 
-def tables_from_json(text: str) -> dict:
+def tables_from_json(text: str, source: str = "limits file") -> dict:
     """{model: LimitTable} of the JSON text written by :func:`tables_to_json`; the
-    file's provenance is merged into each table's."""
-    data = json.loads(text)
-    if data.get("format") != FORMAT:
-        raise ValueError(f"not a limits file of format {FORMAT} (format "
-                         f"{data.get('format')!r})")
+    file's provenance is merged into each table's. Text that is not JSON or not such a
+    table gives a one-line ValueError beginning with ``source`` (the file's path)."""
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise ValueError(f"{source}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        got = data.get("format") if isinstance(data, dict) else type(data).__name__
+        raise ValueError(f"{source}: not a limits file of format {FORMAT} (format "
+                         f"{got!r})")
     out = {}
-    for model, entry in data["models"].items():
-        table = LimitTable.from_dict(model, entry)
-        out[model] = dataclasses.replace(
-            table, provenance={**data.get("provenance", {}), **table.provenance})
+    try:
+        for model, entry in data["models"].items():
+            table = LimitTable.from_dict(model, entry)
+            out[model] = dataclasses.replace(
+                table, provenance={**data.get("provenance", {}), **table.provenance})
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{source}: not a valid limits table ({type(exc).__name__}: "
+                         f"{exc})") from None
     return out
 
 

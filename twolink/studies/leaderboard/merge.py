@@ -8,38 +8,158 @@ or join its rows and give the table a full run would (``twolink leaderboard --me
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 #: What rows must share to sit in one table.
 SETTINGS = ("states", "plants", "seed", "horizon", "limits")
+#: The ranges the command's options allow (``--plants``, ``--seed``).
+MAX_PLANTS = 10_000
+MAX_SEED = 2**63 - 1
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check_settings(report: dict) -> str | None:
+    """What is wrong with the settings of a saved report, or None."""
+    from twolink.sim.challenges import LEVELS
+
+    missing = [k for k in ("command", "rows", "levels", *SETTINGS) if k not in report]
+    if missing:
+        return f"no {', '.join(missing)} (not a leaderboard report)"
+    if not isinstance(report["rows"], list):
+        return "rows is not a list"
+    if not _is_int(report["states"]) or report["states"] < 1:
+        return f"states must be a positive whole number, got {report['states']!r}"
+    if not _is_int(report["plants"]) or not 1 <= report["plants"] <= MAX_PLANTS:
+        return f"plants must be a whole number from 1 to {MAX_PLANTS}, got {report['plants']!r}"
+    if not _is_int(report["seed"]) or not 0 <= report["seed"] <= MAX_SEED:
+        return f"seed must be a whole number from 0 to 2**63 - 1, got {report['seed']!r}"
+    if not _is_number(report["horizon"]) or report["horizon"] <= 0:
+        return f"horizon must be a positive finite number, got {report['horizon']!r}"
+    if not isinstance(report["limits"], str) or not isinstance(report["command"], str):
+        return "limits and command must be text"
+    levels = report["levels"]
+    if not isinstance(levels, list) or not levels or \
+            any(not isinstance(v, str) or v not in LEVELS for v in levels) or \
+            len(set(levels)) < len(levels):
+        return (f"levels must be distinct names among {', '.join(LEVELS)}, got "
+                f"{levels!r}")
+    return None
+
+
+def _check_row(row, report: dict) -> str | None:
+    """What is wrong with one saved row, or None."""
+    from twolink.studies.leaderboard.measure import MODES
+
+    if not isinstance(row, dict):
+        return f"is not an object ({type(row).__name__})"
+    missing = [k for k in ROW_KEYS if k not in row]
+    if missing:
+        return f"no {', '.join(missing)}"
+    if not isinstance(row["controller"], str) or not row["controller"]:
+        return f"controller {row['controller']!r}: not a name"
+    if row["level"] not in report["levels"]:
+        return f"level {row['level']!r}: not among the report's levels"
+    if row["mode"] not in MODES:
+        return f"mode {row['mode']!r}: not one of {', '.join(MODES)}"
+    n, k = row["n"], row["successes"]
+    if not _is_int(n) or n < 1:
+        return f"n {n!r}: not a positive whole number"
+    if not _is_int(k) or not 0 <= k <= n:
+        return f"successes {k!r}: not a whole number from 0 to n ({n})"
+    if not _is_number(row["rate"]) or abs(row["rate"] - k / n) > 1e-9:
+        return f"rate {row['rate']!r}: not successes / n ({k}/{n})"
+    w = row["wilson_95"]
+    if not isinstance(w, list) or len(w) != 2 or not all(_is_number(v) and 0 <= v <= 1
+                                                         for v in w):
+        return f"wilson_95 {w!r}: not two numbers from 0 to 1"
+    if row["worst_plant"] is not None and (not _is_int(row["worst_plant"])
+                                           or row["worst_plant"] < 0):
+        return f"worst_plant {row['worst_plant']!r}: not a plant index or null"
+    wk = row["worst_plant_successes"]
+    if wk is not None and (not _is_int(wk) or not 0 <= wk <= n):
+        return f"worst_plant_successes {wk!r}: not a whole number from 0 to n ({n}) or null"
+    for key in ("median_settle", "settle_ratio_median", "settle_ratio_worst"):
+        v = row[key]
+        if v is not None and (not _is_number(v) or v < 0):
+            return f"{key} {v!r}: not a non-negative finite number or null"
+    for key in ("mean_abs_torque", "seconds"):
+        v = row[key]
+        if not _is_number(v) or v < 0:
+            return f"{key} {v!r}: not a non-negative finite number"
+    return None
+
+
+#: The keys of a saved row (:meth:`twolink.studies.leaderboard.measure.Entry.as_dict`).
+ROW_KEYS = ("controller", "level", "mode", "successes", "n", "rate", "wilson_95",
+            "worst_plant", "worst_plant_successes", "median_settle", "settle_ratio_median",
+            "settle_ratio_worst", "mean_abs_torque", "seconds")
 
 
 def saved_report(path: Path) -> dict:
-    """The leaderboard JSON at ``path``, or a ValueError naming what is wrong with it."""
+    """The leaderboard JSON at ``path``, checked as strictly as the command's options
+    (settings in the ranges --plants and --seed allow, every row of the schema
+    :data:`ROW_KEYS` with finite numbers, no two rows of one controller, level and
+    mode), or a one-line ValueError ``leaderboard report PATH: ...`` naming the first
+    problem (rows counted from 1)."""
+    what = f"leaderboard report {path}"
     try:
-        report = json.loads(Path(path).read_text())
+        text = Path(path).read_text()
     except FileNotFoundError:
         raise ValueError(f"--merge: {path} does not exist; run the leaderboard once "
                          f"without --merge") from None
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"--merge: {path} is not a leaderboard JSON ({exc})") from None
-    if not isinstance(report, dict) or not isinstance(report.get("rows"), list) or \
-            any(k not in report for k in SETTINGS + ("levels",)):
-        raise ValueError(f"--merge: {path} is not a leaderboard JSON (no rows or settings)")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{what}: cannot be read ({exc})") from None
+    try:
+        report = json.loads(text, parse_constant=_no_constant)
+    except ValueError as exc:
+        raise ValueError(f"{what}: not valid JSON ({exc})") from None
+    if not isinstance(report, dict):
+        raise ValueError(f"{what}: not a leaderboard report (a JSON "
+                         f"{type(report).__name__}, not an object)")
+    problem = _check_settings(report)
+    if problem:
+        raise ValueError(f"{what}: {problem}")
+    seen = set()
+    for i, row in enumerate(report["rows"], 1):
+        problem = _check_row(row, report)
+        if problem:
+            raise ValueError(f"{what}: row {i} has {problem}")
+        key = (row["controller"], row["level"], row["mode"])
+        if key in seen:
+            raise ValueError(f"{what}: row {i} has {key[0]} {key[1]} {key[2]} a second time")
+        seen.add(key)
     return report
+
+
+def _no_constant(name):
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def check_joinable(saved: dict, settings: dict, levels) -> None:
+    """A one-line ValueError, before any measurement, when rows run with ``settings``
+    (the keys of :data:`SETTINGS`) under ``levels`` cannot join the saved report."""
+    differ = [k for k in SETTINGS if saved[k] != settings[k]]
+    if differ:
+        raise ValueError("--merge: the saved leaderboard was run with other settings ("
+                         + ", ".join(f"{k} {saved[k]!r} here {settings[k]!r}" for k in differ)
+                         + ")")
+    if set(levels) - set(saved["levels"]):
+        raise ValueError(f"--merge: levels {sorted(set(levels) - set(saved['levels']))} "
+                         f"are not in the saved leaderboard ({', '.join(saved['levels'])})")
 
 
 def merged(saved: dict, new: dict) -> dict:
     """``saved`` with the rows of ``new``'s controllers replaced by ``new``'s rows (new
     controllers after the saved ones), or a ValueError when the settings differ."""
-    differ = [k for k in SETTINGS if saved[k] != new[k]]
-    if differ:
-        raise ValueError("--merge: the saved leaderboard was run with other settings ("
-                         + ", ".join(f"{k} {saved[k]!r} here {new[k]!r}" for k in differ)
-                         + ")")
-    if set(new["levels"]) - set(saved["levels"]):
-        raise ValueError(f"--merge: levels {sorted(set(new['levels']) - set(saved['levels']))} "
-                         f"are not in the saved leaderboard ({', '.join(saved['levels'])})")
+    check_joinable(saved, new, new["levels"])
     replaced = {r["controller"] for r in new["rows"]}
     rows = [r for r in saved["rows"] if r["controller"] not in replaced] + new["rows"]
     return {**saved, "rows": rows, "provenance": new.get("provenance", saved.get("provenance"))}

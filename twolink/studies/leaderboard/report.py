@@ -10,7 +10,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from twolink.artifacts import atomic_path, provenance, write_json, write_text  # noqa: E402
+from twolink.artifacts import (  # noqa: E402
+    atomic_path,
+    provenance,
+    staged_set,
+    write_json,
+    write_text,
+)
 from twolink.viz.formatting import format_rate  # noqa: E402
 
 FILES = {"markdown": "leaderboard.md", "json": "leaderboard.json",
@@ -93,10 +99,11 @@ def figure(report: dict, path: os.PathLike) -> Path:
 
 
 def write(report: dict, out: os.PathLike) -> dict:
-    """Write the Markdown, JSON (with provenance) and figure into ``out``; their paths."""
+    """Write the Markdown, JSON (with provenance) and figure into ``out`` (made if
+    missing), all three or none (:func:`twolink.artifacts.staged_set`); their paths."""
     out = Path(out)
-    paths = {k: out / v for k, v in FILES.items()}
-    write_json(paths["json"], {**report, "provenance": provenance()})
-    write_text(paths["markdown"], markdown(report) + "\n")
-    figure(report, paths["figure"])
-    return paths
+    with staged_set(out) as staging:
+        write_json(staging / FILES["json"], {**report, "provenance": provenance()})
+        write_text(staging / FILES["markdown"], markdown(report) + "\n")
+        figure(report, staging / FILES["figure"])
+    return {k: out / v for k, v in FILES.items()}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twolink.artifacts import write_json, write_text
+from twolink.artifacts import staged_set, write_json, write_text
 from twolink.sim.metrics import score_keys
 from twolink.sim.perturbations import PERTURBABLE
 from twolink.studies.mismatch.figures import (
@@ -228,22 +228,28 @@ def markdown(report: dict, figures: dict, command: str) -> str:
 
 
 def write(report: dict, data: dict, outdir: Path, command: str) -> dict:
-    """Figures, report.json and report.md under ``outdir`` (each written atomically)."""
-    figures = {
-        "heatmaps": heatmap_figure(data["error"], outdir / "model_error.png"),
-        "closed_loop": closed_loop_figure(report, data["settle"], outdir / "closed_loop.png"),
-        "robustness_parameters": robustness_figure(
-            report, [k for k in CURVES if k.startswith("parameter:")],
-            outdir / "robustness_parameters.png", "success vs one Table I parameter changed"),
-        "robustness_other": robustness_figure(
-            report, [k for k in CURVES if not k.startswith("parameter:")],
-            outdir / "robustness_other.png",
-            "success vs joint random parameters, state noise, actuation delay, torque limits"),
-    }
-    if "robust" in report:
-        figures["robust"] = robust_figure(report["robust"], data["robust_settle"],
-                                          outdir / "robust.png")
-    report = dict(report, figures=figures, command=command)
-    write_json(outdir / "report.json", report)
-    write_text(outdir / "report.md", markdown(report, figures, command) + "\n")
+    """Figures, report.json and report.md into ``outdir``, all of them or none: written
+    into a staging folder and moved in together (:func:`twolink.artifacts.staged_set`);
+    other files of ``outdir`` (the sweep.jsonl) are kept."""
+    with staged_set(outdir) as stage:
+        figures = {
+            "heatmaps": heatmap_figure(data["error"], stage / "model_error.png"),
+            "closed_loop": closed_loop_figure(report, data["settle"],
+                                              stage / "closed_loop.png"),
+            "robustness_parameters": robustness_figure(
+                report, [k for k in CURVES if k.startswith("parameter:")],
+                stage / "robustness_parameters.png",
+                "success vs one Table I parameter changed"),
+            "robustness_other": robustness_figure(
+                report, [k for k in CURVES if not k.startswith("parameter:")],
+                stage / "robustness_other.png",
+                "success vs joint random parameters, state noise, actuation delay, "
+                "torque limits"),
+        }
+        if "robust" in report:
+            figures["robust"] = robust_figure(report["robust"], data["robust_settle"],
+                                              stage / "robust.png")
+        report = dict(report, figures=figures, command=command)
+        write_json(stage / "report.json", report)
+        write_text(stage / "report.md", markdown(report, figures, command) + "\n")
     return report

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from twolink.artifacts import atomic_path, write_json, write_text  # noqa: E402
+from twolink.artifacts import atomic_path, staged_set, write_json, write_text  # noqa: E402
 from twolink.studies.scaling.measure import (  # noqa: E402
     ALL_SCHEMES,
     LEVER_ARGMAX_DEG,
@@ -320,12 +320,13 @@ def figure(report: dict, path) -> Path:
 
 
 def write(report: dict, outdir, command: str) -> dict:
-    """Write :data:`FILES` into ``outdir`` (each atomically): the JSON report (with the
-    command), the figure and the Markdown. Returns their paths."""
+    """Write :data:`FILES` into ``outdir`` (made if missing), all of them or none
+    (:func:`twolink.artifacts.staged_set`): the JSON report (with the command), the
+    figure and the Markdown. Returns their paths."""
     outdir = Path(outdir)
     report = {**report, "command": command}
-    paths = {k: outdir / name for k, name in FILES.items()}
-    write_json(paths["json"], report)
-    figure(report, paths["figure"])
-    write_text(paths["markdown"], markdown(report, command, FILES["figure"]))
-    return paths
+    with staged_set(outdir) as stage:
+        write_json(stage / FILES["json"], report)
+        figure(report, stage / FILES["figure"])
+        write_text(stage / FILES["markdown"], markdown(report, command, FILES["figure"]))
+    return {k: outdir / name for k, name in FILES.items()}

@@ -1,0 +1,36 @@
+"""Ctrl-C stops ``twolink limits`` within seconds, silently, and writes nothing."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+pytest.importorskip("casadi")
+
+
+@pytest.mark.parametrize("workers", [[], ["--workers", "1"]], ids=["pool", "in-process"])
+def test_ctrl_c_stops_limits_at_once_and_writes_nothing(tmp_path, workers):
+    out = tmp_path / "limits.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twolink.cli", "limits", "--evaluation-set", "--model", "full",
+         "--no-mujoco", "--write", str(out), *workers],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        first = proc.stderr.readline()                  # its first progress line
+        assert first.startswith("limits: solving 65 states"), first
+        time.sleep(1.5)                                 # well inside the search
+        assert proc.poll() is None
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)              # as a terminal's Ctrl-C does
+        rest, err = proc.communicate(timeout=30)
+        stopped = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert stopped < 3.0, f"took {stopped:.1f} s to stop"
+    assert err.strip().splitlines() == ["twolink: interrupted"], err   # no solver warnings
+    assert not rest and list(tmp_path.iterdir()) == []
