@@ -49,7 +49,9 @@ def test_a_module_controller(tmp_path, monkeypatch, user_file):
 
 
 @pytest.mark.parametrize("spec, match", [
-    ("nosuch", "unknown controller 'nosuch'; give one of centralized"),
+    ("nosuch", "unknown controller 'nosuch'; give a name of `twolink controllers`"),
+    ("lqrr", r"unknown controller 'lqrr' \(did you mean 'lqr'"),
+    ("centralised", r"\(did you mean 'centralized'"),
     ("{dir}/missing.py:pd", "missing.py does not exist"),
     ("{file}:nothing", "has no attribute 'nothing'"),
     ("{file}:NOT_CALLABLE", "is not callable"),

@@ -8,19 +8,21 @@ read as data, never unpickled), the learned agents shipped in the repository by 
 :mod:`twolink.sim.controller`, checked (:func:`twolink.sim.controller.checked`); the
 commands ``rollout``, ``render``, ``evaluate`` and ``leaderboard`` read their
 ``--controller`` through it. A class named after the colon is instantiated with no
-arguments; anything else named there must be callable.
+arguments; anything else named there must be callable. What a user's module prints while
+it is imported and its class instantiated goes to stderr (stdout is the commands' output);
+an exception or ``sys.exit`` there is one ControllerError line.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
 import sys
 from pathlib import Path
 
-from twolink.control.learned import learned_agent_names
-from twolink.policy.fuzzy_policy import load_policy, shipped_policies
-from twolink.sim.controller import Checked, ControllerError, checked
+from twolink.policy.fuzzy_policy import load_policy
+from twolink.sim.controller import Checked, ControllerError, checked, controller_name
 
 
 def baseline_names() -> tuple:
@@ -45,7 +47,9 @@ def absolute_spec(spec):
     """``spec`` with the file it names (a ``file.py:callable``'s file, a policy ``.npz``)
     made absolute, so that it names the same file from another working directory (a
     worker process, a Ray node sharing the file system); anything else unchanged."""
-    if not isinstance(spec, str) or spec in shipped_policies() or spec in baseline_names():
+    from twolink.control.catalogue import catalogue
+
+    if not isinstance(spec, str) or spec in catalogue():
         return spec
     if spec.endswith((".npz", ".zip")):
         return str(Path(spec).resolve())
@@ -70,15 +74,17 @@ def _import_module(where: str):
         module = importlib.util.module_from_spec(spec)
         sys.modules[module_name] = module
         try:
-            spec.loader.exec_module(module)
-        except Exception as exc:
+            with contextlib.redirect_stdout(sys.stderr):    # its prints: not our output
+                spec.loader.exec_module(module)
+        except (Exception, SystemExit) as exc:
             del sys.modules[module_name]
             raise ControllerError(f"cannot import controller file {where}: "
                                   f"{type(exc).__name__}: {exc}") from None
         return module
     try:
-        return importlib.import_module(where)
-    except Exception as exc:
+        with contextlib.redirect_stdout(sys.stderr):
+            return importlib.import_module(where)
+    except (Exception, SystemExit) as exc:
         raise ControllerError(f"cannot import controller module {where!r}: "
                               f"{type(exc).__name__}: {exc}") from None
 
@@ -98,8 +104,9 @@ def _from_spec(spec: str):
                                   f"{attr!r}") from None
     if isinstance(obj, type):
         try:
-            obj = obj()
-        except Exception as exc:
+            with contextlib.redirect_stdout(sys.stderr):
+                obj = obj()
+        except (Exception, SystemExit) as exc:
             raise ControllerError(f"controller {spec!r}: {attr}() raised "
                                   f"{type(exc).__name__}: {exc}") from None
     if not callable(obj):
@@ -108,26 +115,21 @@ def _from_spec(spec: str):
     return obj
 
 
-def resolve_controller(spec, *, links: int = 2) -> Checked:
-    """The controller ``spec`` names, checked: a shipped policy (:func:`shipped_policies`),
-    a baseline (:func:`baseline_names`), a shipped learned agent
-    (:func:`twolink.control.learned.learned_agent_names`), a policy ``.npz`` file, a saved
-    SB3 agent ``.zip`` (labelled by its file's stem; read as data, see
-    :mod:`twolink.control.sb3_agent`), ``module:callable`` or ``file.py:callable``; or a
-    controller object itself. One-line ControllerError (a
-    ValueError) for anything else."""
+def resolve_controller(spec, *, links: int = 2, catalogue_files=()) -> Checked:
+    """The controller ``spec`` names, checked: a name of the controller catalogue
+    (:mod:`twolink.control.catalogue`: shipped policies, baselines, shipped learned
+    agents and the entries of ``catalogue_files`` and of ``$TWOLINK_CATALOGUE``), a policy
+    ``.npz`` file, a saved SB3 agent ``.zip`` (labelled by its file's stem; read as data,
+    see :mod:`twolink.control.sb3_agent`), ``module:callable`` or ``file.py:callable``
+    (labelled by the object's ``name`` when it has one, else the callable's name); or a
+    controller object itself. One-line ControllerError (a ValueError) for anything else,
+    an unknown name with the closest catalogue names."""
+    from twolink.control import catalogue
+
     if not isinstance(spec, str):
         return checked(spec, links=links)
     if not spec:
         raise ControllerError("controller name is empty")
-    if spec in shipped_policies():
-        return checked(load_policy(spec), name=spec, links=links)
-    if spec in baseline_names():
-        return checked(_baseline(spec), name=spec, links=links)
-    if spec in learned_agent_names():
-        from twolink.control.learned import learned_agent
-
-        return checked(learned_agent(spec), name=spec, links=links)
     if spec.endswith(".npz"):
         return checked(load_policy(spec), name=Path(spec).stem, links=links)
     if spec.endswith(".zip"):
@@ -135,7 +137,11 @@ def resolve_controller(spec, *, links: int = 2) -> Checked:
 
         return checked(sb3_agent(spec), name=Path(spec).stem, links=links)
     if ":" in spec:
-        return checked(_from_spec(spec), name=spec.rpartition(":")[2], links=links)
-    known = ", ".join((*shipped_policies(), *baseline_names(), *learned_agent_names()))
-    raise ControllerError(f"unknown controller {spec!r}; give one of {known}, a policy .npz, "
-                          f"an SB3 agent .zip, module:callable or path/to/file.py:callable")
+        obj = _from_spec(spec)
+        return checked(obj, name=controller_name(obj, spec.rpartition(":")[2]), links=links)
+    cat = catalogue.catalogue(catalogue_files)
+    if spec in cat:
+        return checked(cat[spec].load(), name=spec, links=links)
+    raise ControllerError(f"unknown controller {spec!r}{catalogue.suggest(spec, cat)}; give "
+                          f"a name of `twolink controllers`, a policy .npz, an SB3 agent "
+                          f".zip, module:callable or path/to/file.py:callable")
