@@ -7,6 +7,7 @@ without importing any of them.
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import sys
 import zipfile
@@ -18,10 +19,63 @@ from twolink.commands import SUMMARIES
 COMMANDS = tuple(SUMMARIES)
 
 
+class UsageError(Exception):
+    """A command line argparse refuses: ``parser`` is the (sub)command's parser."""
+
+    def __init__(self, parser: argparse.ArgumentParser, message: str):
+        super().__init__(message)
+        self.parser = parser
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are raised as :class:`UsageError` instead of
+    printing the usage block and exiting; :func:`main` prints them as one line. The
+    subcommands' parsers are of this class too (``add_subparsers`` takes the parent's)."""
+
+    def error(self, message: str):
+        raise UsageError(self, message)
+
+
+def unknown_options(parser: argparse.ArgumentParser, words) -> list:
+    """The words of ``words`` (a subcommand's arguments) that look like options but
+    that ``parser`` does not know, nor abbreviates uniquely; ``--`` ends the options."""
+    unknown = []
+    for word in words:
+        if word == "--":
+            break
+        if not word.startswith("-") or word == "-" \
+                or parser._negative_number_matcher.match(word):
+            continue
+        name = word.split("=", 1)[0]
+        known = parser._option_string_actions
+        if name in known or (name.startswith("--") and len(
+                {known[o] for o in known if o.startswith(name)}) == 1):
+            continue
+        unknown.append(name)
+    return unknown
+
+
+def usage_line(parser: argparse.ArgumentParser, message: str, words=()) -> str:
+    """The one line of a refused command line: the unknown options among ``words``
+    (one with the closest known option as "did you mean"), if any, else argparse's
+    ``message``; either points to the command's ``--help``."""
+    unknown = unknown_options(parser, words)
+    if len(unknown) == 1:
+        close = difflib.get_close_matches(unknown[0][2:], [
+            o[2:] for o in parser._option_string_actions if o.startswith("--")],
+            n=1, cutoff=0.75)
+        message = f"unknown option {unknown[0]}" + (
+            f" (did you mean --{close[0]}?)" if close else "")
+    elif unknown:
+        message = f"unknown options {', '.join(unknown)}"
+    return f"{parser.prog}: error: {message} (see {parser.prog} --help)"
+
+
 def build_parser(only: str | None = "all") -> argparse.ArgumentParser:
     """The parser with every subcommand's full parser (``only="all"``), or with the full
-    parser of ``only`` and one-line entries for the others (``only=None``: none)."""
-    parser = argparse.ArgumentParser(
+    parser of ``only`` and one-line entries for the others (``only=None``: none). Its
+    errors raise :class:`UsageError` (:class:`Parser`)."""
+    parser = Parser(
         prog="twolink",
         description="Centralized vs decentralized fuzzy Q-iteration control of a two-link "
                     "arm (Busoniu, De Schutter & Babuska, ICARCV 2006) on MuJoCo.")
@@ -52,9 +106,16 @@ def main(argv=None) -> int:
     except ImportError as exc:   # a broken installation: one line, not a traceback
         print(f"twolink: error: cannot load the commands ({exc})", file=sys.stderr)
         return 2
-    args, unknown = parser.parse_known_args(argv)
-    if unknown:                  # named by the subcommand's parser, with its own usage
-        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
+    try:
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:              # named by the subcommand's parser
+            getattr(args, "_parser", parser).error(
+                f"unexpected argument{'s' if len(unknown) > 1 else ''} "
+                f"{' '.join(map(repr, unknown))}")
+    except UsageError as exc:    # one line, exit 2 (argparse's own status)
+        words = argv[argv.index(_command(argv)) + 1:] if exc.parser is not parser else argv
+        print(usage_line(exc.parser, str(exc), words), file=sys.stderr)
+        raise SystemExit(2) from None
     from twolink.artifacts import Terminated, signal_received, sigterm_raises
 
     try:

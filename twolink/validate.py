@@ -2,7 +2,9 @@
 
 Each check returns the value it accepts, converted (``int``, ``float``, the string, an
 array), or raises a ``ValueError`` whose one-line message names the value: ``what``
-(the option's name) and the value given. A bool is never a number here, although
+(the option's name) and the value given; :func:`seed`, :func:`numbers`, :func:`count_of`
+and :func:`pixels`, the checks of API arguments, raise a ``TypeError`` for a value of
+the wrong type and a ``ValueError`` for a wrong value. A bool is never a number here, although
 Python counts ``True`` as the int 1.
 
 ``message``, where a check takes one, is a :meth:`str.format` template for that text in
@@ -116,6 +118,85 @@ def whole_array(value, what: str, *, message: str | None = None) -> np.ndarray:
             message = "{what} must hold non-negative whole numbers, got {value}"
         raise ValueError(message.format(what=what, value=value, low=0, high=None))
     return d.astype(int)
+
+
+#: The largest seed :func:`seed` takes by default (numpy's generators take any; JSON and
+#: numpy's int64 hold this one).
+MAX_SEED = 2**63 - 1
+
+
+def seed(value, what: str = "seed", *, high: int = MAX_SEED, none: bool = True,
+         generator: bool = False):
+    """``value`` as an int if it is a whole number from 0 to ``high``; None when ``none``
+    allows it; a ``np.random.Generator`` as it is when ``generator`` allows it. A value
+    of another type (a string, a float, a bool) raises a TypeError, a negative or too
+    large one a ValueError, both naming ``what``: "seed must be an int, got 'abc'",
+    "seed must be a non-negative whole number (at most 2**63 - 1), got -1"."""
+    if value is None and none:
+        return None
+    if generator and isinstance(value, np.random.Generator):
+        return value
+    if not is_whole(value):
+        kinds = "an int" + (" or a numpy Generator" if generator else "") \
+            + (" or None" if none else "")
+        raise TypeError(f"{what} must be {kinds}, got {value!r}")
+    if not 0 <= value <= high:
+        bound = "2**63 - 1" if high == MAX_SEED else f"{high}"
+        raise ValueError(f"{what} must be a non-negative whole number (at most {bound}), "
+                         f"got {value!r}")
+    return int(value)
+
+
+def numbers(value, what: str) -> np.ndarray:
+    """``value`` as a float array if it is a number or a (nested) sequence or array of
+    real numbers, else a TypeError naming ``what``: for a string, a dict, a set, None, or
+    anything numpy does not read as real numbers ("x0 must be real numbers, got a
+    dict: {...}"). Shapes, NaN and bounds are left to the caller."""
+    kind = None
+    if value is None or isinstance(value, (str, bytes, dict, set, frozenset)):
+        kind = "None" if value is None else f"a {type(value).__name__}"
+    else:
+        try:
+            arr = np.asarray(value)
+        except (TypeError, ValueError):       # ragged, or not array-like at all
+            arr = None
+        if arr is None or arr.dtype.kind not in "iuf":
+            kind = (f"a {type(value).__name__}" if arr is None or arr.dtype.kind == "O"
+                    else f"values of dtype {arr.dtype}")
+    if kind is not None:
+        raise TypeError(f"{what} must be real numbers, got {kind}: {_short(value)}")
+    return arr.astype(float)
+
+
+def count_of(value, what: str, count: int) -> np.ndarray:
+    """``value`` (one real number or a sequence of them) as a float array of ``count``
+    values, one number repeated; a TypeError naming ``what`` when it is not numbers, a
+    ValueError naming ``what`` and ``count`` for another number of values or a NaN or
+    infinity ("speed_max must have 1 or 2 values (one per link), got 3")."""
+    arr = numbers(value, what)
+    arr = arr[None] if arr.ndim == 0 else arr
+    if arr.ndim != 1 or arr.size not in (1, count):
+        raise ValueError(f"{what} must have 1 or {count} values (one per link), got "
+                         f"{arr.size if arr.ndim == 1 else 'shape ' + str(arr.shape)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} contains NaN or infinite values")
+    return np.broadcast_to(arr, (count,)).copy()
+
+
+def pixels(value, what: str, high: int) -> int:
+    """``value`` as an int if it is a whole number of pixels from 1 to ``high``: a
+    TypeError naming ``what`` for another type, a ValueError for another value
+    ("width must be from 1 to 4096 pixels, got 100000")."""
+    if not is_whole(value):
+        raise TypeError(f"{what} must be an int (pixels), got {value!r}")
+    if not 1 <= value <= high:
+        raise ValueError(f"{what} must be from 1 to {high} pixels, got {value!r}")
+    return int(value)
+
+
+def _short(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def _as_float(value) -> float:

@@ -78,7 +78,8 @@ def test_resume_refuses_new_settings_and_a_forged_iteration_count(tmp_path, caps
     forged = tmp_path / "forged.npz"
     policy.save(forged)
     assert main(["learn", "--resume", str(forged), "--steps", "48"]) == 2
-    assert "malformed learning checkpoint (iterations -1000000000000)" in \
+    assert "malformed learning checkpoint (iterations must be a non-negative whole " \
+        "number, got -1000000000000)" in \
         capsys.readouterr().err
 
 

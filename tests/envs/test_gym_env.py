@@ -205,11 +205,12 @@ def test_bad_actions_refused_and_nothing_stepped(bad):
     env.close(), ref.close()
 
 
-@pytest.mark.parametrize("bad", [9, -1, 1.0, np.array([1, 2]), "3"])
-def test_bad_discrete_actions_refused(bad):
+@pytest.mark.parametrize("bad, error", [(9, ValueError), (-1, ValueError), (1.0, TypeError),
+                                        (np.array([1, 2]), ValueError), ("3", TypeError)])
+def test_bad_discrete_actions_refused(bad, error):
     env = gymnasium.make(gym_env.DISCRETE_ID)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="action"):
+    with pytest.raises(error, match="action"):
         env.step(bad)
     env.close()
 

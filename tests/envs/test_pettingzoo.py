@@ -364,19 +364,19 @@ def test_bad_options_refused(kwargs, message):
         tpz.parallel_env(**kwargs)
 
 
-@pytest.mark.parametrize("seed, options, message", [
-    (None, {"x0": "nowhere"}, "x0 must be"),
-    (None, {"x0": [0.0, 0.0, 0.0]}, "4 components"),
-    (None, "paper", "options must be a dict"),
-    (-1, None, "seed must be a non-negative integer"),
-    (1.5, None, "seed must be a non-negative integer"),
+@pytest.mark.parametrize("seed, options, message, error", [
+    (None, {"x0": "nowhere"}, "x0 must be", ValueError),
+    (None, {"x0": [0.0, 0.0, 0.0]}, "4 components", ValueError),
+    (None, "paper", "options must be a dict", ValueError),
+    (-1, None, "seed must be a non-negative whole number", ValueError),
+    (1.5, None, "seed must be an int or None, got 1.5", TypeError),
 ])
-def test_bad_reset_refused_episode_untouched(seed, options, message):
+def test_bad_reset_refused_episode_untouched(seed, options, message, error):
     env = tpz.parallel_env(x0="random", angle_noise=0.1)
     env.reset(seed=2)
     env.step(_GOOD)
     before = env.state()
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(error, match=message):
         env.reset(seed=seed, options=options)
     np.testing.assert_array_equal(env.state(), before)
     assert env.agents == list(tpz.AGENTS) and env._k == 1

@@ -9,7 +9,9 @@ excitation) and a sha256 of the content. It is written atomically.
 :func:`load` refuses, with one line naming the file, anything that is not such a file:
 missing, too large, not JSON, another format or version, edited or corrupted (the sha256),
 not a regular file (a FIFO, a device), non-numeric, NaN, infinite (an integer beyond the
-floats) or non-positive parameters, an arm no plant can simulate (an all but massless link,
+floats), non-positive or absurd parameters (more than :data:`PLAUSIBLE_FACTOR` times
+Table I's value, or less than its 1/:data:`PLAUSIBLE_FACTOR`: a torque limit of 1e300 Nm
+is a typo, not an arm; :func:`check_plausible`), an arm no plant can simulate (an all but massless link,
 or a link so light for its damping that RK4 diverges:
 :func:`twolink.arm.integrate.check_sampling`), derived values or recorded fitted values that
 the parameters do not reproduce. The hash detects edits and corruption; it is not a
@@ -26,7 +28,7 @@ import stat
 from pathlib import Path
 
 from twolink.arm.integrate import check_sampling
-from twolink.arm.parameters import ArmParameters
+from twolink.arm.parameters import TABLE_I, ArmParameters
 from twolink.artifacts import VERSION as __version__
 from twolink.artifacts import write_text
 from twolink.validate import is_real
@@ -37,6 +39,9 @@ FORMAT_VERSION = 1
 DYNAMIC = ("P1", "P2", "P3", "b1", "b2")
 #: The largest parameter file :func:`load` reads (bytes).
 MAX_BYTES = 1 << 20
+#: How far a parameter of a file may lie from Table I's value: at most this many times it,
+#: at least its 1/this (g: any value of magnitude at most this many times 9.81).
+PLAUSIBLE_FACTOR = 1e4
 #: Relative tolerance for recorded values the parameters must reproduce (round-off only).
 _RTOL = 1e-9
 
@@ -153,6 +158,7 @@ def read(path: os.PathLike) -> ParameterFile:
     try:
         params = ArmParameters(**{k: float(v) for k, v in values.items()})
         check_sampling(params)
+        check_plausible(params)
     except ValueError as exc:
         raise bad(str(exc)) from None
     dynamic = record.get("dynamic")
@@ -166,6 +172,23 @@ def read(path: os.PathLike) -> ParameterFile:
         raise bad("'provenance' must be an object")
     _check_identified(record, path)
     return ParameterFile(params, record["provenance"], record["sha256"])
+
+
+def check_plausible(params: ArmParameters) -> ArmParameters:
+    """``params`` unless a parameter lies more than :data:`PLAUSIBLE_FACTOR` times above
+    Table I's value or below its 1/:data:`PLAUSIBLE_FACTOR` (for g: a magnitude above
+    :data:`PLAUSIBLE_FACTOR` times 9.81); else a one-line ValueError naming it and the
+    range accepted."""
+    for field in dataclasses.fields(ArmParameters):
+        value, ref = getattr(params, field.name), getattr(TABLE_I, field.name)
+        low = 0.0 if field.name == "g" else ref / PLAUSIBLE_FACTOR
+        high = abs(ref) * PLAUSIBLE_FACTOR
+        if not low <= abs(value) <= high:
+            raise ValueError(f"parameter {field.name} = {value:g} is implausible: accepted "
+                             + (f"|{field.name}| <= {high:g}" if field.name == "g" else
+                                f"{low:g} to {high:g} (Table I's {ref:g} times "
+                                f"1/{PLAUSIBLE_FACTOR:g} to {PLAUSIBLE_FACTOR:g})"))
+    return params
 
 
 def load(path: os.PathLike) -> ArmParameters:

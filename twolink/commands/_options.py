@@ -141,7 +141,9 @@ def challenge_of(args):
 def parse_x0(values, *, degrees: bool = False, seed: int = 0, links: int = 2,
              speed_max=None) -> np.ndarray:
     """The initial state from the ``--x0`` words, or a clear ValueError. Two links: the
-    paper's x0 by default; N links: 2N numbers, or a random pose at rest by default."""
+    paper's x0 by default; N links: 2N numbers, or a random pose at rest by default.
+    A negative or too large ``seed`` is refused first, as ``--seed``."""
+    seed_option(seed)
     if links != 2:
         return _parse_chain_x0(values, degrees=degrees, seed=seed, links=links,
                                speed_max=speed_max)

@@ -174,17 +174,26 @@ def _config(args) -> LearnConfig:
         hysteresis=args.hysteresis).check()
 
 
+def resume_learner(path: Path, *, steps=None, nthread: int = 1) -> Learner:
+    """The learner of checkpoint ``path``, its whole resume state checked first
+    (:meth:`Learner.resume`); any fault is one ValueError line naming the file."""
+    checkpoint = Policy.load(path)             # names the file itself
+    try:
+        return Learner.resume(checkpoint, steps=steps, nthread=nthread)
+    except ValueError as exc:
+        raise ValueError(f"--resume {path}: {exc}") from None
+
+
 def run(args) -> int:
     threads = _count(args.threads, "--threads")
     if not 1 <= threads <= 64:
         raise ValueError(f"--threads must be in [1, 64], got {threads}")
     if args.resume is not None:
         check_resume_options(args)
-        checkpoint = Policy.load(args.resume)
+        steps = _count(args.steps, "--steps") if args.steps else None
+        learner = resume_learner(args.resume, steps=steps, nthread=threads)
         output, folders = output_file(args.output, args.resume.name) if args.output \
             else (args.resume, [])
-        steps = _count(args.steps, "--steps") if args.steps else None
-        learner = Learner.resume(checkpoint, steps=steps, nthread=threads)
     else:
         config = _config(args)
         init = load_policy(args.init) if args.init else None

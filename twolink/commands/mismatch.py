@@ -47,7 +47,7 @@ def add_parser(sub):
                         "all 65): under a minute, for CI")
     p.add_argument("--quick", action="store_const", dest="plan", const="quick",
                    help="the same as --plan quick")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("-o", "--out", type=Path, default=None,
                    help="report folder (default renders/mismatch, or renders/mismatch-quick); "
                         "one run at a time per folder, which resumes from its sweep.jsonl")
     p.add_argument("--policies", nargs="+", default=None, metavar="POLICY",
@@ -166,7 +166,7 @@ def check_report_folder(out: Path, *, force: bool) -> None:
         raise OSError(f"cannot write {out}: it resolves into twolink's shipped files "
                       f"({protected_target(out)}); write elsewhere")
     if out.exists() and not out.is_dir():
-        raise OSError(f"--out {out} is a file; give a folder")
+        raise OSError(f"-o/--out {out} is a file; give a folder")
     if not out.parent.is_dir():
         raise OSError(f"cannot write {out}: directory {out.parent} does not exist")
     if (out / "report.md").exists() and not force and not _written_by_mismatch(out):

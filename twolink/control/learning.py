@@ -100,6 +100,7 @@ from twolink.sim.metrics import (
 from twolink.sim.plants import MujocoPlant
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout
+from twolink.validate import is_whole, real
 
 #: Updates that act as policy (14): every active bin its own action.
 _FUZZY_ACTING = ("fuzzy", "rule", "fql")
@@ -381,7 +382,9 @@ class Learner:
     def resume(cls, policy: Policy, *, steps: Optional[int] = None, plant=None,
                nthread: int = 1) -> "Learner":
         """A learner continuing from a checkpoint (a policy saved with ``resume=True``);
-        ``steps`` may extend the run's total."""
+        ``steps`` may extend the run's total. Every field of the resume state is checked
+        (:func:`check_resume_state`: types, sizes, ranges) before anything is built; a
+        bad one is a one-line ValueError "malformed learning checkpoint (...)"."""
         info = policy.meta.get(META_KEY)
         if not isinstance(info, dict) or "resume" not in info:
             raise ValueError("not a learning checkpoint (the policy carries no resume state; "
@@ -391,22 +394,25 @@ class Learner:
             if steps is not None:
                 data["steps"] = steps
             config = LearnConfig.from_dict(data)
-            self = cls(config, plant=plant, nthread=nthread)
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"malformed learning checkpoint ({exc})") from None
+        state = check_resume_state(info, config)
+        self = cls(config, plant=plant, nthread=nthread)
+        try:
             theirs = {a.name: a for a in policy.agents}
-            state = info["resume"]
             for k, a in enumerate(self.agents):
+                if a.name not in theirs:
+                    raise ValueError(f"malformed learning checkpoint (no agent {a.name})")
                 q = theirs[a.name].q
                 if q.shape != a.theta.shape:
                     raise ValueError(f"agent {a.name}: Q of shape {q.shape}, expected "
                                      f"{a.theta.shape}")
                 q = np.array(q, dtype=float)
                 if self.kept is not None:
-                    rows = np.array(state["patched"][a.name]["rows"], dtype=np.int64)
-                    if rows.size and (rows.min() < 0 or rows.max() >= len(q)):
-                        raise ValueError("malformed learning checkpoint (patched rows)")
+                    rows = _indices(state["patched"][a.name]["rows"], len(q), "patched rows")
                     q[rows] = _unpack(state["patched"][a.name]["values"], (len(rows), q.shape[1]))
-                    kept = np.array(state["kept"][a.name], dtype=np.int64)
-                    if kept.shape != (len(q),) or kept.min() < 0 or kept.max() >= q.shape[1]:
+                    kept = _indices(state["kept"][a.name], q.shape[1], "kept actions")
+                    if kept.shape != (len(q),):
                         raise ValueError("malformed learning checkpoint (kept actions)")
                     self.kept[k] = kept
                 if self.theta_bar is None:
@@ -414,22 +420,88 @@ class Learner:
                 else:
                     self.theta_bar[k] = q
                     a.theta = _unpack(state["theta"][a.name], a.theta.shape)
-            self.rng.bit_generator.state = state["rng"]
-            self.x = (_unpack(state["x"], (config.arms, 4)) if isinstance(state["x"], str)
-                      else np.array(state["x"], dtype=float).reshape(config.arms, 4))
-            self.clock = np.array(state["clock"], dtype=np.int64).reshape(config.arms)
-            self.iteration = int(info["iterations"])
-            self.learn_seconds = float(info["learn_seconds"])
-            self.init_label = info.get("init")
-            self.curve = [Evaluation.from_dict(e) for e in info["curve"]]
+            try:
+                self.rng.bit_generator.state = state["rng"]
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"malformed learning checkpoint (rng: {exc})") from None
         except (KeyError, TypeError) as exc:
+            self.close()
             raise ValueError(f"malformed learning checkpoint ({exc})") from None
-        if self.iteration < 0:
-            raise ValueError(f"malformed learning checkpoint (iterations {self.iteration})")
-        if self.iteration * config.arms > config.steps:
-            raise ValueError(f"the checkpoint is at {self.steps_done} steps, beyond the "
-                             f"{config.steps} asked for")
+        except BaseException:
+            self.close()
+            raise
+        self.x, self.clock = state["x"], state["clock"]
+        self.iteration, self.learn_seconds = state["iterations"], state["learn_seconds"]
+        self.init_label = info.get("init")
+        self.curve = state["curve"]
         return self
+
+
+def check_resume_state(info: dict, config: LearnConfig) -> dict:
+    """The checked resume state of a checkpoint's learning metadata ``info`` for a run of
+    ``config``: the arms' states ``x`` (arms, 4) and episode clocks ``clock`` (arms,),
+    ``iterations`` and ``learn_seconds`` (numbers, not text), the learning ``curve``
+    (evaluations), plus the raw ``rng``, ``theta``, ``patched`` and ``kept`` entries.
+    Anything missing, of the wrong type or size, negative or not finite is a one-line
+    ValueError "malformed learning checkpoint (<field>: ...)"; so is a checkpoint
+    already past ``config.steps``."""
+    def bad(why: str) -> ValueError:
+        return ValueError(f"malformed learning checkpoint ({why})")
+
+    state = info.get("resume")
+    if not isinstance(state, dict):
+        raise bad("resume must be an object")
+    for key in ("rng", "x", "clock"):
+        if key not in state:
+            raise bad(f"no {key}")
+    if not isinstance(state["rng"], dict):
+        raise bad("rng must be an object")
+    arms = config.arms
+    x = state["x"]
+    if isinstance(x, str):
+        x = _unpack(x, (arms, 4), "x")
+    else:
+        try:
+            x = np.asarray(x)
+        except (TypeError, ValueError):
+            raise bad("x must be base64 text or a list of numbers") from None
+        if x.dtype.kind not in "iuf" or x.size != 4 * arms or not np.all(np.isfinite(x)):
+            raise bad(f"x must hold {4 * arms} finite numbers (4 per arm), got "
+                      f"{x.size} values of dtype {x.dtype}")
+        x = x.astype(float).reshape(arms, 4)
+    clock = np.asarray(state["clock"]) if isinstance(state["clock"], list) else None
+    if clock is None or clock.dtype.kind not in "iu" or clock.shape != (arms,) \
+            or np.any(clock < 0):
+        raise bad(f"clock must be a list of {arms} non-negative whole numbers (one per arm)")
+    iterations = info.get("iterations")
+    if not is_whole(iterations) or iterations < 0:
+        raise bad(f"iterations must be a non-negative whole number, got {iterations!r}")
+    seconds = info.get("learn_seconds")
+    try:
+        seconds = real(seconds, "learn_seconds", 0)
+    except ValueError as exc:
+        raise bad(str(exc)) from None
+    if not isinstance(info.get("curve"), list) or \
+            not all(isinstance(e, dict) for e in info["curve"]):
+        raise bad("curve must be a list of evaluations")
+    try:
+        curve = [Evaluation.from_dict(e) for e in info["curve"]]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise bad(f"curve: {exc}") from None
+    if iterations * arms > config.steps:
+        raise ValueError(f"the checkpoint is at {iterations * arms} steps, beyond the "
+                         f"{config.steps} asked for")
+    return {**state, "x": x, "clock": clock.astype(np.int64), "iterations": int(iterations),
+            "learn_seconds": float(seconds), "curve": curve}
+
+
+def _indices(values, size: int, what: str) -> np.ndarray:
+    """``values`` as an int64 array of indices in [0, size), else the checkpoint error."""
+    arr = np.asarray(values) if isinstance(values, list) else None
+    if arr is None or (arr.size and arr.dtype.kind not in "iu") \
+            or (arr.size and (arr.min() < 0 or arr.max() >= size)):
+        raise ValueError(f"malformed learning checkpoint ({what})")
+    return arr.astype(np.int64).reshape(-1)
 
 
 def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarray,
@@ -465,17 +537,19 @@ def _pack(a: np.ndarray) -> str:
     return base64.b64encode(np.ascontiguousarray(a, dtype="<f8").tobytes()).decode("ascii")
 
 
-def _unpack(text: str, shape: tuple) -> np.ndarray:
+def _unpack(text: str, shape: tuple, what: str = "theta") -> np.ndarray:
+    """The float64 array of ``shape`` packed by :func:`_pack`, else a one-line ValueError
+    naming ``what`` (wrong size, not base64, not finite)."""
     try:
         raw = base64.b64decode(text.encode("ascii"), validate=True)
     except (ValueError, AttributeError) as exc:
-        raise ValueError(f"malformed learning checkpoint (theta: {exc})") from None
+        raise ValueError(f"malformed learning checkpoint ({what}: {exc})") from None
     if len(raw) != 8 * math.prod(shape):
-        raise ValueError(f"malformed learning checkpoint (theta of {len(raw)} bytes, "
+        raise ValueError(f"malformed learning checkpoint ({what} of {len(raw)} bytes, "
                          f"expected {8 * math.prod(shape)})")
     arr = np.frombuffer(raw, dtype="<f8").reshape(shape).astype(float)
     if not np.all(np.isfinite(arr)):
-        raise ValueError("malformed learning checkpoint (theta not finite)")
+        raise ValueError(f"malformed learning checkpoint ({what} not finite)")
     return arr
 
 

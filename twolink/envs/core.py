@@ -41,7 +41,7 @@ from twolink.sim.challenges import Challenge
 from twolink.sim.challenges import challenge as challenge_named
 from twolink.sim.perturbations import perturbed, random_perturbation
 from twolink.sim.plants import check_states
-from twolink.validate import choice, is_real
+from twolink.validate import choice, is_real, numbers
 
 TASKS = ("centralized", "decentralized")
 #: Episode length (s) of arms of three links or more: their tapered outer motors (half
@@ -129,8 +129,9 @@ def check_task(task: str) -> str:
 
 
 def check_x0(x0, links: int = 2):
-    """``'paper'`` (two links only), ``'random'`` or a copy of one finite state (2N,),
-    or a ValueError."""
+    """``'paper'`` (two links only), ``'random'`` or a copy of one finite state (2N,);
+    else a TypeError naming x0 for a value that is neither a word nor numbers (a dict),
+    or a ValueError for another word or a bad state."""
     n = check_links(links)
     if isinstance(x0, str):
         if n == 2 and x0 not in INITIAL_STATES:
@@ -141,6 +142,7 @@ def check_x0(x0, links: int = 2):
         if n > 2 and x0 != "random":
             raise ValueError(f"x0 must be 'random' or a state ({2 * n},), got {x0!r}")
         return x0
+    numbers(x0, "x0")                    # a TypeError naming x0 for a dict, None, ...
     x0 = check_states(x0, what="x0", links=n)
     if x0.shape != (2 * n,):
         raise ValueError(f"x0 must be one state of shape ({2 * n},), got shape {x0.shape}")

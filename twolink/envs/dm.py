@@ -88,7 +88,8 @@ from twolink.envs.core import (  # noqa: F401
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import finish_data, set_data
-from twolink.validate import real
+from twolink.validate import count_of, real
+from twolink.validate import seed as check_seed
 
 
 def _hold(u):
@@ -275,11 +276,13 @@ def load(task_name: str, *, seed=None, time_limit: float | None = None, params=N
     time_limit = horizon(n) if time_limit is None else time_limit
     real(time_limit, "time_limit", 0, open_low=True, numpy=False, message=BAD_TIME_LIMIT)
     x0 = check_x0(default_x0(n) if x0 is None else x0, n)
-    random = np.random.RandomState(seed)
+    random = np.random.RandomState(check_seed(seed, high=2**32 - 1))
     p = (challenge.plant(random, params) if challenge is not None
          else perturbed_params(params, perturbation, random))
     if speed_max is not None:
-        v = np.broadcast_to(np.asarray(speed_max, dtype=float), (n,))
+        v = count_of(speed_max, "speed_max", n)
+        if np.any(v <= 0):
+            raise ValueError(f"speed_max must be positive (rad/s), got {v.tolist()}")
         p = (dataclasses.replace(p, dtheta1_max=float(v[0]), dtheta2_max=float(v[1]))
              if n == 2 else dataclasses.replace(p, speed_limits=tuple(float(s) for s in v)))
     physics = Physics.from_model(wrapper.MjModel(mjcf.build_model(p)))

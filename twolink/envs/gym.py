@@ -59,7 +59,8 @@ from twolink.envs.core import check_policy_links, check_reset_options
 from twolink.envs.gym_arms import OBSERVATIONS, Arms
 from twolink.envs.registration import DISCRETE_ID, ENV_ID, register  # noqa: F401 (the ids)
 from twolink.sim.plants import MujocoPlant
-from twolink.validate import choice, is_whole, whole
+from twolink.validate import MAX_SEED, choice, is_whole, pixels, whole
+from twolink.validate import seed as check_seed
 
 #: Most arms one vector environment steps (a batch of this size is a few hundred MB of
 #: states and observations at most; more would be a typing slip, not a learner's need).
@@ -164,7 +165,7 @@ class TwoLinkEnv(gymnasium.Env):
             self._arms = Arms(1, **self._options)
         arms = self._arms
         x0 = arms.check_x0_option(options["x0"])[0] if "x0" in options else arms.x0
-        super().reset(seed=seed)
+        super().reset(seed=check_seed(seed))
         arms.reset_rows([0], [self.np_random], [x0])
         self._started = True
         return arms.observe([0])[0], {}
@@ -279,11 +280,13 @@ class TwoLinkVectorEnv(VectorEnv):
         if seed is None:
             return [None] * n
         if is_whole(seed):
-            return [int(seed) + i for i in range(n)]
+            return [check_seed(seed, high=MAX_SEED - n) + i for i in range(n)]
+        if not isinstance(seed, (list, tuple, np.ndarray)):
+            raise TypeError(f"seed must be an int, None or a list of {n} seeds, got {seed!r}")
         seeds = list(seed)
         if len(seeds) != n:
             raise ValueError(f"seed must be an int, None or a list of {n} seeds, got {len(seeds)}")
-        return seeds
+        return [check_seed(s, f"seed[{i}]") for i, s in enumerate(seeds)]
 
     def reset(self, *, seed=None, options: dict[str, Any] | None = None):
         arms = self._live()
@@ -350,13 +353,15 @@ def _check_task(task) -> None:
 
 
 def _check_size(size) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise ValueError(f"render_size must be (width, height), got {size!r}") from None
-    if w < 1 or h < 1:
-        raise ValueError(f"render_size must be positive, got {size!r}")
-    return w, h
+    """``render_size`` (width, height) as two ints, each from 1 to
+    :data:`twolink.viz.video.MAX_SIZE` pixels: a TypeError for something else than two
+    whole numbers, a ValueError for a size out of range, both naming render_size."""
+    from twolink.viz.video import MAX_SIZE
+
+    if isinstance(size, (str, bytes)) or not hasattr(size, "__len__") or len(size) != 2:
+        raise TypeError(f"render_size must be (width, height), got {size!r}")
+    return tuple(pixels(v, f"render_size {name}", MAX_SIZE)
+                 for v, name in zip(size, ("width", "height")))
 
 
 register()

@@ -37,7 +37,7 @@ from twolink.envs.core import (
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MujocoPlant, check_states
-from twolink.validate import choice, is_real, real, real_array
+from twolink.validate import choice, is_real, is_whole, numbers, real, real_array
 
 #: ``'box'``: torques in +-tau_max (float64); ``'discrete'``: the 3^N joint actions;
 #: ``'normalized'``: a float32 Box [-1, 1]^N scaled to +-tau_max (what deep RL libraries
@@ -159,30 +159,46 @@ class Arms:
     # -------------------------------------------------------------- checks
     def torques(self, action, *, single: bool = False) -> np.ndarray:
         """Checked torques (rows, N) for the actions of all arms (``single``: the one
-        action of a one-arm environment); a ValueError otherwise."""
+        action of a one-arm environment); a ValueError otherwise (for a discrete action
+        of the wrong type, a TypeError)."""
+        if self.actions == "discrete":
+            return self.table[self._discrete(action, single)]
         a = real_array(action, "action", dtype=None, finite=False)
-        if self.actions != "discrete":
-            t = self.params.tau_max
-            unit = self.actions == "normalized"
-            bound = np.ones_like(t) if unit else t
-            a = check_action(a, bound)[None] if single else \
-                check_action(a, bound, rows=self.rows)
-            return a * t if unit else a
+        t = self.params.tau_max
+        unit = self.actions == "normalized"
+        bound = np.ones_like(t) if unit else t
+        a = check_action(a, bound)[None] if single else check_action(a, bound, rows=self.rows)
+        return a * t if unit else a
+
+    def _discrete(self, action, single: bool) -> np.ndarray:
+        """The indices (rows,) of discrete actions into :attr:`table`: a TypeError naming
+        the action unless whole numbers, a ValueError for another shape or an index out
+        of [0, len(table) - 1] (an int beyond int64 included)."""
+        top = len(self.table) - 1
+        a = np.asarray(action)
+        if a.dtype.kind == "O" and all(is_whole(v) for v in a.ravel().tolist()):
+            bad = [v for v in a.ravel().tolist() if not 0 <= v <= top]   # beyond int64
+            raise ValueError(f"action must be a discrete action index in [0, {top}], got "
+                             f"{bad[0]}")
+        if a.dtype.kind not in "iu":
+            raise TypeError(f"action must be {'a whole number' if single else 'whole numbers'}"
+                            f" (a discrete action index in [0, {top}]), got {action!r}")
         want = () if single else (self.rows,)
-        if a.shape != want or a.dtype.kind not in "iu":
-            raise ValueError(f"a discrete action must be {'one whole number' if single else 'whole numbers'}"
-                             f" of shape {want}, got dtype {a.dtype} and shape {a.shape}")
-        if np.any((a < 0) | (a >= len(self.table))):
-            raise ValueError(f"a discrete action must lie in [0, {len(self.table) - 1}], "
-                             f"got {a.tolist()}")
-        return self.table[np.reshape(a, (-1,))]
+        if a.shape != want:
+            raise ValueError(f"action must be {'one index' if single else 'one index per arm'}"
+                             f" of shape {want}, got shape {a.shape}")
+        if np.any((a < 0) | (a > top)):
+            raise ValueError(f"action must be a discrete action index in [0, {top}], got "
+                             f"{a.tolist()}")
+        return np.reshape(a, (-1,))
 
     def check_x0_option(self, x0):
         """One x0 for all arms, or one per arm (rows, 2N); a list of per-arm x0 options."""
         n = self.links
-        if isinstance(x0, str) or np.ndim(x0) == 1:
+        if isinstance(x0, str) or (not isinstance(x0, dict) and np.ndim(x0) == 1):
             x0 = _check_x0(x0, self.speed_max, n)
             return [x0] * self.rows
+        numbers(x0, "x0")                # a TypeError naming x0 for a dict, None, ...
         x0 = check_states(x0, what="x0", links=n)
         if x0.shape != (self.rows, 2 * n):
             raise ValueError(f"x0 must be one state ({2 * n},) or one per arm ({self.rows}, "

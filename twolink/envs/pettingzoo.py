@@ -82,7 +82,8 @@ from twolink.envs.core import (
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MujocoPlant
 from twolink.sim.rollout import steps_for
-from twolink.validate import choice, is_real, real, whole
+from twolink.validate import choice, is_real, real
+from twolink.validate import seed as check_seed
 
 
 def agents(links: int = 2) -> tuple:
@@ -238,9 +239,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
         """Start an episode; ``options={'x0': ...}`` sets this episode's initial state."""
         options = check_reset_options(options, RESET_OPTIONS)
         x0 = self._check_x0(options["x0"]) if "x0" in options else self._x0
-        if seed is not None:
-            whole(seed, "seed", 0, message="{what} must be a non-negative integer or None, "
-                                           "got {value!r}")
+        seed = check_seed(seed)
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)
         ch = self._challenge

@@ -22,7 +22,8 @@ from twolink.arm.parameters import (
 )
 from twolink.arm.task import in_goal_band
 from twolink.sim.rollout import Trajectory
-from twolink.validate import is_whole, whole
+from twolink.validate import whole
+from twolink.validate import seed as check_seed
 
 #: Angles (degrees) of the evaluation grid: every pair (theta1, theta2), both at rest.
 EVAL_ANGLES_DEG = (-150.0, -90.0, -45.0, -10.0, 10.0, 45.0, 90.0, 150.0)
@@ -46,8 +47,7 @@ def random_poses(links: int, count: int, seed) -> np.ndarray:
     an int or a Generator), speeds zero. The evaluation sets of N-link arms."""
     n = check_links(links)
     whole(count, "count", 1, MAX_POSES)
-    if not (is_whole(seed) or isinstance(seed, np.random.Generator)):
-        raise ValueError(f"seed must be an int or a numpy Generator, got {seed!r}")
+    check_seed(seed, none=False, generator=True)   # TypeError / ValueError naming seed
     rng = np.random.default_rng(seed)
     poses = np.zeros((int(count), 2 * n))
     poses[:, :n] = rng.uniform(-math.pi, math.pi, size=(int(count), n))

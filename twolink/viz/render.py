@@ -37,6 +37,8 @@ from twolink.gl import (  # noqa: F401
     use_gl_backend,
 )
 from twolink.sim.rollout import Trajectory
+from twolink.validate import pixels
+from twolink.viz.video import MAX_SIZE
 
 CAMERA = "top"
 _GHOST_RGBA = (0.62, 0.32, 0.92, 0.40)
@@ -128,7 +130,9 @@ class Renderer:
     ``params`` is Table I's arm (the default), other two-link parameters or an N-link
     :class:`~twolink.arm.parameters.ChainParameters`; states then have 2N components.
     ``samples`` is the multisample anti-aliasing level (0 = off: on Mesa's software
-    device 4x MSAA makes a frame about three times slower). Use as a context manager (or
+    device 4x MSAA makes a frame about three times slower). ``width`` and ``height`` are
+    ints from 1 to :data:`twolink.viz.video.MAX_SIZE` pixels, checked before anything is
+    allocated (a TypeError or ValueError naming them). Use as a context manager (or
     call :meth:`close`) to free the GL context; one never closed is closed at interpreter
     exit (before EGL's display is terminated). The GL context is current on the calling
     thread only while a frame renders (:func:`twolink.gl.release_current`).
@@ -137,7 +141,9 @@ class Renderer:
     def __init__(self, *, width: int = 640, height: int = 480, ghost: bool = False,
                  overlay: bool = True, samples: int = 0,
                  params: ArmParameters | ChainParameters = TABLE_I):
-        self.width, self.height = int(width), int(height)
+        self._renderer = None
+        self.width, self.height = pixels(width, "width", MAX_SIZE), pixels(height, "height",
+                                                                          MAX_SIZE)
         self.ghost, self.overlay, self.params = bool(ghost), bool(overlay), params
         self.links = params.links
         self.model = build_render_spec(params, ghost=ghost, width=self.width,
