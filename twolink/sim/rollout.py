@@ -18,6 +18,7 @@ from twolink.arm.task import agent_reward, centralized_reward
 from twolink.policy.fuzzy_policy import check_links_match
 from twolink.sim.controller import reset_controller
 from twolink.sim.plants import Plant, SimulationError, check_states, make_plant
+from twolink.validate import numbers
 
 #: Longest horizon a rollout accepts: one hour, 72 000 sample periods.
 MAX_DURATION = 3600.0
@@ -109,6 +110,7 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
     if hasattr(policy, "links"):
         check_links_match(policy, links, name=label)
     check = getattr(plant, "check_states", None)
+    numbers(x0, "x0")                    # a TypeError naming x0 for a dict, a word, ...
     x0 = check(x0, what="x0") if check is not None else check_states(x0, what="x0",
                                                                         links=links)
     rows = int(np.prod(x0.shape[:-1], dtype=int))
