@@ -78,7 +78,7 @@ def test_non_rendering_commands_run_without_a_gl_backend(tmp_path, broken):
 
 @pytest.mark.parametrize("broken, named", [
     (NO_EGL, "libEGL.so.1 is missing"),
-    (BOGUS, "MUJOCO_GL='bogus' is set"),
+    (BOGUS, "MUJOCO_GL='bogus' is not a rendering backend"),
 ])
 def test_rendering_fails_in_one_line_naming_the_cause(tmp_path, broken, named):
     res = _twolink(tmp_path, "render", "--duration", "0.1", "--size", "64x48", "-o", "v.mp4",
