@@ -7,6 +7,8 @@ median settle time and settle / T*, the settle time over the time-optimal limit 
 initial state. The controller runs plain (it reads the challenge's readings as they are)
 unless --compensate puts the delay predictor and observer in front of it. A progress bar
 (samples Ts simulated) goes to stderr, as lines when it is not a terminal, unless --json.
+The controller gets read-only copies of the states; what it prints goes to stderr, so
+--json output stays valid; --timeout ends a call that runs too long.
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ import math
 
 from twolink.commands import SUMMARIES
 from twolink.sim.challenges import LEVELS
+from twolink.sim.controller import MAX_TIMEOUT, MIN_TIMEOUT
 
 STATE_SETS = ("full", "quick")
 
@@ -39,19 +42,25 @@ def add_parser(sub):
                         "(quick)")
     p.add_argument("--json", action="store_true",
                    help="print the result as JSON (and no progress bar)")
+    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help=f"end the run (exit status 2) when one call of the controller takes "
+                        f"longer than this, from {MIN_TIMEOUT:g} to {MAX_TIMEOUT:g} s "
+                        f"(default: no limit)")
     return p
 
 
 def result(controller: str, *, challenge: str = "none", compensate: bool = False,
            plants: int = 32, seed: int = 2026, states: str = "full",
-           progress: bool = False) -> dict:
+           progress: bool = False, timeout: float | None = None) -> dict:
     """The JSON of ``twolink evaluate``; ``progress`` shows the evaluation's bar
-    (:func:`twolink.sim.progress.progress_bar`) on stderr."""
+    (:func:`twolink.sim.progress.progress_bar`) on stderr; ``timeout`` limits each call
+    of the controller to that many seconds (:class:`twolink.sim.controller.Checked`)."""
     import numpy as np
 
     from twolink.control.controllers import resolve_controller
     from twolink.sim.cells import states_of
     from twolink.sim.challenges import challenge as challenge_named
+    from twolink.sim.controller import check_timeout, checked
     from twolink.sim.evaluation import evaluate
     from twolink.studies.leaderboard.limits import state_limits
     from twolink.studies.leaderboard.measure import settle_ratios
@@ -61,7 +70,8 @@ def result(controller: str, *, challenge: str = "none", compensate: bool = False
         raise ValueError(f"--plants must be from 1 to 10000, got {plants}")
     if not 0 <= seed < 2**63:
         raise ValueError(f"--seed must be a whole number from 0 to 2**63 - 1, got {seed}")
-    c = resolve_controller(controller)
+    timeout = check_timeout(timeout, "--timeout")
+    c = checked(resolve_controller(controller), timeout=timeout)
     x0 = states_of(states)
     limits, source = state_limits(x0)
     ev = evaluate(c, x0=x0, challenge=ch, seed=seed, compensate=compensate,
@@ -83,7 +93,7 @@ def run(args) -> int:
 
     r = result(args.controller, challenge=args.challenge, compensate=args.compensate,
                plants=args.plants, seed=args.seed, states=args.states,
-               progress=not args.json)
+               progress=not args.json, timeout=args.timeout)
     if args.json:
         print(json.dumps(r, indent=2))
         return 0

@@ -32,7 +32,7 @@ from twolink.sim.challenges import (  # noqa: F401  (FAULT_STREAM re-exported)
     check_horizon,
 )
 from twolink.sim.challenges import challenge as challenge_named
-from twolink.sim.controller import checked, controller_name
+from twolink.sim.controller import check_timeout, checked, controller_name
 from twolink.sim.metrics import (
     Score,
     discounted_return,
@@ -228,12 +228,14 @@ def closed_loop(policy, ch: Challenge, *, keys, seed: int, steps: int,
 def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
              horizon: float = HORIZON, compensate: bool = False, challenge=None, *,
              count: int | None = None, nthread: int | None = None, label: str | None = None,
-             progress: bool = False) -> Evaluation:
+             progress: bool = False, timeout: float | None = None) -> Evaluation:
     """Run ``policy`` from every state of ``x0`` on every plant of ``params`` on MuJoCo.
 
     ``policy``: any controller of :mod:`twolink.sim.controller`'s protocol (a shipped
-    policy's name or a policy file's path loads it); it is held to the protocol, so a wrong
-    shape, NaN or an exception ends in one line naming it.
+    policy's name or a policy file's path loads it); it is held to the protocol
+    (:class:`twolink.sim.controller.Checked`), so a wrong shape, NaN or an exception ends
+    in one line naming it; it gets read-only copies of the measured states (never the
+    plant's) and its prints go to stderr.
     ``params``: the plants (a list of ArmParameters; default: drawn by the challenge,
     ``count`` of them (32 when the challenge perturbs the plant), else Table I).
     Given ``params`` are the plants as they are (e.g. ``challenge.plants(count, seed)``);
@@ -252,11 +254,15 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     ``progress``: a bar of the samples simulated on stderr
     (:func:`twolink.sim.progress.progress_bar`: lines when stderr is not a terminal);
     off by default.
+    ``timeout``: seconds one call of the policy may take (None: no limit; a policy already
+    checked with a limit keeps it), else one ControllerError line; the run is in this
+    process, and the limit holds on its main thread only (a SIGALRM timer).
     """
     ch = _challenge(challenge, delay, angle_noise_deg)
     horizon = real(horizon, "horizon")
     whole(seed, "seed", 0)
     nthread = check_nthread(nthread)
+    timeout = check_timeout(timeout)
     plants = _plants(params, ch, count, seed)
     x0 = _states(x0)
     runs = len(plants) * len(x0)
@@ -272,7 +278,7 @@ def evaluate(policy, params=None, x0=None, delay=0, angle_noise_deg=0.0, seed=0,
     if label is None:
         label = (str(getattr(policy, "meta", {}).get("name", "")) or getattr(policy, "kind", "")
                  or controller_name(policy))
-    policy = checked(policy, name=label)
+    policy = checked(policy, name=label, timeout=timeout)
 
     keys = [(p, s) for p in range(len(plants)) for s in range(len(x0))]
     act, sensed = closed_loop(policy, ch, keys=keys, seed=seed, steps=steps,

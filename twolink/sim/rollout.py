@@ -89,6 +89,14 @@ def steps_for(duration: float, *, rows: int = 1, links: int = 2) -> int:
     return n
 
 
+def _read_only(x) -> np.ndarray:
+    """A read-only float64 copy of ``x``: what a policy is handed, so that no policy can
+    change the plant's state (or a reading another part of the loop keeps)."""
+    x = np.array(x, dtype=float)
+    x.setflags(write=False)
+    return x
+
+
 def _fmt(x) -> str:
     return "[" + ", ".join(f"{v:+.4g}" for v in np.asarray(x).ravel()) + "]"
 
@@ -100,10 +108,11 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
 
     ``policy`` is a controller of :mod:`twolink.sim.controller`'s protocol; its
     ``reset(rows)``, if it has one, is called first. ``observe(k, x)`` may return the
-    state the policy sees (for noise or delays); by
-    default it sees the true state. ``label`` names the policy in the trajectory (default:
-    its kind). A policy that knows its number of links (``policy.links``) must match the
-    plant's (a ValueError otherwise). A plant that goes unstable raises
+    state the policy sees (for noise or delays); by default it sees the true state.
+    Either way the policy gets a read-only copy: it cannot change the state the plant
+    steps from. ``label`` names the policy in the trajectory (default: its kind). A
+    policy that knows its number of links (``policy.links``) must match the plant's (a
+    ValueError otherwise). A plant that goes unstable raises
     :class:`SimulationError` naming the initial state and the time.
     """
     links = getattr(plant, "links", 2)
@@ -122,7 +131,7 @@ def rollout(policy, plant: Plant, x0, *, duration: float = HORIZON, observe=None
     xs[..., 0, :] = x
     for k in range(n):
         seen = x if observe is None else observe(k, x)
-        u = policy(seen)
+        u = policy(_read_only(seen))
         try:
             x = plant.step(x, u)
         except SimulationError as exc:
