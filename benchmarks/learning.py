@@ -25,13 +25,13 @@ import numpy as np  # noqa: E402
 
 from twolink.arm.parameters import REWARD_OTHER  # noqa: E402
 from twolink.artifacts import provenance, write_json  # noqa: E402
-from twolink.control.learning import (  # noqa: E402
+from twolink.synthesis.learning import (  # noqa: E402
     Learner,
     evaluate,
     stays_above,
     steps_to_reach,
 )
-from twolink.control.learning_setup import LearnConfig  # noqa: E402
+from twolink.synthesis.learning_setup import LearnConfig  # noqa: E402
 from twolink.policy.fuzzy_policy import load_policy  # noqa: E402
 from twolink.sim.plants import MujocoPlant  # noqa: E402
 from twolink.viz.formatting import format_rate  # noqa: E402

@@ -1,5 +1,5 @@
 """Milliseconds per control step of the receding-horizon time-optimal MPC
-(:class:`twolink.control.time_optimal.mpc.TimeOptimalMPC`), one arm on MuJoCo.
+(:class:`twolink.control.mpc.TimeOptimalMPC`), one arm on MuJoCo.
 
 For each initial state: one closed-loop run to build the solvers of every horizon it
 meets (CasADi's expansion costs about a second per horizon), then a timed run of the same
@@ -36,10 +36,10 @@ def _limit(x0) -> float:
 def bench_mpc(*, states=FULL_STATES, duration: float = 2.5, expand: bool = True,
               max_iter: int | None = None) -> tuple[list[Row], dict]:
     """Rows of ms per step (first, median, 95th percentile, most) per state; ``expand``
-    as :class:`~twolink.control.time_optimal.mpc.TimeOptimalMPC` takes it, ``max_iter``
+    as :class:`~twolink.control.mpc.TimeOptimalMPC` takes it, ``max_iter``
     caps IPOPT's iterations per re-solve (default: the limit's 200)."""
-    from twolink.control.time_optimal.mpc import FAST_OPTIONS, TimeOptimalMPC
-    from twolink.control.time_optimal.symbolic import CasadiMissing
+    from twolink.control.mpc import FAST_OPTIONS, TimeOptimalMPC
+    from twolink.limits.symbolic import CasadiMissing
     from twolink.sim.metrics import settle_time
     from twolink.sim.plants import MujocoPlant
     from twolink.sim.rollout import rollout

@@ -25,7 +25,7 @@ def _policy():
     path = SHIPPED["centralized"].file
     if path.is_file():
         return Policy.load(path)
-    from twolink.control.synthesis import synthesize
+    from twolink.synthesis.synthesize import synthesize
 
     return synthesize("centralized")
 

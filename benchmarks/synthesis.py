@@ -7,7 +7,7 @@ pymdptoolbox's ``ValueIteration``) are handed that identical MDP (the same spars
 the same rewards), forced to do the same number of sweeps from V_0 = 0, and their
 values are checked against ours before any time is compared.
 
-"Ours" is the package's path as :func:`twolink.control.synthesis.synthesize` runs it: for the
+"Ours" is the package's path as :func:`twolink.synthesis.synthesize.synthesize` runs it: for the
 centralized problem the factored table (:mod:`twolink.fqi.factored`) on the threads the
 package picks for it (:func:`package_threads`: one for the paper's grid, two for K models),
 measured beside explicit one- and two-thread runs and the fixed-width layout
@@ -150,7 +150,7 @@ def _no_op(*args, **kwargs):
 
 
 # --------------------------------------------------------------------------- measurements
-#: The problems as :func:`twolink.control.synthesis.synthesize` builds and solves them: the
+#: The problems as :func:`twolink.synthesis.synthesize.synthesize` builds and solves them: the
 #: centralized one on compiled transitions (one theta1 slice, shifted) in the factored
 #: layout, the agents on numpy transitions in the fixed-width layout
 #: (:func:`bench_synthesize` checks the centralized layout against ``synthesize``'s).

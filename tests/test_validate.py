@@ -232,7 +232,7 @@ def test_validate_imports_only_the_standard_library_and_numpy():
 
 def test_callers_keep_their_messages():
     from twolink.arm.parameters import check_links
-    from twolink.control.problems import check_robust
+    from twolink.synthesis.problems import check_robust
     from twolink.sim.challenges import MAX_PLANTS, draw_plants
     from twolink.sim.perturbations import ActuationDelay, ObservationDelay
 

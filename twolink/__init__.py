@@ -24,7 +24,7 @@ _API = {
     "load_policy": "twolink.policy.fuzzy_policy",
     "Policy": "twolink.policy.fuzzy_policy",
     "shipped_policies": "twolink.policy.fuzzy_policy",
-    "synthesize": "twolink.control.synthesis",
+    "synthesize": "twolink.synthesis.synthesize",
     "make_plant": "twolink.sim.plants",
     "rollout": "twolink.sim.rollout",
     "Trajectory": "twolink.sim.rollout",

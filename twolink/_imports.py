@@ -2,8 +2,8 @@
 third-party module's first import.
 
 Old paths: 
-twolink moved its flat modules of 0.1 into subpackages by layer (CHANGELOG.md lists the
-moves). ``import twolink.<old name>`` still works: :data:`MOVED` maps each old name to
+twolink moved its flat modules of 0.1 into subpackages by layer, and split ``control``
+into ``synthesis``, ``limits`` and ``control`` (CHANGELOG.md lists the moves). ``import twolink.<old name>`` still works: :data:`MOVED` maps each old name to
 its new module, and the finder :func:`install` puts on ``sys.meta_path`` returns the new
 module itself (no copy) under the old name, with a ``DeprecationWarning``.
 ``twolink.policy`` and ``twolink.fqi`` are packages now and need no alias.
@@ -47,10 +47,9 @@ MOVED = {
     "sweeps": "sim.cells",
     "sweep_store": "sim.cell_store",
     "trajectory_io": "sim.trajectory_file",
-    "synthesis": "control.synthesis",
-    "chain_agents": "control.links_decentralized",
-    "chain_centralized": "control.links_centralized",
-    "learning": "control.learning",
+    "chain_agents": "synthesis.links_decentralized",
+    "chain_centralized": "synthesis.links_centralized",
+    "learning": "synthesis.learning",
     "tasks": "envs.core",
     "env": "envs.dm",
     "gym_env": "envs.gym",
@@ -74,6 +73,20 @@ MOVED = {
     "robustness_study": "studies.robustness",
     "scaling": "studies.scaling.measure",
     "scaling_report": "studies.scaling.report",
+    # control/ split by what a thing is (synthesis/, limits/, control/).
+    "control.synthesis": "synthesis.synthesize",
+    "control.problems": "synthesis.problems",
+    "control.links_centralized": "synthesis.links_centralized",
+    "control.links_decentralized": "synthesis.links_decentralized",
+    "control.learning": "synthesis.learning",
+    "control.learning_setup": "synthesis.learning_setup",
+    "control.time_optimal": "limits",
+    "control.time_optimal.links": "limits.links",
+    "control.time_optimal.nlp": "limits.nlp",
+    "control.time_optimal.search": "limits.search",
+    "control.time_optimal.symbolic": "limits.symbolic",
+    "control.time_optimal.table": "limits.table",
+    "control.time_optimal.mpc": "control.mpc",
 }
 
 

@@ -13,7 +13,7 @@ def context_sweeps() -> str:
     import math
 
     from twolink.arm.parameters import GAMMA, REWARD_OTHER
-    from twolink.control.problems import DELTA
+    from twolink.synthesis.problems import DELTA
     repro = _load(REPRODUCE, SCHEMAS[REPRODUCE])
     if repro is None:
         return "(no reproduction data: run `twolink reproduce`, then `python docs/generate.py`)"

@@ -125,8 +125,13 @@ API_LAYERS = (
     ("sim", "twolink.sim", "Plants, perturbations and challenges, the controller protocol, "
      "estimation, identification, rollouts, metrics and the one evaluation call.",
      "twolink.sim"),
-    ("control", "twolink.control", "Synthesis, the N-link agents, classical baselines, "
-     "online learning, the controller resolver.", "twolink.control"),
+    ("synthesis", "twolink.synthesis", "The makers of fuzzy policies: the two-link problems, "
+     "N-link agents, synthesize(), online fuzzy Q-learning.", "twolink.synthesis"),
+    ("limits", "twolink.limits", "The time-optimal limit T*(x) and the reach of N-link "
+     "arms (CasADi/IPOPT), and the shipped table of T*.", "twolink.limits"),
+    ("control", "twolink.control", "What acts: the controller resolver and catalogue, "
+     "classical baselines, the N-link PD, the time-optimal MPC, learned agents.",
+     "twolink.control"),
     ("envs", "twolink.envs", "The arm as dm_env, Gymnasium, PettingZoo (and "
      "Stable-Baselines3) environments.", "twolink.envs"),
     ("viz", "twolink.viz", "Rendering, videos, plots and formatting.", "twolink.viz"),
@@ -167,7 +172,8 @@ def api_pages() -> dict:
         text = [_stamp(source), f"# {title}\n\n", about, "\n\n"]
         if stem == "index":
             text += ["The layers, highest first, are `commands` (the CLI), `studies`, "
-                     "`envs`, `viz` and `control`, `sim`, `policy`, `fqi`, `arm` and the base "
+                     "`envs`, `viz` and `control`, `synthesis` and `limits`, `sim`, `policy`, `fqi`, "
+                     "`arm` and the base "
                      "modules; a module imports only from its own layer or those below it "
                      "(see [Contributing](../../contributing.md#the-import-layer-contract)).\n\n"]
             text += ["| layer | |\n|---|---|\n"] + [

@@ -9,7 +9,7 @@ from __future__ import annotations
 from .common import SCHEMAS, _cell, _gib, _int, _load, _overlap, _stamp
 from .targets import scaling_targets
 
-#: The reach study's data (:mod:`twolink.control.time_optimal.links`).
+#: The reach study's data (:mod:`twolink.limits.links`).
 REACH = "renders/links_reach/reach.json"
 #: The own-motor study's data (``docs/studies/links_own_motor.py``).
 OWN_MOTOR = "renders/links_reach/own_motor.json"
@@ -42,7 +42,7 @@ def _reach_block(report: dict) -> str:
            f"{reach['runs'][0]['hold']} samples, on the package's RK4 model of the N-link "
            "arm) bring the arm to rest in the goal band by "
            f"{reach['runs'][0]['deadline_s']:g} s, 1 s before the end of 8 s "
-           "(`twolink.control.time_optimal.links`: direct multiple shooting, CasADi and "
+           "(`twolink.limits.links`: direct multiple shooting, CasADi and "
            "IPOPT). At rest in the band the horizontal arm stays there, so a reachable pose "
            "can succeed under the table's rule; IPOPT is a local solver, so the count is a "
            "lower bound on what any controller could reach. The table's rates are over "

@@ -1,4 +1,4 @@
-"""Development study of the N-link decentralized agents (twolink.control.links_decentralized).
+"""Development study of the N-link decentralized agents (twolink.synthesis.links_decentralized).
 
 Synthesises the agents of an N-link arm under a construction (the defaults, or options
 given on the command line) and measures success on the MuJoCo N-link plant from random
@@ -28,7 +28,7 @@ from twolink.arm.parameters import (
     chain,
 )
 from twolink.arm.task import in_goal_band
-from twolink.control import links_decentralized as chain_agents
+from twolink.synthesis import links_decentralized as chain_agents
 from twolink.sim.metrics import random_poses, settle_time, success
 from twolink.sim.plants import make_plant
 from twolink.sim.rollout import rollout

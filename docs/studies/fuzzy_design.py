@@ -41,8 +41,8 @@ import numpy as np  # noqa: E402
 
 from twolink.arm.parameters import GAMMA, TABLE_I  # noqa: E402
 from twolink.arm.task import action_levels, agent_reward, centralized_reward  # noqa: E402
-from twolink.control import problems as P  # noqa: E402
-from twolink.control.synthesis import synthesize  # noqa: E402
+from twolink.synthesis import problems as P  # noqa: E402
+from twolink.synthesis.synthesize import synthesize  # noqa: E402
 from twolink.fqi import fuzzy  # noqa: E402
 from twolink.policy.fuzzy_policy import Policy  # noqa: E402
 from twolink.policy.readout import Readout  # noqa: E402
@@ -83,7 +83,7 @@ def ratio_grid() -> tuple:
     :data:`RATIO_ANGLES_DEG` at rest, as the evaluation set's grid is made but at other
     angles, with T* of the full model (6) from :data:`RATIO_LIMITS` (``upper`` x Ts;
     inf where the limit found none)."""
-    from twolink.control.time_optimal.table import tables_from_json
+    from twolink.limits.table import tables_from_json
 
     table = tables_from_json(RATIO_LIMITS.read_text())["full"]
     a = np.deg2rad(RATIO_ANGLES_DEG)
@@ -143,7 +143,7 @@ def agent2_worst_over_link1(tau1_fraction: float = 0.0, dtheta1: float = 0.0,
     transition models of agent 2 (link 1 starting at speed -``dtheta1``, 0, +``dtheta1``
     rad/s under tau1 = -, 0, + ``tau1_fraction`` tau1_max, each pair once; model 0 the
     paper's link 1 at rest without torque), solved by the robust Alg. 1
-    (:func:`twolink.control.problems.solve_robust`, ``mode="worst"``); agent 1 as in
+    (:func:`twolink.synthesis.problems.solve_robust`, ``mode="worst"``); agent 1 as in
     ``decentralized_edge``."""
     p, problems = TABLE_I, []
     grid = fuzzy.Grid((fuzzy.angle_axis("theta2", "edge"), fuzzy.speed_axis("dtheta2", "edge")))

@@ -41,9 +41,9 @@ from tqdm import tqdm
 
 from twolink.arm.parameters import HORIZON
 from twolink.artifacts import check_outputs, provenance, read_runs, write_json
-from twolink.control.problems import KINDS, SWEEPS, table_sizes
-from twolink.control.problems import SYNTHESIS_MODELS as MODELS
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.problems import KINDS, SWEEPS, table_sizes
+from twolink.synthesis.problems import SYNTHESIS_MODELS as MODELS
+from twolink.synthesis.synthesize import synthesize
 from twolink.policy.fuzzy_policy import MAX_Q_BYTES
 from twolink.sim.cells import SPEED_PER_DEG
 from twolink.sim.metrics import (

@@ -32,7 +32,7 @@ from tqdm import tqdm
 
 from twolink.arm.parameters import TABLE_I
 from twolink.artifacts import check_outputs, provenance, read_runs, write_json
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.synthesize import synthesize
 from twolink.sim import excitation, identify
 from twolink.sim.metrics import evaluation_set, success, wilson_interval
 from twolink.sim.plants import make_plant

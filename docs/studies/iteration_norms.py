@@ -17,7 +17,7 @@ import numpy as np
 
 from twolink.arm.parameters import DELTA, GAMMA
 from twolink.artifacts import check_outputs, provenance, write_json
-from twolink.control.problems import (
+from twolink.synthesis.problems import (
     agent1_problem,
     agent2_problem,
     centralized_problem,

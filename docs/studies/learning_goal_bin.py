@@ -18,8 +18,8 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from twolink.control.learning import Learner, _greedy, evaluate  # noqa: E402
-from twolink.control.learning_setup import LearnConfig  # noqa: E402
+from twolink.synthesis.learning import Learner, _greedy, evaluate  # noqa: E402
+from twolink.synthesis.learning_setup import LearnConfig  # noqa: E402
 from twolink.policy.fuzzy_policy import Agent, Policy, load_policy  # noqa: E402
 from twolink.sim.plants import MujocoPlant  # noqa: E402
 

@@ -1,7 +1,7 @@
 """Which N-link poses any controller could settle within the scaling table's 8 s.
 
 ``python docs/studies/links_reach.py --links N [--rule tapered|copied] [--poses K]
-[--json FILE]`` asks :func:`twolink.control.time_optimal.links.reach` of the first K poses
+[--json FILE]`` asks :func:`twolink.limits.links.reach` of the first K poses
 of the scaling table's evaluation set (``random_poses(N, 256, 20061122 + N)``) whether
 admissible torques bring the arm to rest in the goal band by 7 s (140 samples: settled
 1 s before the end of 8 s, the table's success rule), and merges the answers into the
@@ -24,8 +24,8 @@ if __package__ in (None, ""):
 
 from twolink.arm.parameters import LINK_RULES, TS, chain  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
-from twolink.control.time_optimal import casadi_version  # noqa: E402
-from twolink.control.time_optimal.links import HOLD, NLP_SUBSTEPS, reach_all  # noqa: E402
+from twolink.limits import casadi_version  # noqa: E402
+from twolink.limits.links import HOLD, NLP_SUBSTEPS, reach_all  # noqa: E402
 from twolink.sim.metrics import random_poses, wilson_interval  # noqa: E402
 from twolink.validate import whole  # noqa: E402
 

@@ -71,7 +71,7 @@ def checkpoint(tmp_path_factory):
 
 
 def _tampered(checkpoint, tmp_path, change):
-    from twolink.control.learning import META_KEY
+    from twolink.synthesis.learning import META_KEY
     from twolink.policy.fuzzy_policy import Policy
     policy = Policy.load(checkpoint)
     change(policy.meta[META_KEY])
@@ -100,7 +100,7 @@ def _tampered(checkpoint, tmp_path, change):
 ])
 def test_a_tampered_checkpoint_is_refused_up_front_naming_the_file(
         checkpoint, tmp_path, capsys, monkeypatch, change, why):
-    from twolink.control import learning
+    from twolink.synthesis import learning
     path = _tampered(checkpoint, tmp_path, change)
     monkeypatch.setattr(learning.Learner, "__init__",
                         lambda *a, **k: pytest.fail("built a learner from a bad checkpoint"))

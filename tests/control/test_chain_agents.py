@@ -1,10 +1,10 @@
-"""One decentralized agent per joint of an N-link arm (twolink.control.links_decentralized, issue 11)."""
+"""One decentralized agent per joint of an N-link arm (twolink.synthesis.links_decentralized, issue 11)."""
 import numpy as np
 import pytest
 
 from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, TS, chain
-from twolink.control import links_decentralized as chain_agents
-from twolink.control.links_decentralized import (
+from twolink.synthesis import links_decentralized as chain_agents
+from twolink.synthesis.links_decentralized import (
     CHAIN_DEFAULT,
     CHAIN_DEFAULTS,
     TWO_LINK_DEFAULT,
@@ -16,7 +16,7 @@ from twolink.control.links_decentralized import (
     synthesize_chain,
     transition_bytes,
 )
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.synthesize import synthesize
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.registry import SHIPPED, TWO_LINK
 
@@ -177,7 +177,7 @@ def test_memory_estimate_and_refusals():
                                          "copied"):
         construction(3, "bent")
     with pytest.raises(ValueError, match="centralized synthesis of a 3-link arm is "
-                                         "twolink.control.links_centralized"):
+                                         "twolink.synthesis.links_centralized"):
         synthesize("centralized", links=3)
     with pytest.raises(ValueError, match="model \\(11\\) is the paper's two-link"):
         synthesize("decentralized", model="simplified", links=3)
@@ -191,7 +191,7 @@ def test_a_chain_policy_records_its_read_out_and_acts_by_it():
     """synthesize_chain(readout=...) keeps the agents and records the read-out: beyond the
     argmax angle the agents act by the largest interpolated Q."""
     from twolink.arm.parameters import chain
-    from twolink.control.links_decentralized import synthesize_chain
+    from twolink.synthesis.links_decentralized import synthesize_chain
     from twolink.policy.fuzzy_policy import greedy_indices
     from twolink.policy.readout import Readout
 

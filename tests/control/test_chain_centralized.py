@@ -11,7 +11,7 @@ from twolink.arm import dynamics
 from twolink.arm.integrate import sample_step
 from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, chain
 from twolink.arm.task import centralized_reward
-from twolink.control.links_centralized import (
+from twolink.synthesis.links_centralized import (
     actions,
     check_size,
     estimate,

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from twolink.arm.parameters import chain
-from twolink.control.links_decentralized import (
+from twolink.synthesis.links_decentralized import (
     CHAIN_DEFAULT,
     PAPER_DESIGN,
     Design,

@@ -8,8 +8,8 @@ import pytest
 from twolink.arm.parameters import GOAL_ANGLE, TABLE_I
 from twolink.arm.task import action_levels, check_levels
 from twolink.cli import main
-from twolink.control.problems import check_size, table_sizes
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.problems import check_size, table_sizes
+from twolink.synthesis.synthesize import synthesize
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy, load_policy
 from twolink.policy.readout import Readout
@@ -214,7 +214,7 @@ def test_the_edge_designs_are_the_tuned_designs_on_the_edge_bins():
 
 
 def test_agent2_holding_joint1_sees_link2_swing_alone():
-    from twolink.control.problems import agent2_problem, check_link1
+    from twolink.synthesis.problems import agent2_problem, check_link1
 
     free = agent2_problem(TABLE_I, "full", levels=3)
     held = agent2_problem(TABLE_I, "full", levels=3, link1="locked")

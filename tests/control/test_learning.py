@@ -1,18 +1,18 @@
-"""Online fuzzy Q-learning (twolink.control.learning): the update against a reference loop, the
+"""Online fuzzy Q-learning (twolink.synthesis.learning): the update against a reference loop, the
 fixed point of fuzzy Q-iteration, determinism, checkpoints and resume, bad input."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from twolink.control.learning import (
+from twolink.synthesis.learning import (
     Evaluation,
     Learner,
     stays_above,
     steps_to_reach,
     update_theta,
 )
-from twolink.control.learning_setup import (
+from twolink.synthesis.learning_setup import (
     LEARNERS,
     LEGACY,
     MAX_ARMS,
@@ -20,7 +20,7 @@ from twolink.control.learning_setup import (
     LearnConfig,
     make_agents,
 )
-from twolink.control.problems import agent2_problem, solve
+from twolink.synthesis.problems import agent2_problem, solve
 from twolink.policy.fuzzy_policy import Policy, load_policy
 from twolink.sim.metrics import score
 from twolink.sim.plants import ModelPlant
@@ -185,7 +185,7 @@ def test_resume_refuses_a_policy_without_resume_state():
 
 
 def test_curve_summaries():
-    from twolink.control.learning import Evaluation
+    from twolink.synthesis.learning import Evaluation
     curve = [Evaluation(s, score(np.arange(10) < k, np.ones(10)), -20.0, 0.0) for s, k in
              [(0, 0), (100, 9), (200, 8), (300, 10)]]
     assert steps_to_reach(curve) == 100

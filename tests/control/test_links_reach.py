@@ -1,5 +1,5 @@
 """Whether an N-link pose can reach the goal band by a deadline
-(twolink.control.time_optimal.links): the CasADi dynamics against the numpy ones, answers
+(twolink.limits.links): the CasADi dynamics against the numpy ones, answers
 on three links that must and must not be reachable, the defect check, bad input."""
 import math
 
@@ -9,7 +9,7 @@ import pytest
 from twolink.arm.dynamics import chain_acceleration
 from twolink.arm.integrate import SUBSTEPS, rk4, sample_step
 from twolink.arm.parameters import TS, chain
-from twolink.control.time_optimal import links as L
+from twolink.limits import links as L
 
 def _step(p, x, tau):
     """One sample of the package's RK4, unwrapped (as the answers are checked)."""

@@ -17,7 +17,7 @@ from twolink.arm.parameters import TABLE_I
 from twolink.arm.task import agent_reward
 from twolink.cli import main
 from twolink.commands import synthesize as synthesize_command
-from twolink.control.problems import (
+from twolink.synthesis.problems import (
     MAX_ROBUST_BYTES,
     agent1_problem,
     agent2_problem,
@@ -25,7 +25,7 @@ from twolink.control.problems import (
     robust_bytes,
     solve_robust,
 )
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.synthesize import synthesize
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.registry import SHIPPED
@@ -291,7 +291,7 @@ def test_one_theta1_slice_shifted_gives_every_transition(model):
         d[..., 0] = np.mod(d[..., 0] + np.pi, 2 * np.pi) - np.pi
         assert np.abs(d).max() < 1e-13
         np.testing.assert_array_equal(a.rewards, b.rewards)
-    from twolink.control.problems import centralized_problem
+    from twolink.synthesis.problems import centralized_problem
     close(centralized_problem(TABLE_I, model), centralized_problem(TABLE_I, model, compiled=True))
     p = TABLE_I.scaled(m2=1.2, I1=0.8)
     a2 = solve_robust([agent2_problem(p, model)])

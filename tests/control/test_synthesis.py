@@ -7,7 +7,7 @@ import pytest
 from twolink.cli import main
 from twolink.commands import synthesize as synthesize_command
 from twolink.commands.synthesize import default_file_name
-from twolink.control.problems import table_sizes
+from twolink.synthesis.problems import table_sizes
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.registry import SHIPPED
 

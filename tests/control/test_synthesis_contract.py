@@ -15,7 +15,7 @@ import pytest
 from twolink.arm.dynamics import simplified_acceleration
 from twolink.arm.integrate import sample_step
 from twolink.arm.parameters import TABLE_I, TS
-from twolink.control.problems import agent1_problem, agent2_problem, solve
+from twolink.synthesis.problems import agent1_problem, agent2_problem, solve
 
 P = TABLE_I
 DEG = math.pi / 180.0
@@ -134,8 +134,8 @@ def test_an_absurd_refinement_is_refused_before_any_allocation():
     import subprocess
     import sys
 
-    from twolink.control.problems import table_sizes
-    from twolink.control.synthesis import synthesize
+    from twolink.synthesis.problems import table_sizes
+    from twolink.synthesis.synthesize import synthesize
 
     with pytest.raises(ValueError, match="refine must be a whole number from 1 to 16"):
         synthesize("centralized", refine=10**9)

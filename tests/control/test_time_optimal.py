@@ -1,4 +1,4 @@
-"""The time-optimal limit T*(x) (twolink.control.time_optimal): the CasADi step against
+"""The time-optimal limit T*(x) (twolink.limits): the CasADi step against
 the numpy step, the paper's x0 on both models, the upper bound's replay, the shipped
 table (read without CasADi, its torques replayed; a few cheap rows recomputed), bad
 input and the command line."""
@@ -14,8 +14,8 @@ from twolink.arm.integrate import SUBSTEPS, rk4, sample_step
 from twolink.arm.parameters import PAPER_X0, TABLE_I, TS
 from twolink.arm.task import in_goal_band
 from twolink.cli import main
-from twolink.control import time_optimal as to
-from twolink.control.time_optimal.search import replay, wrap_state
+from twolink import limits as to
+from twolink.limits.search import replay, wrap_state
 from twolink.sim.metrics import evaluation_set
 
 try:

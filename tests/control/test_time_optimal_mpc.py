@@ -1,4 +1,4 @@
-"""The receding-horizon time-optimal MPC (twolink.control.time_optimal.mpc): a controller
+"""The receding-horizon time-optimal MPC (twolink.control.mpc): a controller
 of the protocol that settles the MuJoCo arm at the limit T*, re-planning every sample."""
 import numpy as np
 import pytest
@@ -16,11 +16,11 @@ X0 = evaluation_set()[30:31]        # [-10 deg, 45 deg] at rest: T* = 0.25 s, fe
 
 def test_mpc_settles_at_the_limit_and_replans_every_sample():
     from twolink.control.controllers import resolve_controller
-    from twolink.control.time_optimal.mpc import TimeOptimalMPC
+    from twolink.control.mpc import TimeOptimalMPC
     from twolink.sim.controller import checked
 
-    spec = resolve_controller("twolink.control.time_optimal.mpc:TimeOptimalMPC")
-    assert spec.name == "TimeOptimalMPC" and spec.meta["model"] == "full"
+    spec = resolve_controller("twolink.control.mpc:TimeOptimalMPC")
+    assert spec.name == "time_optimal_mpc" and spec.meta["model"] == "full"   # its name
     c = checked(TimeOptimalMPC(expand=False))      # quicker to build, the same problem
     with MujocoPlant(nthread=1) as plant:
         traj = rollout(c, plant, X0, duration=1.0)
@@ -36,7 +36,7 @@ def test_mpc_settles_at_the_limit_and_replans_every_sample():
 
 
 def test_a_row_out_of_reach_or_in_the_band_gets_zero_torque_and_no_more_searches():
-    from twolink.control.time_optimal.mpc import UNREACHABLE, TimeOptimalMPC
+    from twolink.control.mpc import UNREACHABLE, TimeOptimalMPC
 
     c = TimeOptimalMPC(expand=False, max_samples=2)        # x0 needs 18 samples
     x = np.array([[-1.0, -3.0, 0.0, 0.0], [0.01, 0.0, 0.0, 0.0]])

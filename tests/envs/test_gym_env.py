@@ -21,7 +21,7 @@ from twolink.arm.parameters import (
     TABLE_I,
     TS,
 )
-from twolink.control.problems import centralized_actions
+from twolink.synthesis.problems import centralized_actions
 from twolink.envs import gym as gym_env
 from twolink.sim.challenges import LEVELS, Challenge
 from twolink.sim.perturbations import perturbed

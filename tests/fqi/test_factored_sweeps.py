@@ -9,8 +9,8 @@ import pytest
 from reference_fqi import fuzzy_q_iteration_robust_reference, fuzzy_q_iteration_scipy
 
 from twolink.arm.parameters import GAMMA, TABLE_I
-from twolink.control.problems import LAYOUTS, agent2_problem, centralized_problem, solve
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.problems import LAYOUTS, agent2_problem, centralized_problem, solve
+from twolink.synthesis.synthesize import synthesize
 from twolink.fqi import _factored_kernel as fqi_factored_kernel
 from twolink.fqi import fuzzy
 from twolink.fqi.factored import (

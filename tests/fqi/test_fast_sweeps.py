@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from reference_fqi import fuzzy_q_iteration_robust_reference, fuzzy_q_iteration_scipy
 
 from twolink.arm.parameters import DELTA, TABLE_I
-from twolink.control.problems import (
+from twolink.synthesis.problems import (
     agent1_problem,
     agent2_problem,
     centralized_problem,

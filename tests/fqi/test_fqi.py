@@ -7,7 +7,7 @@ from twolink.arm.dynamics import simplified_acceleration
 from twolink.arm.integrate import sample_step
 from twolink.arm.parameters import TABLE_I
 from twolink.arm.task import agent_reward
-from twolink.control.problems import agent1_problem, agent2_problem, solve
+from twolink.synthesis.problems import agent1_problem, agent2_problem, solve
 from twolink.fqi import iteration as fqi
 from twolink.fqi.fuzzy import Axis, Grid, angle_axis, speed_axis, torque_axis
 from twolink.fqi.iteration import fuzzy_q_iteration

@@ -11,7 +11,7 @@ from reference_fqi import (
 )
 
 from twolink.arm.parameters import TABLE_I
-from twolink.control.problems import (
+from twolink.synthesis.problems import (
     agent1_problem,
     agent2_problem,
     centralized_problem,
@@ -240,7 +240,7 @@ def test_compiled_transitions_equal_sample_step_bit_for_bit(rng, model, freeze_l
     states far outside the grid (wrapping, saturation) and torques beyond the limits."""
     from twolink.arm import dynamics
     from twolink.arm.integrate import sample_step, sample_step_compiled
-    from twolink.control.problems import centralized_actions
+    from twolink.synthesis.problems import centralized_actions
     accel = dynamics.MODELS[model]
     if freeze_link2:
         def accel(pp, s, t, inner=accel):

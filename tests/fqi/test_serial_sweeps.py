@@ -8,8 +8,8 @@ from reference_fqi import fuzzy_q_iteration_reference
 from reference_serial import matlab_order, serial_q_iteration_reference
 
 from twolink.cli import main
-from twolink.control.problems import agent1_problem, agent2_problem, solve
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.problems import agent1_problem, agent2_problem, solve
+from twolink.synthesis.synthesize import synthesize
 from twolink.fqi.fuzzy import Axis
 from twolink.fqi.iteration import fuzzy_q_iteration
 from twolink.fqi.tables import transition_matrix

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twolink.arm.parameters import TABLE_I
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.synthesize import synthesize
 from twolink.policy.fuzzy_policy import (
     FORMAT_VERSION,
     TIE_TOLERANCE,
@@ -290,7 +290,7 @@ def test_save_leaves_no_partial_file(tmp_path, centralized):
 
 
 def test_refined_problems_for_scaling_studies():
-    from twolink.control.problems import agent1_problem, agent2_problem
+    from twolink.synthesis.problems import agent1_problem, agent2_problem
     a2 = agent2_problem(refine=2)
     assert a2.grid.shape == (24, 13) and a2.next_points.shape == (24 * 13, 3, 2)
     a1 = agent1_problem(None, refine=2)

@@ -44,7 +44,7 @@ def test_a_command_logs_its_progress_when_stderr_is_a_file(tmp_path, monkeypatch
     """`twolink synthesize --links 3` with stderr to a file prints its bar as lines (each
     agent's solve stubbed by the shipped agent: the bar, not the synthesis, is at stake)."""
     from twolink.cli import main
-    from twolink.control import links_decentralized
+    from twolink.synthesis import links_decentralized
     from twolink.policy.fuzzy_policy import load_policy
     from twolink.resources import shipped_policy_dir
 

@@ -72,7 +72,7 @@ def test_the_three_evaluations_report_the_same_score():
     """sim.evaluation.evaluate, control.learning.evaluate and the scaling study's
     evaluate of the same policy from the same states on the same MuJoCo arm: one score,
     with the same keys in their JSON."""
-    from twolink.control.learning import evaluate as learning_evaluate
+    from twolink.synthesis.learning import evaluate as learning_evaluate
     from twolink.policy.fuzzy_policy import load_policy
     from twolink.sim.evaluation import evaluate
     from twolink.sim.plants import MujocoPlant

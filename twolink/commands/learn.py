@@ -1,4 +1,4 @@
-"""``twolink learn``: online fuzzy Q-learning on the MuJoCo arm (:mod:`twolink.control.learning`).
+"""``twolink learn``: online fuzzy Q-learning on the MuJoCo arm (:mod:`twolink.synthesis.learning`).
 
 Many arms learn one shared theta; every evaluation writes the current policy, with its
 provenance and everything needed to resume, atomically to the checkpoint (a policy file
@@ -14,8 +14,8 @@ from pathlib import Path
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
 from twolink.commands._options import seed_option
-from twolink.control.learning import Learner, evaluate, stays_above, steps_to_reach
-from twolink.control.learning_setup import (
+from twolink.synthesis.learning import Learner, evaluate, stays_above, steps_to_reach
+from twolink.synthesis.learning_setup import (
     MAX_ARMS,
     MAX_STEPS,
     RECOMMENDED_AVERAGE,

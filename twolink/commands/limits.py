@@ -1,5 +1,5 @@
 """``twolink limits``: the physical limit T*(x), the fewest samples in which any admissible
-torque sequence brings the arm into the goal band to stay (twolink.control.time_optimal).
+torque sequence brings the arm into the goal band to stay (twolink.limits).
 
 Without states it prints the shipped table of the 65 evaluation states (``data/limits.json``,
 no CasADi needed); ``--x0`` or ``--evaluation-set`` computes (CasADi and IPOPT: ``pip install
@@ -111,7 +111,7 @@ def _printable(tables: dict, provenance: dict) -> dict:
 
 def run(args) -> int:
     from twolink.artifacts import check_outputs, write_text
-    from twolink.control import time_optimal as to
+    from twolink import limits as to
 
     models = list(to.MODELS) if args.model == "both" else [args.model]
     states = _states(args)

@@ -55,7 +55,7 @@ def add_parser(sub):
                         f"never tuned on)")
     p.add_argument("--max-memory", type=float, default=None, metavar="GIB",
                    help="refuse a centralized synthesis whose estimated peak exceeds this "
-                        "many GiB (default: twolink.control.links_centralized.MAX_BYTES, from this "
+                        "many GiB (default: twolink.synthesis.links_centralized.MAX_BYTES, from this "
                         "machine's memory)")
     p.add_argument("--peak", choices=PEAK_METHODS, default="process",
                    help="how peak memory is measured: a fresh process per synthesis "

@@ -7,14 +7,14 @@ or serial, in place, as ApproxRL's ``fuzzyqi.m``), ``--refine K`` subdivides eve
 the paper's grid K times; both are recorded in the policy's provenance.
 ``--robust worst|mean --draws K --spread P --seed S`` solves every agent over K models (the
 centre and K - 1 joint draws of the physical parameters within +-P): the worst case or the
-mean (:func:`twolink.control.synthesis.synthesize`). ``--params FILE`` takes the centre from a
+mean (:func:`twolink.synthesis.synthesize.synthesize`). ``--params FILE`` takes the centre from a
 parameter file (:mod:`twolink.arm.parameter_file`); ``--model identified`` is the full model (6)
 with them. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
 :data:`twolink.policy.registry.SHIPPED` into the source checkout's ``policies/``, with everything
 its registry entry records. ``--links N`` (with ``--rule``) synthesises the agents of an
-N-link arm (:mod:`twolink.control.links_decentralized`) into ``./decentralized_<N>link[_<rule>].npz``; the
+N-link arm (:mod:`twolink.synthesis.links_decentralized`) into ``./decentralized_<N>link[_<rule>].npz``; the
 centralized policy of N >= 3 links is refused before any work, with its estimate
-(:func:`twolink.control.links_centralized.check_size`): over the memory cap, or over what a policy
+(:func:`twolink.synthesis.links_centralized.check_size`): over the memory cap, or over what a policy
 file may hold.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ from twolink.arm.task import MAX_LEVELS, PAPER_LEVELS
 from twolink.artifacts import check_outputs, output_file
 from twolink.commands import SUMMARIES
 from twolink.commands._options import add_arm_options, arm_of
-from twolink.control.problems import (
+from twolink.synthesis.problems import (
     CONTEXTS,
     IDENTIFIED_MODELS,
     KINDS,
@@ -39,7 +39,7 @@ from twolink.control.problems import (
     check_robust_size,
     check_size,
 )
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.synthesize import synthesize
 from twolink.fqi.fuzzy import BIN_LAYOUTS, check_bins
 from twolink.fqi.iteration import ROBUST_MODES
 from twolink.policy.fuzzy_policy import (
@@ -179,7 +179,7 @@ def add_parser(sub):
 def chain_file_name(kind: str, links: int, rule: str, context: str | None = None) -> str:
     """``<kind>_<N>link[_<rule>][_<context>].npz``: the rule when not tapered, the
     context when given and not the N-link default (so the shipped one gets its name)."""
-    from twolink.control.links_decentralized import CHAIN_DEFAULT
+    from twolink.synthesis.links_decentralized import CHAIN_DEFAULT
 
     name = f"{kind}_{links}link" + ("" if rule == "tapered" else f"_{rule}")
     if context is not None and context != CHAIN_DEFAULT.context:
@@ -207,7 +207,7 @@ def _chain_job(args, links: int) -> tuple[str, dict, Path]:
     if args.kind == "centralized":
         if args.context is not None:
             raise ValueError("--context applies to the decentralized policy only")
-        from twolink.control.links_centralized import check_size
+        from twolink.synthesis.links_centralized import check_size
         est = check_size(links)                   # refuses over the memory cap, estimate
         if est.q_bytes > MAX_Q_BYTES:
             raise ValueError(f"a centralized {links}-link Q-table of {est.q_values:,} values "

@@ -1,3 +1,6 @@
-"""Controllers: synthesis of the centralized (16) and decentralized (18) policies by
-Alg. 1, N-link agents, and online learning.
+"""What acts on the arm: the controller protocol's resolver (:mod:`.controllers`) and
+catalogue (:mod:`.catalogue`), the classical baselines (:mod:`.baselines`), the N-link
+per-joint PD (:mod:`.links_pd`), the time-optimal MPC (:mod:`.mpc`) and the loaders of
+learned agents (:mod:`.sb3_agent`, :mod:`.learned`). The makers of fuzzy policies are
+:mod:`twolink.synthesis`; the time-optimal limit is :mod:`twolink.limits`.
 """

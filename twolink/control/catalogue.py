@@ -36,6 +36,7 @@ import json
 import os
 from pathlib import Path
 
+from twolink.control.entry_points import import_entry_point
 from twolink.sim.controller import ControllerError
 
 #: The tags an entry may carry, with what each means (``twolink controllers`` prints them).
@@ -116,27 +117,6 @@ class Entry:
         return {"name": self.name, "kind": self.kind, "links": self.links, "rule": self.rule,
                 "tags": list(self.tags), "entry": self.entry, "data": dict(self.data),
                 "description": self.description, "source": self.source}
-
-
-def import_entry_point(spec: str):
-    """The object ``module:callable`` or ``path/file.py:callable`` names (imported, not
-    called); a one-line ControllerError when it does not import or is not callable."""
-    from twolink.control.controllers import _import_module
-
-    where, _, attr = spec.rpartition(":")
-    if not where or not attr:
-        raise ControllerError(f"entry point {spec!r}: give module:callable or "
-                              f"path/to/file.py:callable")
-    obj = _import_module(where)
-    for part in attr.split("."):
-        try:
-            obj = getattr(obj, part)
-        except AttributeError:
-            raise ControllerError(f"entry point {spec!r}: {where} has no attribute "
-                                  f"{attr!r}") from None
-    if not callable(obj):
-        raise ControllerError(f"entry point {spec!r} is not callable ({type(obj).__name__})")
-    return obj
 
 
 def _shipped_policies() -> list:

@@ -15,12 +15,10 @@ an exception or ``sys.exit`` there is one ControllerError line.
 from __future__ import annotations
 
 import contextlib
-import hashlib
-import importlib
-import importlib.util
 import sys
 from pathlib import Path
 
+from twolink.control.entry_points import import_module, is_file_spec
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.sim.controller import Checked, ControllerError, checked, controller_name
 
@@ -38,11 +36,6 @@ def _baseline(name: str):
     return baseline(name)
 
 
-def _is_file(where: str) -> bool:
-    """Whether the part of a spec before the colon names a file (not a module)."""
-    return where.endswith(".py") or "/" in where or where.startswith(".")
-
-
 def absolute_spec(spec):
     """``spec`` with the file it names (a ``file.py:callable``'s file, a policy ``.npz``)
     made absolute, so that it names the same file from another working directory (a
@@ -54,39 +47,9 @@ def absolute_spec(spec):
     if spec.endswith((".npz", ".zip")):
         return str(Path(spec).resolve())
     where, colon, attr = spec.rpartition(":")
-    if colon and where and _is_file(where):
+    if colon and where and is_file_spec(where):
         return f"{Path(where).resolve()}:{attr}"
     return spec
-
-
-def _import_module(where: str):
-    if _is_file(where):
-        path = Path(where)
-        if not path.is_file():
-            raise ControllerError(f"controller file {where} does not exist"
-                                  if not path.exists() else f"controller file {where} is not "
-                                  f"a file")
-        digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
-        module_name = f"twolink_user_controller_{digest}"
-        spec = importlib.util.spec_from_file_location(module_name, path)
-        if spec is None or spec.loader is None:
-            raise ControllerError(f"cannot import controller file {where}")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
-        try:
-            with contextlib.redirect_stdout(sys.stderr):    # its prints: not our output
-                spec.loader.exec_module(module)
-        except (Exception, SystemExit) as exc:
-            del sys.modules[module_name]
-            raise ControllerError(f"cannot import controller file {where}: "
-                                  f"{type(exc).__name__}: {exc}") from None
-        return module
-    try:
-        with contextlib.redirect_stdout(sys.stderr):
-            return importlib.import_module(where)
-    except (Exception, SystemExit) as exc:
-        raise ControllerError(f"cannot import controller module {where!r}: "
-                              f"{type(exc).__name__}: {exc}") from None
 
 
 def _from_spec(spec: str):
@@ -94,7 +57,7 @@ def _from_spec(spec: str):
     if not where or not attr:
         raise ControllerError(f"controller {spec!r}: give module:callable or "
                               f"path/to/file.py:callable")
-    module = _import_module(where)
+    module = import_module(where)
     obj = module
     for part in attr.split("."):
         try:

@@ -27,7 +27,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorWrapper
 
 from twolink.arm.parameters import TABLE_I, ArmParameters
-from twolink.control.problems import centralized_actions
+from twolink.synthesis.problems import centralized_actions
 from twolink.sim.estimation import StateEstimator
 
 _STATE_SPACE = spaces.Box(-np.inf, np.inf, (4,), np.float64)

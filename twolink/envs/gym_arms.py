@@ -16,7 +16,7 @@ from gymnasium import spaces
 from twolink.arm.observations import OBSERVATIONS, features
 from twolink.arm.parameters import SUCCESS_MARGIN, TS, ArmParameters, ChainParameters
 from twolink.arm.task import action_levels, in_goal_band
-from twolink.control.problems import centralized_actions
+from twolink.synthesis.problems import centralized_actions
 from twolink.envs.core import (
     BAD_TIME_LIMIT,
     REWARD_FLOOR,
@@ -64,7 +64,7 @@ def _check_x0(x0, speed_max, links: int = 2):
 def joint_actions(params) -> np.ndarray:
     """The discrete joint actions: every combination of the levels {-tau_max, 0, tau_max}
     of the links, the last link varying fastest, shape (3^N, N); for two links the 9 of
-    (16) (:func:`twolink.control.problems.centralized_actions`)."""
+    (16) (:func:`twolink.synthesis.problems.centralized_actions`)."""
     if params.links == 2:
         return centralized_actions(params)
     return np.array(list(itertools.product(*(action_levels(t) for t in params.tau_max))))

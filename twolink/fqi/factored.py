@@ -11,8 +11,8 @@ per block (:class:`FactoredTable`). The memberships T would hold are the same; a
 once), on one thread or, for sweeps of :data:`PARALLEL_MIN_WORK` gathered values and more,
 two; :meth:`FactoredTable.tocsr` gives the plain T that tests hold the sweeps against.
 Both centralized syntheses use it: the paper's two-link problem
-(:func:`factored_table`, ``twolink.control.synthesis`` layout "factored") and the N-link one
-(:class:`FactoredBuilder`, block by block, ``twolink.control.links_centralized``).
+(:func:`factored_table`, ``twolink.synthesis.synthesize`` layout "factored") and the N-link one
+(:class:`FactoredBuilder`, block by block, ``twolink.synthesis.links_centralized``).
 """
 from __future__ import annotations
 

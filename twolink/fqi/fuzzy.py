@@ -38,7 +38,7 @@ BIN_LAYOUTS = {"paper": (ANGLE_BINS_DEG, SPEED_BINS_DEG),
                "goal": (GOAL_ANGLE_BINS_DEG, GOAL_SPEED_BINS_DEG),
                "edge": (EDGE_ANGLE_BINS_DEG, SPEED_BINS_DEG)}
 #: The two extra speed bins (deg/s, at -+ this value) that N-link agents add to some speed
-#: axes (:mod:`twolink.control.links_decentralized`; the paper's two-link agents do not use them).
+#: axes (:mod:`twolink.synthesis.links_decentralized`; the paper's two-link agents do not use them).
 EXTRA_SPEED_DEG = 6.0
 
 

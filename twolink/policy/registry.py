@@ -27,11 +27,11 @@ class ShippedPolicy:
     context: Optional[str]          # agent 1's context, decentralized only
     paper: bool                     # one of the paper's policies (synthesised on (11))
     description: str
-    sweeps: str = "synchronous"     # Alg. 1's sweeps (twolink.control.problems.SWEEPS)
+    sweeps: str = "synchronous"     # Alg. 1's sweeps (twolink.synthesis.problems.SWEEPS)
     robust: Optional[str] = None    # robust synthesis: "worst" or "mean" over the draws
     draws: int = 1                  # K models: the centre and K - 1 joint draws
     spread: float = 0.0             # each physical parameter uniform in +-spread (relative)
-    seed: int = 0                   # seed of the draws (twolink.control.problems.parameter_draws)
+    seed: int = 0                   # seed of the draws (twolink.synthesis.problems.parameter_draws)
     links: int = 2                  # links of the arm (twolink.arm.parameters.chain beyond 2)
     rule: str = "tapered"           # how links beyond the second are made (links > 2 only)
     levels: int = 3                 # torque levels per joint (twolink.arm.task.action_levels)
@@ -71,7 +71,7 @@ class ShippedPolicy:
         return {"kind": self.kind, "links": self.links, **opts}
 
     def synthesis_options(self) -> dict:
-        """Keyword arguments of :func:`twolink.control.synthesis.synthesize` that rebuild it."""
+        """Keyword arguments of :func:`twolink.synthesis.synthesize.synthesize` that rebuild it."""
         opts = {"model": self.model, "sweeps": self.sweeps}
         if self.context is not None:
             opts["context"] = self.context
@@ -127,7 +127,7 @@ SHIPPED = {p.name: p for p in (
                   "within +-20 %, frozen context",
                   robust="worst", draws=8, spread=0.2, seed=ROBUST_SEED),
     ShippedPolicy("decentralized_3link", "decentralized", "full", "propagated", False,
-                  "one agent per joint of the three-link tapered arm (twolink.control.links_decentralized) "
+                  "one agent per joint of the three-link tapered arm (twolink.synthesis.links_decentralized) "
                   "on its full model: the middle agent holds joint 1, propagated context "
                   "with the neighbour's speed", links=3, rule="tapered"),
     ShippedPolicy("centralized_tuned", "centralized", "full", None, False,

@@ -124,7 +124,7 @@ class Score:
 
     Why ``Score``, here: three classes named ``Evaluation`` already hold the runs that a
     score sums up, and each composes this one - :class:`twolink.sim.evaluation.Evaluation`
-    (per-plant, per-state outcomes), :class:`twolink.control.learning.Evaluation` (a
+    (per-plant, per-state outcomes), :class:`twolink.synthesis.learning.Evaluation` (a
     learning-curve point: a score plus steps, return and time) and
     :class:`twolink.studies.scaling.measure.Evaluation` (a score per horizon). A fourth
     ``Evaluation`` would tell none of them apart. It lives beside :func:`success`,

@@ -21,7 +21,7 @@ def learning_curves(panels: dict, path: os.PathLike, *, baselines: dict | None =
     """Write a PNG of learning curves.
 
     ``panels`` maps a panel title to ``{label: curve}``, a curve being a list of
-    :class:`twolink.control.learning.Evaluation` (or their dicts: ``steps`` and a score's
+    :class:`twolink.synthesis.learning.Evaluation` (or their dicts: ``steps`` and a score's
     keys, read by :meth:`twolink.sim.metrics.Score.from_dict`, so curves stored before the
     one spelling, with ``successes`` and ``n`` only, still draw); success is drawn with its
     95 % Wilson band. ``baselines`` maps a label to a success

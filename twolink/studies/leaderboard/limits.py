@@ -1,11 +1,11 @@
 """The time-optimal limit T*(x0) of initial states, from the shipped table
-(:func:`twolink.control.time_optimal.shipped_limits`, the 65 states of the evaluation set)."""
+(:func:`twolink.limits.shipped_limits`, the 65 states of the evaluation set)."""
 from __future__ import annotations
 
 import numpy as np
 
 from twolink.arm.parameters import TS
-from twolink.control.time_optimal import shipped_limits
+from twolink.limits import shipped_limits
 
 
 def state_limits(x0, model: str = "full") -> tuple[np.ndarray | None, str]:

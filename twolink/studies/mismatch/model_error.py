@@ -18,7 +18,7 @@ import numpy as np
 from twolink.arm import dynamics
 from twolink.arm.integrate import sample_step, wrap_angle
 from twolink.arm.parameters import STATE_NAMES, TABLE_I, ArmParameters
-from twolink.control.problems import centralized_problem
+from twolink.synthesis.problems import centralized_problem
 from twolink.sim.plants import MujocoPlant
 
 #: Predictions compared with MuJoCo, in report order.

@@ -6,7 +6,7 @@ The policies are the paper's, from :data:`twolink.policy.registry.PAPER_POLICIES
 centralized policy (16) and the decentralized agents (18) with both readings of agent
 1's context), synthesised afresh on the simplified model (11) and compared bit for bit
 with the shipped files. Each is also synthesised with serial sweeps (ApproxRL's in-place
-update, :data:`twolink.control.problems.SWEEPS`), whose sweep counts are reported beside the
+update, :data:`twolink.synthesis.problems.SWEEPS`), whose sweep counts are reported beside the
 synchronous ones.
 """
 from __future__ import annotations
@@ -19,8 +19,8 @@ from twolink.arm import dynamics
 from twolink.arm.integrate import SUBSTEPS, integration_error
 from twolink.arm.parameters import HORIZON, PAPER_X0, TABLE_I
 from twolink.artifacts import provenance
-from twolink.control.problems import centralized_problem
-from twolink.control.synthesis import synthesize
+from twolink.synthesis.problems import centralized_problem
+from twolink.synthesis.synthesize import synthesize
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.registry import PAPER_POLICIES, SHIPPED, TWO_LINK
 from twolink.sim.metrics import (

@@ -18,7 +18,7 @@ of :mod:`twolink.control.links_pd` with the gains it was tuned to on its own see
 control only: a PD has no synthesis).
 
 The centralized problem is estimated for every N before any work
-(:func:`twolink.control.links_centralized.estimate`) and synthesised only where its estimated peak
+(:func:`twolink.synthesis.links_centralized.estimate`) and synthesised only where its estimated peak
 fits under the memory cap; otherwise its row is a refusal carrying the estimate. For
 N = 2 the rows are the registry's ``centralized_full`` and ``decentralized_full``
 (synthesised on the full model (6)); the paper's own Table II figures for (11) are in
@@ -105,8 +105,8 @@ def machine_bytes() -> int:
 
 
 def default_max_bytes() -> int:
-    """The centralized memory cap by default: :data:`twolink.control.links_centralized.MAX_BYTES`."""
-    from twolink.control.links_centralized import MAX_BYTES
+    """The centralized memory cap by default: :data:`twolink.synthesis.links_centralized.MAX_BYTES`."""
+    from twolink.synthesis.links_centralized import MAX_BYTES
     return int(MAX_BYTES)
 
 
@@ -214,8 +214,8 @@ class Scaling:
 
 def estimate(links: int) -> dict:
     """The centralized problem of N links before any work (Q-values, non-zeros of T,
-    bytes): :func:`twolink.control.links_centralized.estimate` as a dict."""
-    from twolink.control.links_centralized import estimate as _estimate
+    bytes): :func:`twolink.synthesis.links_centralized.estimate` as a dict."""
+    from twolink.synthesis.links_centralized import estimate as _estimate
     e = _estimate(check_links(links))
     return {k: (int(v) if isinstance(v, (int, np.integer)) else v)
             for k, v in dataclasses.asdict(e).items()}
@@ -223,9 +223,9 @@ def estimate(links: int) -> dict:
 
 def decentralized_estimate(links: int, rule: str, levels: int = 3) -> dict:
     """The decentralized agents' largest transition memory, known before any work
-    (:func:`twolink.control.links_decentralized.transition_bytes` of the default
+    (:func:`twolink.synthesis.links_decentralized.transition_bytes` of the default
     construction with ``levels`` torque levels per joint)."""
-    from twolink.control.links_decentralized import construction, design, transition_bytes
+    from twolink.synthesis.links_decentralized import construction, design, transition_bytes
     p = as_chain(params_of(links, rule))
     return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule),
                                                design(levels)))}

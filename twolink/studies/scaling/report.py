@@ -183,7 +183,7 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         "centralized policy (16) and one decentralized agent per joint (18).", "",
         "- **Q-values, nnz(T)**: the sizes of Alg. 1's Q-tables and transition tables, "
         "summed over the agents. Centralized rows not run show the estimate "
-        "(`twolink.control.links_centralized.estimate`), made before any work.",
+        "(`twolink.synthesis.links_centralized.estimate`), made before any work.",
         f"- **Peak memory**: {method[o['peak_method']]}; beside it the estimate made "
         "before the work (decentralized: the largest agent's transitions).",
         "- **Synthesis**: wall and CPU seconds of the whole synthesis call (model "

@@ -82,12 +82,12 @@ def cell_policy(links: int, rule: str, scheme: str, max_bytes: int):
     if links == 2:
         name = f"{scheme}_full"
         entry = SHIPPED[name]
-        from twolink.control.synthesis import synthesize
+        from twolink.synthesis.synthesize import synthesize
         return (synthesize(entry.kind, TABLE_I, **entry.synthesis_options()),
                 f"{name} (registry): {entry.description}")
     p = chain(links, rule)
     if scheme in ("decentralized", "decentralized_levels", "decentralized_argmax"):
-        from twolink.control.links_decentralized import synthesize_chain
+        from twolink.synthesis.links_decentralized import synthesize_chain
         from twolink.policy.readout import Readout
         levels = {"levels": LEVER_LEVELS} if scheme != "decentralized" else {}
         if scheme == "decentralized_argmax":
@@ -98,11 +98,11 @@ def cell_policy(links: int, rule: str, scheme: str, max_bytes: int):
         if "readout" in policy.meta:
             c += f", argmax beyond {policy.meta['readout']['argmax_beyond_deg']:g} deg"
         return policy, f"one agent per joint on the full N-link model " \
-                       f"(twolink.control.links_decentralized.synthesize_chain; {c})"
-    from twolink.control.links_centralized import synthesize_centralized
+                       f"(twolink.synthesis.links_decentralized.synthesize_chain; {c})"
+    from twolink.synthesis.links_centralized import synthesize_centralized
     return synthesize_centralized(p, max_bytes=max_bytes), \
         "the centralized policy (16) on the full N-link model " \
-        "(twolink.control.links_centralized.synthesize_centralized)"
+        "(twolink.synthesis.links_centralized.synthesize_centralized)"
 
 
 def _agent_info(agent) -> dict:

@@ -10,7 +10,7 @@ the deadline 1 s before the end of a horizon can succeed under the success rule 
 ``twolink.sim.metrics``; one that is not cannot, by any controller.
 
 The problem is solved by direct multiple shooting with IPOPT (CasADi), as the two-link
-limits of :mod:`twolink.control.time_optimal.nlp`, with two differences that keep six
+limits of :mod:`twolink.limits.nlp`, with two differences that keep six
 links affordable: each torque is held for ``hold`` samples (a restriction of the
 admissible sequences: a pose found reachable stays reachable), integrated with RK4 of
 ``substeps`` steps over the held period (by default the package's own step size, Ts /
@@ -44,7 +44,7 @@ import numpy as np
 from twolink.arm.dynamics import chain_acceleration, chain_weights
 from twolink.arm.integrate import SUBSTEPS, rk4
 from twolink.arm.parameters import GOAL_ANGLE, TS, ChainParameters, as_chain
-from twolink.control.time_optimal.symbolic import require_casadi, rk4_expression
+from twolink.limits.symbolic import require_casadi, rk4_expression
 from twolink.validate import whole
 
 #: Torques are held this many samples of Ts in the reach problem (default).

@@ -36,8 +36,8 @@ angle and speed axes (:data:`twolink.fqi.fuzzy.BIN_LAYOUTS`).
 
 For two links the default construction (frozen context, no speed context, no extra bins,
 nothing locked) is the paper's pair (18) on the full model (6), bit for bit: its
-transitions go through :func:`twolink.control.problems.model_step` exactly as
-:func:`twolink.control.problems.agent2_problem` and :func:`~twolink.control.problems.agent1_problem`
+transitions go through :func:`twolink.synthesis.problems.model_step` exactly as
+:func:`twolink.synthesis.problems.agent2_problem` and :func:`~twolink.synthesis.problems.agent1_problem`
 do. For N >= 3 they come from :func:`twolink.arm.dynamics.chain_acceleration`. Reading an
 agent's transitions as for two links gives a middle agent far too little inertia (its
 outer chain free to swing away, its inner chain free to recoil) and the arm limit-cycles;
@@ -69,7 +69,7 @@ from twolink.arm.parameters import (
 )
 from twolink.arm.task import PAPER_LEVELS, action_levels, agent_reward, check_levels
 from twolink.artifacts import VERSION as __version__
-from twolink.control.problems import CONTEXTS, Problem, check_sweeps, model_step, solve
+from twolink.synthesis.problems import CONTEXTS, Problem, check_sweeps, model_step, solve
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Agent, Policy
 from twolink.policy.readout import Readout
@@ -213,7 +213,7 @@ def _transitions(p: ChainParameters, x: np.ndarray, tau: np.ndarray, locked: tup
                  moving: int) -> np.ndarray:
     """One sample period from the states x under the torques tau; joints beyond
     ``moving`` have their acceleration zeroed (the frozen context). Two links with nothing
-    locked: the full model (6) through :func:`twolink.control.problems.model_step`, as the paper's
+    locked: the full model (6) through :func:`twolink.synthesis.problems.model_step`, as the paper's
     agents (bit for bit); otherwise :func:`twolink.arm.dynamics.chain_acceleration`."""
     n = p.links
     if n == 2 and not any(locked):

@@ -45,8 +45,8 @@ from twolink.arm.parameters import (
 )
 from twolink.arm.task import PAPER_LEVELS, check_levels
 from twolink.artifacts import VERSION as __version__
-from twolink.control.links_decentralized import synthesize_chain
-from twolink.control.problems import (
+from twolink.synthesis.links_decentralized import synthesize_chain
+from twolink.synthesis.problems import (
     CONTEXTS,
     IDENTIFIED_MODELS,
     KINDS,
@@ -101,11 +101,11 @@ def synthesize(kind: str, p: ArmParameters = TABLE_I, *, model: Optional[str] = 
     paper's "paper") and the ``readout`` of the readings
     (:class:`twolink.policy.readout.Readout`; none) are recorded in ``meta`` when they are
     not the paper's, as is ``agent2_link1``, how agent 2's transitions read link 1
-    (:data:`twolink.control.problems.LINK1_READINGS`: ``free``, the paper's, or
+    (:data:`twolink.synthesis.problems.LINK1_READINGS`: ``free``, the paper's, or
     ``locked``, joint 1 held; decentralized on the full model only).
 
     ``links`` > 2: the decentralized agents of the arm ``parameters.chain(links, rule,
-    base=p)`` on its full model (:func:`twolink.control.links_decentralized.synthesize_chain`; ``context``
+    base=p)`` on its full model (:func:`twolink.synthesis.links_decentralized.synthesize_chain`; ``context``
     None takes that construction's default).
     """
     levels, bins = check_levels(levels), fuzzy.check_bins(bins)
@@ -193,13 +193,13 @@ def _synthesize_nominal(kind, p, model, context, gamma, delta, sweeps, refine, p
 
 def _synthesize_links(kind, p, model, context, gamma, delta, sweeps, refine, robust, source,
                       progress, links, rule) -> Policy:
-    """The ``links``-link decentralized agents (twolink.control.links_decentralized), refusing what only
+    """The ``links``-link decentralized agents (twolink.synthesis.links_decentralized), refusing what only
     the two-link synthesis offers."""
     if kind not in KINDS:
         raise ValueError(f"unknown policy kind {kind!r}; choose one of {', '.join(KINDS)}")
     if kind != "decentralized":
         raise ValueError(f"the centralized synthesis of a {links}-link arm is "
-                         f"twolink.control.links_centralized; synthesize builds its decentralized "
+                         f"twolink.synthesis.links_centralized; synthesize builds its decentralized "
                          f"agents")
     if model not in (None, "full"):
         raise ValueError(f"a {links}-link arm is synthesised on its full model, not "

@@ -35,7 +35,7 @@ from twolink.arm import dynamics
 from twolink.arm.integrate import SUBSTEPS, rk4, sample_step, wrap_angle
 from twolink.arm.parameters import TS, ArmParameters
 from twolink.arm.task import in_goal_band
-from twolink.control.time_optimal.nlp import ProblemCache, Solution
+from twolink.limits.nlp import ProblemCache, Solution
 
 #: Margin of slack a hold answer needs (s <= -HOLD_MARGIN: strictly inside the band).
 HOLD_MARGIN = 1e-6

@@ -1,4 +1,4 @@
-"""The definition of an online fuzzy Q-learning run (:mod:`twolink.control.learning`).
+"""The definition of an online fuzzy Q-learning run (:mod:`twolink.synthesis.learning`).
 
 :class:`LearnConfig` holds a run's settings and checks them against the limits below;
 :func:`make_agents` builds the agents a learner learns (their grids, discrete actions and
@@ -14,7 +14,7 @@ import numpy as np
 
 from twolink.arm.parameters import GAMMA, TABLE_I
 from twolink.arm.task import agent_reward, centralized_reward
-from twolink.control.problems import centralized_actions
+from twolink.synthesis.problems import centralized_actions
 from twolink.fqi import fuzzy
 from twolink.policy.fuzzy_policy import Policy
 from twolink.validate import real, whole
@@ -142,7 +142,7 @@ class LearningAgent:
 
 def make_agents(learner: str, p=TABLE_I) -> list:
     """The agents of ``learner`` (:data:`LEARNERS`) in acting order, theta = 0, on the
-    paper's grids (the same grids and actions as :mod:`twolink.control.synthesis`)."""
+    paper's grids (the same grids and actions as :mod:`twolink.synthesis.synthesize`)."""
     ang, spd = fuzzy.angle_axis, fuzzy.speed_axis
     lv1 = np.array([[-p.tau1_max], [0.0], [p.tau1_max]])
     lv2 = np.array([[-p.tau2_max], [0.0], [p.tau2_max]])

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from twolink.arm.parameters import TS
-from twolink.control.time_optimal.symbolic import check_model
+from twolink.limits.symbolic import check_model
 
 #: The format tag of the JSON file.
 FORMAT = "twolink-limits/1"

@@ -26,9 +26,9 @@ import numpy as np
 
 from twolink.arm.parameters import TABLE_I, ArmParameters
 from twolink.arm.task import in_goal_band
-from twolink.control.time_optimal.nlp import ProblemCache
-from twolink.control.time_optimal.search import search, targets_of, wrap_state
-from twolink.control.time_optimal.symbolic import check_model, require_casadi
+from twolink.limits.nlp import ProblemCache
+from twolink.limits.search import search, targets_of, wrap_state
+from twolink.limits.symbolic import check_model, require_casadi
 
 #: IPOPT's settings for the re-solves: the problem expanded to scalar symbols (SX) and a
 #: limited-memory Hessian (no second derivatives of the RK4 step); measured the fastest

@@ -11,7 +11,7 @@
 Transitions f(c_m, u) come from the chosen model sampled over Ts (:func:`model_step`);
 rewards are evaluated on the state reached, r_{k+1}. :func:`solve` and
 :func:`solve_robust` build the transition table and run Alg. 1; the policy-level entry
-point is :func:`twolink.control.synthesis.synthesize`.
+point is :func:`twolink.synthesis.synthesize.synthesize`.
 """
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, ArmParameters
-from twolink.control.time_optimal.symbolic import check_model, require_casadi, step_function
+from twolink.limits.symbolic import check_model, require_casadi, step_function
 
 #: IPOPT's settings (tight: a feasible answer must replay on the numpy model).
 IPOPT_OPTIONS = {

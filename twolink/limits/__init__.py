@@ -19,7 +19,7 @@ initial guesses (:mod:`.search`), gives for each state
 
 ``lower == upper`` pins T*(x) down (up to IPOPT being a local solver).
 
-    >>> from twolink.control.time_optimal import limit
+    >>> from twolink.limits import limit
     >>> r = limit([-1, -3, 0, 0], "full")            # doctest: +SKIP
     >>> r.samples, r.seconds, r.lower, r.upper       # doctest: +SKIP
 
@@ -43,7 +43,7 @@ import numpy as np
 
 from twolink.arm.integrate import SUBSTEPS
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I, TS, ArmParameters
-from twolink.control.time_optimal.symbolic import (
+from twolink.limits.symbolic import (
     INSTALL_HINT,
     MODELS,
     CasadiMissing,
@@ -52,8 +52,8 @@ from twolink.control.time_optimal.symbolic import (
     require_casadi,
     step_function,
 )
-from twolink.control.time_optimal.search import estimate, replay, search, wrap_state
-from twolink.control.time_optimal.table import (
+from twolink.limits.search import estimate, replay, search, wrap_state
+from twolink.limits.table import (
     FORMAT,
     Limit,
     LimitTable,
@@ -134,7 +134,7 @@ _CACHES: dict = {}
 
 def _solve(job) -> Limit:
     """One state's search in this process (the workers' entry point)."""
-    from twolink.control.time_optimal.nlp import ProblemCache
+    from twolink.limits.nlp import ProblemCache
 
     x0, model, params, settings, *rest = job
     verbose = bool(rest and rest[0])

@@ -1,7 +1,7 @@
 """Online fuzzy Q-learning (4)/(5) on the MuJoCo arm: many arms, one shared theta.
 
 The approximator is the one of fuzzy Q-iteration: Q(x, u_j) = sum_m mu_m(x) theta[m, j]
-(12) over the same grids, actions and rewards as :mod:`twolink.control.synthesis`. Three learners:
+(12) over the same grids, actions and rewards as :mod:`twolink.synthesis.synthesize`. Three learners:
 
 * ``centralized`` - one agent over x with the joint actions (16) and reward (15);
 * ``decentralized`` - the paper's ordered agents (18): agent 2 acts first on
@@ -61,7 +61,7 @@ stop flipping the policy; the saved Q is the read theta with the kept action rai
 above its row's best where it trails by at most m. :class:`LearnConfig`'s defaults, which
 ``twolink learn`` takes, are average 200 k (none for the centralized learner), hysteresis
 0.1 and a warm-start scale of 0.5; a checkpoint written without these settings resumes
-with none of them (:data:`twolink.control.learning_setup.LEGACY`).
+with none of them (:data:`twolink.synthesis.learning_setup.LEGACY`).
 
 Arms run episodes of ``episode`` sample periods from random poses (angles uniform,
 at rest), staggered so that resets spread over time. Every random draw comes from one
@@ -71,8 +71,6 @@ curve, so a resumed run continues exactly as an uninterrupted one.
 """
 from __future__ import annotations
 
-import base64
-import dataclasses
 import math
 import time
 from typing import Callable, Optional
@@ -81,16 +79,8 @@ import numpy as np
 
 from twolink.arm.parameters import HORIZON, TABLE_I, TS
 from twolink.artifacts import VERSION as __version__
-from twolink.control.learning_setup import (
-    UPDATES,
-    LearnConfig,
-    make_agents,
-    policy_kind,
-    warm_start,
-)
 from twolink.policy.fuzzy_policy import TIE_TOLERANCE, Agent, Policy
 from twolink.sim.metrics import (
-    Score,
     discounted_return,
     evaluation_set,
     score,
@@ -100,52 +90,25 @@ from twolink.sim.metrics import (
 from twolink.sim.plants import MujocoPlant
 from twolink.sim.progress import progress_bar
 from twolink.sim.rollout import rollout
-from twolink.validate import is_whole, real
+from twolink.synthesis.learning_setup import (
+    UPDATES,
+    LearnConfig,
+    make_agents,
+    policy_kind,
+    warm_start,
+)
+from twolink.synthesis.learning_state import (
+    Evaluation,
+    check_resume_state,
+    indices,
+    pack,
+    unpack,
+)
 
 #: Updates that act as policy (14): every active bin its own action.
 _FUZZY_ACTING = ("fuzzy", "rule", "fql")
 #: Key of the learning provenance in a policy's ``meta``.
 META_KEY = "learning"
-
-
-# --------------------------------------------------------------------------- curve
-@dataclasses.dataclass(frozen=True)
-class Evaluation:
-    """Greedy policy (14) of the current theta on the evaluation set, on MuJoCo: the
-    shared :class:`twolink.sim.metrics.Score` of its runs and when it was taken."""
-
-    steps: int                 # control steps learned so far (all arms)
-    score: Score               # successes, n, Wilson interval, median settle (one plant)
-    mean_return: float         # discounted return of (15), mean over the states
-    seconds: float             # wall time of learning so far (evaluations excluded)
-
-    @property
-    def successes(self) -> int:
-        return self.score.successes
-
-    @property
-    def n(self) -> int:
-        return self.score.n
-
-    @property
-    def rate(self) -> float:
-        return self.score.rate
-
-    @property
-    def median_settle(self) -> float:        # seconds; inf when half or more fail
-        return self.score.median_settle
-
-    def as_dict(self) -> dict:
-        """``steps``, the keys of :meth:`Score.as_dict`, ``mean_return``, ``seconds``."""
-        return {"steps": self.steps, **self.score.as_dict(), "mean_return": self.mean_return,
-                "seconds": self.seconds}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> Evaluation:
-        """A curve point of :meth:`as_dict` or of an older checkpoint (no interval, no
-        worst plant: :meth:`twolink.sim.metrics.Score.from_dict`)."""
-        return cls(int(d["steps"]), Score.from_dict(d), float(d["mean_return"]),
-                   float(d["seconds"]))
 
 
 def evaluate(policy: Policy, plant, x0: Optional[np.ndarray] = None, *, steps: int = 0,
@@ -316,7 +279,7 @@ class Learner:
         for a, q, kept in zip(self.agents, read, self.kept or [None] * len(read)):
             if kept is not None:           # the kept action raised just above the row's best
                 rows = np.flatnonzero(_greedy(q) != kept)
-                patched[a.name] = {"rows": rows.tolist(), "values": _pack(q[rows])}
+                patched[a.name] = {"rows": rows.tolist(), "values": pack(q[rows])}
                 q[rows, kept[rows]] = q[rows].max(axis=1) + 4 * TIE_TOLERANCE
         agents = [Agent(a.name, a.grid, a.actions, q, a.outputs,
                         {"learned": True, "link_reward": a.link,
@@ -331,9 +294,9 @@ class Learner:
                 "curve": [e.as_dict() for e in self.curve]}
         if resume:
             info["resume"] = {"rng": self.rng.bit_generator.state,
-                              "x": _pack(self.x), "clock": self.clock.tolist()}
+                              "x": pack(self.x), "clock": self.clock.tolist()}
             if self.theta_bar is not None:       # the policy holds theta_bar; theta here
-                info["resume"]["theta"] = {a.name: _pack(a.theta) for a in self.agents}
+                info["resume"]["theta"] = {a.name: pack(a.theta) for a in self.agents}
             if self.kept is not None:            # the read rows before the kept actions
                 info["resume"]["patched"] = patched
                 info["resume"]["kept"] = {a.name: k.tolist()
@@ -383,7 +346,7 @@ class Learner:
                nthread: int = 1) -> "Learner":
         """A learner continuing from a checkpoint (a policy saved with ``resume=True``);
         ``steps`` may extend the run's total. Every field of the resume state is checked
-        (:func:`check_resume_state`: types, sizes, ranges) before anything is built; a
+        (:func:`twolink.synthesis.learning_state.check_resume_state`: types, sizes, ranges) before anything is built; a
         bad one is a one-line ValueError "malformed learning checkpoint (...)"."""
         info = policy.meta.get(META_KEY)
         if not isinstance(info, dict) or "resume" not in info:
@@ -409,9 +372,9 @@ class Learner:
                                      f"{a.theta.shape}")
                 q = np.array(q, dtype=float)
                 if self.kept is not None:
-                    rows = _indices(state["patched"][a.name]["rows"], len(q), "patched rows")
-                    q[rows] = _unpack(state["patched"][a.name]["values"], (len(rows), q.shape[1]))
-                    kept = _indices(state["kept"][a.name], q.shape[1], "kept actions")
+                    rows = indices(state["patched"][a.name]["rows"], len(q), "patched rows")
+                    q[rows] = unpack(state["patched"][a.name]["values"], (len(rows), q.shape[1]))
+                    kept = indices(state["kept"][a.name], q.shape[1], "kept actions")
                     if kept.shape != (len(q),):
                         raise ValueError("malformed learning checkpoint (kept actions)")
                     self.kept[k] = kept
@@ -419,7 +382,7 @@ class Learner:
                     a.theta = q
                 else:
                     self.theta_bar[k] = q
-                    a.theta = _unpack(state["theta"][a.name], a.theta.shape)
+                    a.theta = unpack(state["theta"][a.name], a.theta.shape)
             try:
                 self.rng.bit_generator.state = state["rng"]
             except (KeyError, TypeError, ValueError) as exc:
@@ -435,73 +398,6 @@ class Learner:
         self.init_label = info.get("init")
         self.curve = state["curve"]
         return self
-
-
-def check_resume_state(info: dict, config: LearnConfig) -> dict:
-    """The checked resume state of a checkpoint's learning metadata ``info`` for a run of
-    ``config``: the arms' states ``x`` (arms, 4) and episode clocks ``clock`` (arms,),
-    ``iterations`` and ``learn_seconds`` (numbers, not text), the learning ``curve``
-    (evaluations), plus the raw ``rng``, ``theta``, ``patched`` and ``kept`` entries.
-    Anything missing, of the wrong type or size, negative or not finite is a one-line
-    ValueError "malformed learning checkpoint (<field>: ...)"; so is a checkpoint
-    already past ``config.steps``."""
-    def bad(why: str) -> ValueError:
-        return ValueError(f"malformed learning checkpoint ({why})")
-
-    state = info.get("resume")
-    if not isinstance(state, dict):
-        raise bad("resume must be an object")
-    for key in ("rng", "x", "clock"):
-        if key not in state:
-            raise bad(f"no {key}")
-    if not isinstance(state["rng"], dict):
-        raise bad("rng must be an object")
-    arms = config.arms
-    x = state["x"]
-    if isinstance(x, str):
-        x = _unpack(x, (arms, 4), "x")
-    else:
-        try:
-            x = np.asarray(x)
-        except (TypeError, ValueError):
-            raise bad("x must be base64 text or a list of numbers") from None
-        if x.dtype.kind not in "iuf" or x.size != 4 * arms or not np.all(np.isfinite(x)):
-            raise bad(f"x must hold {4 * arms} finite numbers (4 per arm), got "
-                      f"{x.size} values of dtype {x.dtype}")
-        x = x.astype(float).reshape(arms, 4)
-    clock = np.asarray(state["clock"]) if isinstance(state["clock"], list) else None
-    if clock is None or clock.dtype.kind not in "iu" or clock.shape != (arms,) \
-            or np.any(clock < 0):
-        raise bad(f"clock must be a list of {arms} non-negative whole numbers (one per arm)")
-    iterations = info.get("iterations")
-    if not is_whole(iterations) or iterations < 0:
-        raise bad(f"iterations must be a non-negative whole number, got {iterations!r}")
-    seconds = info.get("learn_seconds")
-    try:
-        seconds = real(seconds, "learn_seconds", 0)
-    except ValueError as exc:
-        raise bad(str(exc)) from None
-    if not isinstance(info.get("curve"), list) or \
-            not all(isinstance(e, dict) for e in info["curve"]):
-        raise bad("curve must be a list of evaluations")
-    try:
-        curve = [Evaluation.from_dict(e) for e in info["curve"]]
-    except (KeyError, TypeError, ValueError) as exc:
-        raise bad(f"curve: {exc}") from None
-    if iterations * arms > config.steps:
-        raise ValueError(f"the checkpoint is at {iterations * arms} steps, beyond the "
-                         f"{config.steps} asked for")
-    return {**state, "x": x, "clock": clock.astype(np.int64), "iterations": int(iterations),
-            "learn_seconds": float(seconds), "curve": curve}
-
-
-def _indices(values, size: int, what: str) -> np.ndarray:
-    """``values`` as an int64 array of indices in [0, size), else the checkpoint error."""
-    arr = np.asarray(values) if isinstance(values, list) else None
-    if arr is None or (arr.size and arr.dtype.kind not in "iu") \
-            or (arr.size and (arr.min() < 0 or arr.max() >= size)):
-        raise ValueError(f"malformed learning checkpoint ({what})")
-    return arr.astype(np.int64).reshape(-1)
 
 
 def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarray,
@@ -530,27 +426,6 @@ def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarra
     hit = weight > 0
     flat[hit] += np.minimum(1.0, alpha * weight[hit]) * total[hit] / weight[hit]
     return theta
-
-
-def _pack(a: np.ndarray) -> str:
-    """float64 array as base64 text (exact, and half the size of decimal JSON)."""
-    return base64.b64encode(np.ascontiguousarray(a, dtype="<f8").tobytes()).decode("ascii")
-
-
-def _unpack(text: str, shape: tuple, what: str = "theta") -> np.ndarray:
-    """The float64 array of ``shape`` packed by :func:`_pack`, else a one-line ValueError
-    naming ``what`` (wrong size, not base64, not finite)."""
-    try:
-        raw = base64.b64decode(text.encode("ascii"), validate=True)
-    except (ValueError, AttributeError) as exc:
-        raise ValueError(f"malformed learning checkpoint ({what}: {exc})") from None
-    if len(raw) != 8 * math.prod(shape):
-        raise ValueError(f"malformed learning checkpoint ({what} of {len(raw)} bytes, "
-                         f"expected {8 * math.prod(shape)})")
-    arr = np.frombuffer(raw, dtype="<f8").reshape(shape).astype(float)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"malformed learning checkpoint ({what} not finite)")
-    return arr
 
 
 def _greedy(q: np.ndarray) -> np.ndarray:
