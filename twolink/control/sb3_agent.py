@@ -23,12 +23,17 @@ would unpickle the cloudpickled entries of its ``data``, which can run any code)
 Anything else (a member too large, another policy class or features extractor, missing
 or extra weights, weights of other shapes) is one :class:`ControllerError` line.
 
-:class:`SB3Agent` maps states (n, 4) to torques (n, 2) as the training environment
+:class:`SB3Agent` maps states (n, 2N) to torques (n, N) as the training environment
 (:class:`twolink.envs.sb3.TwoLinkSB3VecEnv`, ``actions='normalized'``) does: the
-observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'`` or
-``'state'``, told apart by the saved observation space's size), the policy's
-deterministic action, clipped to [-1, 1] and scaled to +-tau_max. SB3 is imported only
-when an agent is built: without it, one line saying the rl extras are needed.
+observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'``, 3N
+numbers, or ``'state'``, 2N, told apart by the saved observation space's size), the
+policy's deterministic action, clipped to [-1, 1] and scaled to +-tau_max. N is the size
+of the saved action space (2 to 6); an agent of N > 2 links names its arm's link rule in
+the optional member ``twolink.json`` (:mod:`twolink.control.agent_meta`, ``{"schema":
+"twolink.agent", "version": 1, "links": N, "rule": "tapered"|"copied"}``, which
+``twolink train`` writes), whose ``links`` must agree with the spaces; tau_max is then
+that of :func:`twolink.arm.parameters.chain` (Table I's for two links). SB3 is imported
+only when an agent is built: without it, one line saying the rl extras are needed.
 
 Its ``meta`` holds the algorithm, seed, environment steps trained and the file; no
 ``"model"``: the agent names no model a compensator could predict with, so the
@@ -48,7 +53,8 @@ from pathlib import Path
 import numpy as np
 
 from twolink.arm.observations import features
-from twolink.arm.parameters import TABLE_I
+from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, chain
+from twolink.control.agent_meta import AGENT_MEMBER, agent_arm
 from twolink.sim.controller import ControllerError
 
 #: Attributes only each algorithm's save holds (in its ``data`` JSON).
@@ -93,10 +99,11 @@ def _line(text, limit: int = 160) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def read_save(path, members=READ) -> dict:
-    """``{name: bytes}`` of the ``members`` of the SB3 save at ``path``, read only after
-    every member's declared size and their total are within :data:`MAX_BYTES`; a one-line
-    ControllerError when the file is missing, not a zip, too large, or lacks a member."""
+def read_save(path, members=READ, optional=()) -> dict:
+    """``{name: bytes}`` of the ``members`` of the SB3 save at ``path`` (and of those of
+    ``optional`` it holds), read only after every member's declared size and their total
+    are within :data:`MAX_BYTES`; a one-line ControllerError when the file is missing, not
+    a zip, too large, or lacks a member."""
     path = Path(path)
     if not path.is_file():
         raise ControllerError(f"agent file {path} does not exist")
@@ -123,7 +130,7 @@ def read_save(path, members=READ) -> dict:
         if not all(m in names for m in members):
             raise ControllerError(f"{path} is not a Stable-Baselines3 save (the zip holds no "
                                   f"{' and '.join(members)})")
-        return {m: _read_member(z, path, m) for m in members}
+        return {m: _read_member(z, path, m) for m in (*members, *optional) if m in names}
 
 
 def _read_member(z: zipfile.ZipFile, path: Path, name: str) -> bytes:
@@ -220,27 +227,30 @@ def _space(data: dict, key: str, path) -> tuple:
     return tuple(shape), low, high, dtype
 
 
-def _observation(data: dict, path) -> str:
-    """The observation the agent was trained on, from its saved space's size (4: the
-    state, 6: cos/sin of two links)."""
+def _observation(data: dict, path, links: int = 2) -> str:
+    """The observation the agent of ``links`` links was trained on, from its saved space's
+    size (2N: the state, 3N: its cos/sin features)."""
     shape = (data.get("observation_space") or {}).get("_shape") \
         if isinstance(data.get("observation_space"), dict) else None
-    by_size = {(4,): "state", (6,): "cos_sin"}
+    by_size = {(2 * links,): "state", (3 * links,): "cos_sin"}
     shape = tuple(shape) if isinstance(shape, list) else None
     if shape not in by_size:
         raise ControllerError(f"{path}: the agent observes shape {_line(shape, 40)}; a "
-                              f"two-link agent observes the state (4,) or its cos/sin "
-                              f"features (6,)")
+                              f"{links}-link agent observes the state ({2 * links},) or its "
+                              f"cos/sin features ({3 * links},)")
     return by_size[shape]
 
 
 def _action_space(data: dict, path) -> tuple:
-    """(low, high, dtype) of the saved action space, which must be the Box [-1, 1]^2."""
+    """(low, high, dtype) of the saved action space, which must be a Box [-1, 1]^N with
+    N from 2 to 6 (the arm's links)."""
     shape, low, high, dtype = _space(data, "action_space", path)
-    if shape != (2,) or not (np.all(low == -1.0) and np.all(high == 1.0)):
+    if not MIN_LINKS <= shape[0] <= MAX_LINKS or \
+            not (np.all(low == -1.0) and np.all(high == 1.0)):
         raise ControllerError(f"{path}: the agent's actions are a Box of shape {shape} from "
                               f"{low.tolist()} to {high.tolist()}; the controller runs "
-                              f"normalized actions, a Box [-1, 1]^2")
+                              f"normalized actions, a Box [-1, 1]^N of N = {MIN_LINKS} to "
+                              f"{MAX_LINKS} links")
     return low, high, dtype
 
 
@@ -318,7 +328,7 @@ def _policy_kwargs(data: dict, algo: str, path) -> dict:
     return out
 
 
-def _parameter_count(algo: str, n_obs: int, kwargs: dict) -> int:
+def _parameter_count(algo: str, n_obs: int, kwargs: dict, n_act: int = 2) -> int:
     """How many weights the policy of these kwargs has (about: its linear layers)."""
     default = [64, 64] if algo == "ppo" else [256, 256]
     arch = kwargs.get("net_arch") or {k: default for k in
@@ -329,9 +339,9 @@ def _parameter_count(algo: str, n_obs: int, kwargs: dict) -> int:
         return sum(a * b + b for a, b in zip(sizes, sizes[1:]))
 
     if algo == "ppo":
-        return chain(n_obs, arch["pi"], 2) + chain(n_obs, arch["vf"], 1)
-    return chain(n_obs, arch["pi"], 4) + 2 * kwargs.get("n_critics", 2) * chain(
-        n_obs + 2, arch["qf"], 1)
+        return chain(n_obs, arch["pi"], n_act) + chain(n_obs, arch["vf"], 1)
+    return chain(n_obs, arch["pi"], 2 * n_act) + 2 * kwargs.get("n_critics", 2) * chain(
+        n_obs + n_act, arch["qf"], 1)
 
 
 def _policy_class(data: dict, algo: str, path) -> None:
@@ -359,6 +369,7 @@ def load_policy(path, data: dict, algo: str, weights: bytes):
     _policy_class(data, algo, path)
     shape, low, high, dtype = _space(data, "observation_space", path)
     a_low, a_high, a_dtype = _action_space(data, path)
+    n_act = len(a_low)
     kwargs = _policy_kwargs(data, algo, path)
     if algo == "ppo":
         use_sde = data.get("use_sde", False)
@@ -366,7 +377,7 @@ def load_policy(path, data: dict, algo: str, weights: bytes):
             raise ControllerError(f"{path}: its use_sde is {_line(use_sde, 40)}, not true "
                                   f"or false")
         kwargs["use_sde"] = use_sde
-    count = _parameter_count(algo, shape[0], kwargs)
+    count = _parameter_count(algo, shape[0], kwargs, n_act)
     if count > MAX_BYTES // 4:
         raise ControllerError(f"{path}: its net_arch asks for about {count:,} weights, more "
                               f"than a policy.pth of {MAX_BYTES:,} bytes holds")
@@ -385,7 +396,7 @@ def load_policy(path, data: dict, algo: str, weights: bytes):
     else:
         from stable_baselines3.sac.policies import SACPolicy as policy_class
     observation_space = spaces.Box(low.astype(dtype), high.astype(dtype), shape, dtype=dtype)
-    action_space = spaces.Box(a_low.astype(a_dtype), a_high.astype(a_dtype), (2,),
+    action_space = spaces.Box(a_low.astype(a_dtype), a_high.astype(a_dtype), (n_act,),
                               dtype=a_dtype)
     try:
         policy = policy_class(observation_space, action_space, lambda _: 0.0, **kwargs)
@@ -414,7 +425,7 @@ def load_policy(path, data: dict, algo: str, weights: bytes):
 
 
 def model_torques(model, x, observation: str, tau_max) -> np.ndarray:
-    """Torques (..., 2) of an SB3 ``model`` or policy (in memory) at states x (..., 4):
+    """Torques (..., N) of an SB3 ``model`` or policy (in memory) at states x (..., 2N):
     its deterministic action on the features ``observation`` of x
     (:func:`twolink.arm.observations.features`), clipped to [-1, 1] and scaled to
     +-``tau_max``."""
@@ -424,16 +435,24 @@ def model_torques(model, x, observation: str, tau_max) -> np.ndarray:
 
 
 class SB3Agent:
-    """The SB3 agent saved at ``path`` as a controller: states (n, 4) -> torques (n, 2)
+    """The SB3 agent saved at ``path`` as a controller: states (n, 2N) -> torques (n, N)
     (see the module docstring); ``name`` the file's stem unless given. Its ``policy`` is
-    the rebuilt SB3 policy (:func:`load_policy`)."""
+    the rebuilt SB3 policy (:func:`load_policy`), ``links`` N and ``rule`` the link rule
+    (None for two links). ``params`` (two links only) replaces Table I's tau_max."""
 
-    def __init__(self, path, *, name: str | None = None, params=TABLE_I):
+    def __init__(self, path, *, name: str | None = None, params=None):
         path = Path(path)
-        members = read_save(path)
+        members = read_save(path, optional=(AGENT_MEMBER,))
         data = _parse_data(members["data"], path)
         self.algo = _algorithm(data, path)
-        self.observation = _observation(data, path)
+        self.links, self.rule = agent_arm(path, len(_action_space(data, path)[0]),
+                                          members.get(AGENT_MEMBER))
+        if params is None:
+            params = TABLE_I if self.links == 2 else chain(self.links, self.rule)
+        elif params.links != self.links:
+            raise ControllerError(f"{path}: a {self.links}-link agent given the parameters "
+                                  f"of {params.links} links")
+        self.observation = _observation(data, path, self.links)
         try:
             import stable_baselines3 as sb3
         except ImportError:
@@ -444,10 +463,11 @@ class SB3Agent:
         self.path = path
         self.meta = {"algo": self.algo, "seed": data.get("seed"),
                      "steps": data.get("num_timesteps"), "observation": self.observation,
+                     "links": self.links, "rule": self.rule,
                      "file": str(path), "stable_baselines3": sb3.__version__}
 
     def __call__(self, x) -> np.ndarray:
-        """Torques (..., 2) of states x (..., 4): the clipped deterministic action scaled
+        """Torques (..., N) of states x (..., 2N): the clipped deterministic action scaled
         to +-tau_max."""
         return model_torques(self.policy, x, self.observation, self.tau_max)
 
