@@ -122,14 +122,15 @@ EXECUTORS = ("local", "ray")
 
 def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
                 limits: np.ndarray, plants: int, seed: int, nthread=None,
-                progress: bool = False) -> Entry:
+                progress: bool = False, timeout: float | None = None) -> Entry:
     """One row: ``controller`` (a controller, or a spec for
     :func:`twolink.control.controllers.resolve_controller`) under ``level`` in ``mode``,
-    evaluated from ``x0`` against ``limits``; ``progress`` shows the evaluation's bar."""
+    evaluated from ``x0`` against ``limits``; ``progress`` shows the evaluation's bar;
+    ``timeout`` limits each call of the controller (:func:`twolink.sim.controller.checked`)."""
     if isinstance(controller, str):
         from twolink.control.controllers import resolve_controller
         controller = resolve_controller(controller)
-    meter = TorqueMeter(checked(controller, name=name))
+    meter = TorqueMeter(checked(controller, name=name, timeout=timeout))
     ch = LEVELS[level]
     t0 = time.perf_counter()
     ev = evaluate(meter, x0=x0, challenge=ch, seed=seed,
@@ -141,14 +142,14 @@ def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
                  meter.mean, time.perf_counter() - t0)
 
 
-def _ray_rows(tasks, done, *, address) -> list:
+def _ray_rows(tasks, done, *, address, timeout=None) -> list:
     """Every task of :func:`measure_row` on Ray, one CPU each; ``done(i, entry)`` as each
     ends; the entries in task order."""
     from twolink.sim.cells import ray_session
 
     with ray_session(address, None, "--address") as ray:
         remote = ray.remote(num_cpus=1)(measure_row)
-        refs = [remote.remote(*task, nthread=1) for task in tasks]
+        refs = [remote.remote(*task, nthread=1, timeout=timeout) for task in tasks]
         index = {ref: i for i, ref in enumerate(refs)}
         out = [None] * len(refs)
         pending = list(refs)
@@ -163,7 +164,7 @@ def _ray_rows(tasks, done, *, address) -> list:
 def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(LEVELS),
         plants: int = 32, seed: int = SEED, log=None, executor: str = "local",
         address: str | None = None, specs: dict | None = None,
-        progress: bool = False) -> list[Entry]:
+        progress: bool = False, timeout: float | None = None) -> list[Entry]:
     """Every controller (``{name: controller}``) x level x mode (:func:`modes_for`) from
     the states ``x0`` (n, 4) whose limits are ``limits`` (n,) seconds; ``plants`` plants
     per level that perturbs the plant. ``log(line)`` hears of every finished row.
@@ -171,7 +172,7 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
     initialised Ray or a new local one); ``specs`` (``{name: spec}``) sends those
     controllers to Ray by spec instead of pickled (a file's callable then imports there).
     ``progress``: each local row's evaluation bar besides the ``log`` lines (Ray rows
-    have none)."""
+    have none). ``timeout``: seconds one call of a controller may take (none by default)."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     levels = [challenge(name).name for name in levels]
@@ -196,10 +197,10 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
 
         tasks = [(absolute_spec(specs.get(name, controllers[name])), name, level, mode, x0,
                   limits, plants, seed) for name, level, mode in cells]
-        return _ray_rows(tasks, done, address=address)
+        return _ray_rows(tasks, done, address=address, timeout=timeout)
     rows = []
     for i, (name, level, mode) in enumerate(cells):
         rows.append(measure_row(controllers[name], name, level, mode, x0, limits, plants,
-                                seed, progress=progress))
+                                seed, progress=progress, timeout=timeout))
         done(i, rows[-1])
     return rows
