@@ -22,6 +22,8 @@ from twolink.control.catalogue import (
     shipped_entries,
 )
 from twolink.control.learned import LEARNED_AGENTS
+from twolink.control.catalogue import links_pd_name
+from twolink.control.links_pd import TUNED
 from twolink.policy.registry import SHIPPED
 
 TWOLINK = str(Path(sys.executable).parent / "twolink")
@@ -36,14 +38,16 @@ def _write(path, controllers, **doc):
 def test_the_shipped_entries_are_every_registry_once():
     names = [e.name for e in shipped_entries()]
     assert len(names) == len(set(names))
-    assert set(names) == set(SHIPPED) | set(BASELINES) | set(LEARNED_AGENTS)
+    links_pd = {links_pd_name(n, rule) for n, rule in TUNED}     # the N-link PD entries
+    assert set(names) == set(SHIPPED) | set(BASELINES) | links_pd | set(LEARNED_AGENTS)
     bench = [e.name for e in entries(tag="benchmark")]
     assert sorted(bench) == sorted(BENCHMARK) and len(bench) <= 12
     assert {e.name for e in entries(tag="paper")} == {n for n, p in SHIPPED.items() if p.paper}
     assert {e.name for e in entries(tag="n-link")} == {n for n, p in SHIPPED.items()
-                                                       if p.links > 2}
+                                                       if p.links > 2} | links_pd
     assert lookup("lqr").kind == "centralized" and lookup("pd").kind == "decentralized"
-    assert [e.links for e in entries(links=3)] == [3]
+    assert [e.name for e in entries(links=3)] == ["decentralized_3link", "pd_3link_copied",
+                                                   "pd_3link_tapered"]
 
 
 @pytest.mark.parametrize("name", ["centralized", "decentralized_locked_gain", "lqr",
@@ -131,7 +135,7 @@ def test_the_command_lists_the_catalogue(capsys):
     assert main(["controllers", "--tag", "baseline"]) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[0].split()[:4] == ["name", "kind", "links", "tags"]
-    assert f"{len(BASELINES)} controllers." in out
+    assert f"{len(BASELINES) + len(TUNED)} controllers." in out
 
 
 def test_the_command_says_an_unknown_tag_in_one_line_within_a_second(tmp_path):

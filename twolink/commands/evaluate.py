@@ -9,17 +9,35 @@ unless --compensate puts the delay predictor and observer in front of it. A prog
 (samples Ts simulated) goes to stderr, as lines when it is not a terminal, unless --json.
 The controller gets read-only copies of the states; what it prints goes to stderr, so
 --json output stays valid; --timeout ends a call that runs too long.
+
+With --links N (2 to 6) the controller is scored on the scaling table's protocol instead
+(twolink.sim.pose_scoring): --poses K random poses at rest of the N-link arm (--rule
+tapered or copied), drawn from seed S + N (default S: the scaling table's 20061122), run
+for the arm's horizon (5 s for two links, 8 s beyond) on MuJoCo, success = settled in the
+goal band 1 s before the end; it prints k/n with the Wilson interval and the median
+settle time, the numbers of the scaling table's row of that controller. The two-link
+options (--challenge, --compensate, --plants, --states) do not apply there.
 """
 from __future__ import annotations
 
 import json
 import math
 
+from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
 from twolink.commands import SUMMARIES
 from twolink.sim.challenges import LEVELS
 from twolink.sim.controller import MAX_TIMEOUT, MIN_TIMEOUT
+from twolink.sim.metrics import MAX_POSES
 
 STATE_SETS = ("full", "quick")
+#: Poses of ``--links N`` by default and their seed: the scaling table's
+#: (:data:`twolink.studies.scaling.measure.DEFAULT_POSES`, ``EVAL_SEED``; a test holds
+#: them equal).
+DEFAULT_POSES = 64
+POSE_SEED = 20061122
+#: Options of the two-link evaluation that ``--links`` does not take, and vice versa.
+TWO_LINK_OPTIONS = ("challenge", "compensate", "plants", "states")
+LINKS_OPTIONS = ("rule", "poses")
 
 
 def add_parser(sub):
@@ -28,16 +46,18 @@ def add_parser(sub):
     p.add_argument("controller", metavar="CONTROLLER",
                    help="shipped policy or baseline name, a policy .npz, module:callable or "
                         "path/to/file.py:callable")
-    p.add_argument("--challenge", default="none", metavar="LEVEL",
+    p.add_argument("--challenge", default=None, metavar="LEVEL",
                    help=f"challenge level ({', '.join(LEVELS)}; default none)")
     p.add_argument("--compensate", action="store_true",
                    help="run behind the delay predictor and observer (the controller must "
                         "name its model in meta['model']); default: plain")
-    p.add_argument("--plants", type=int, default=32, metavar="K",
+    p.add_argument("--plants", type=int, default=None, metavar="K",
                    help="plants drawn for a level that perturbs the plant (default 32)")
-    p.add_argument("--seed", type=int, default=2026, metavar="S",
-                   help="seed of the plants, noise and faults (default 2026)")
-    p.add_argument("--states", choices=STATE_SETS, default="full",
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help=f"seed of the plants, noise and faults (default 2026); with --links, "
+                        f"of the poses (drawn from S + N; default {POSE_SEED}, the scaling "
+                        f"table's)")
+    p.add_argument("--states", choices=STATE_SETS, default=None,
                    help="initial states: the 65 of the evaluation set (full) or every 13th "
                         "(quick)")
     p.add_argument("--json", action="store_true",
@@ -46,7 +66,79 @@ def add_parser(sub):
                    help=f"end the run (exit status 2) when one call of the controller takes "
                         f"longer than this, from {MIN_TIMEOUT:g} to {MAX_TIMEOUT:g} s "
                         f"(default: no limit)")
+    p.add_argument("--links", type=int, default=None, metavar="N",
+                   help=f"score on the scaling table's protocol on an arm of N links "
+                        f"({MIN_LINKS} to {MAX_LINKS}): random poses at rest, the arm's "
+                        f"horizon, settled 1 s before the end")
+    p.add_argument("--rule", default=None, choices=LINK_RULES,
+                   help="how links beyond the second are made (with --links N > 2; "
+                        "default the catalogue entry's rule, else tapered)")
+    p.add_argument("--poses", type=int, default=None, metavar="K",
+                   help=f"random poses at rest with --links (1 to {MAX_POSES}; default "
+                        f"{DEFAULT_POSES})")
     return p
+
+
+def links_result(controller: str, *, links: int, rule: str | None = None,
+                 poses: int = DEFAULT_POSES, seed: int = POSE_SEED,
+                 timeout: float | None = None) -> dict:
+    """The JSON of ``twolink evaluate --links N``: ``controller`` (a catalogue name,
+    policy file, ``module:callable`` or ``file.py:callable`` for N links) scored by
+    :func:`twolink.sim.pose_scoring.score_on_poses`, the scaling table's scorer, on
+    ``poses`` random poses at rest drawn from ``seed + links`` over the arm's horizon
+    (:func:`twolink.arm.parameters.horizon`). ``rule`` defaults to the catalogue entry's
+    (``pd_3link_copied`` runs on the copied arm), else ``'tapered'``. A ValueError (one line) for links outside
+    the arm's range, an unknown rule, a rule with two links, poses outside 1 ..
+    :data:`MAX_POSES` or a seed outside 0 .. 2**63 - 1 - N."""
+    from twolink.arm.parameters import check_links, horizon
+    from twolink.control.controllers import resolve_controller
+    from twolink.envs.core import arm
+    from twolink.sim.controller import check_timeout, checked
+    from twolink.sim.pose_scoring import score_on_poses
+    from twolink.validate import whole
+
+    if isinstance(links, bool) or not isinstance(links, int) \
+            or not MIN_LINKS <= links <= MAX_LINKS:
+        raise ValueError(f"--links must be a whole number from {MIN_LINKS} to {MAX_LINKS} "
+                         f"(the arms twolink builds), got {links}")
+    n = check_links(links)
+    if rule is not None and rule not in LINK_RULES:
+        raise ValueError(f"--rule must be one of {', '.join(LINK_RULES)}, got {rule!r}")
+    if rule is not None and n == 2:
+        raise ValueError("--rule makes links beyond the second; --links 2 is Table I's arm")
+    whole(poses, "--poses", 1, MAX_POSES)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63 - n:
+        raise ValueError(f"--seed must be a whole number from 0 to {2**63 - 1 - n} (poses "
+                         f"are drawn from seed + N), got {seed}")
+    timeout = check_timeout(timeout, "--timeout")
+    from twolink.control.catalogue import catalogue
+    entry = catalogue().get(controller)   # a catalogue entry says which arm it is for
+    if entry is not None and entry.links != n:
+        raise ValueError(f"{controller} controls an arm of {entry.links} links; give "
+                         f"--links {entry.links} (got --links {n})")
+    if entry is not None and n > 2 and entry.rule is not None:
+        if rule is not None and rule != entry.rule:
+            raise ValueError(f"{controller} controls the {entry.rule} arm of {n} links; "
+                             f"give --rule {entry.rule} or leave it out (got --rule {rule})")
+        rule = entry.rule
+    params = arm(links=n, rule=rule)
+    c = resolve_controller(controller, links=n)
+    own = getattr(c.controller, "links", None)
+    if isinstance(own, int) and not isinstance(own, bool) and own != n:
+        raise ValueError(f"{c.name} controls an arm of {own} links; give --links {own} "
+                         f"(got --links {n})")
+    c = checked(c, name=c.name, links=n, timeout=timeout)
+    end = horizon(n)
+    drawn, scores = score_on_poses(c, params, poses=int(poses), seed=seed, durations=(end,))
+    return {"controller": c.name, "links": n, "rule": rule_of(params),
+            "protocol": "random poses at rest (twolink.sim.pose_scoring)",
+            "poses": int(poses), "seed": seed, "poses_seed": drawn, "horizon": end,
+            **scores[end].as_dict()}
+
+
+def rule_of(params) -> str:
+    """The link rule of an arm, or ``'Table I'`` for the two-link arm."""
+    return getattr(params, "rule", None) if params.links > 2 else "Table I"
 
 
 def result(controller: str, *, challenge: str = "none", compensate: bool = False,
@@ -88,11 +180,49 @@ def result(controller: str, *, challenge: str = "none", compensate: bool = False
     return out
 
 
+def _given(args, names) -> list:
+    return [f"--{n}" for n in names if getattr(args, n) not in (None, False)]
+
+
+def run_links(args) -> int:
+    """``twolink evaluate NAME --links N``: print :func:`links_result`."""
+    from twolink.viz.formatting import format_rate
+
+    extra = _given(args, TWO_LINK_OPTIONS)
+    if extra and not (extra == ["--challenge"] and args.challenge == "none"):
+        raise ValueError(f"{', '.join(extra)} {'is a' if len(extra) == 1 else 'are'} two-link "
+                         f"evaluation option{'s' if len(extra) > 1 else ''} (the 65 states "
+                         f"and challenges); --links N scores random poses at rest")
+    r = links_result(args.controller, links=args.links, rule=args.rule,
+                     poses=DEFAULT_POSES if args.poses is None else args.poses,
+                     seed=POSE_SEED if args.seed is None else args.seed,
+                     timeout=args.timeout)
+    if args.json:
+        print(json.dumps(r, indent=2))
+        return 0
+    settle = "never" if r["median_settle"] is None else f"{r['median_settle']:.2f} s"
+    arm = "two links" if r["links"] == 2 else f"{r['links']} links, {r['rule']}"
+    print(f"{r['controller']} on {arm} ({r['poses']} random poses at rest, seed "
+          f"{r['seed']} + {r['links']}, {r['horizon']:g} s): "
+          f"{format_rate(r['successes'], r['n'])}; median settle {settle}")
+    return 0
+
+
 def run(args) -> int:
     from twolink.viz.formatting import format_rate
 
-    r = result(args.controller, challenge=args.challenge, compensate=args.compensate,
-               plants=args.plants, seed=args.seed, states=args.states,
+    if args.links is not None:
+        return run_links(args)
+    if _given(args, LINKS_OPTIONS):
+        raise ValueError(f"{', '.join(_given(args, LINKS_OPTIONS))} need --links N (the "
+                         f"scaling table's protocol); without it evaluate scores the two-link "
+                         f"arm on the 65 states")
+    r = result(args.controller,
+               challenge="none" if args.challenge is None else args.challenge,
+               compensate=args.compensate,
+               plants=32 if args.plants is None else args.plants,
+               seed=2026 if args.seed is None else args.seed,
+               states="full" if args.states is None else args.states,
                progress=not args.json, timeout=args.timeout)
     if args.json:
         print(json.dumps(r, indent=2))

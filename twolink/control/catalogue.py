@@ -8,7 +8,9 @@ imported until :meth:`Entry.load`.
 
 The shipped entries are read from the registries that define them, so nothing is spelt
 twice: the shipped fuzzy policies (:data:`twolink.policy.registry.SHIPPED`), the
-classical baselines (:data:`twolink.control.baselines.BASELINES`) and the shipped learned agents
+classical baselines (:data:`twolink.control.baselines.BASELINES`), the per-joint PD of
+N-link arms with its tuned gains (:data:`twolink.control.links_pd.TUNED`, entries
+``pd_<N>link_<rule>``, tagged ``baseline`` and ``n-link``) and the shipped learned agents
 (:data:`twolink.control.learned.LEARNED_AGENTS`). :data:`BENCHMARK` names the rows of
 the default leaderboard.
 
@@ -160,9 +162,39 @@ def _learned() -> list:
             for name, path in LEARNED_AGENTS.items()]
 
 
+def links_pd_name(links: int, rule: str) -> str:
+    """The catalogue name of the tuned per-joint PD of an N-link arm: ``pd_3link_tapered``
+    .. ``pd_6link_copied`` (one entry per (links, rule) of
+    :data:`twolink.control.links_pd.TUNED`)."""
+    return f"pd_{links}link_{rule}"
+
+
+def links_pd(links: int, rule: str):
+    """The tuned per-joint saturated PD of the arm ``chain(links, rule)``
+    (:func:`twolink.control.links_pd.tuned`), named by :func:`links_pd_name`: the entry
+    point of the ``pd_<N>link_<rule>`` entries."""
+    from twolink.arm.parameters import chain
+    from twolink.control.links_pd import tuned
+
+    return tuned(chain(links, rule), name=links_pd_name(links, rule))
+
+
+def _links_pd() -> list:
+    from twolink.control.links_pd import TUNED
+
+    return [Entry(name=links_pd_name(n, rule), kind="decentralized", links=n, rule=rule,
+                  tags=("baseline", "n-link"), entry="twolink.control.catalogue:links_pd",
+                  data={"links": n, "rule": rule},
+                  description=f"per-joint saturated PD of {n} {rule} links (sat "
+                              f"{t['sat_deg']:g} deg, zeta {t['zeta']:g}; "
+                              f"twolink.control.links_pd.TUNED)")
+            for (n, rule), t in sorted(TUNED.items())]
+
+
 def shipped_entries() -> list:
-    """The entries twolink ships, in report order: fuzzy policies, baselines, learned."""
-    return [*_shipped_policies(), *_baselines(), *_learned()]
+    """The entries twolink ships, in report order: fuzzy policies, baselines (the
+    two-link ones, then the tuned N-link PD: :func:`links_pd_name`), learned."""
+    return [*_shipped_policies(), *_baselines(), *_links_pd(), *_learned()]
 
 
 def catalogue_files(files=()) -> list:

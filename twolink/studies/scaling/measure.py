@@ -43,17 +43,15 @@ from twolink.arm.parameters import (
     MAX_LINKS,
     MIN_LINKS,
     TABLE_I,
-    TS,
     as_chain,
     chain,
     check_links,
-    horizon,
+    horizon,  # noqa: F401 (the docstring's horizon)
 )
 from twolink.artifacts import provenance
-from twolink.sim.metrics import Score, random_poses, score, settle_time, success
-from twolink.sim.plants import make_plant
+from twolink.sim.metrics import Score, random_poses  # noqa: F401 (documented above)
+from twolink.sim.pose_scoring import horizons, score_on_poses, truncated  # noqa: F401
 from twolink.sim.progress import progress_bar
-from twolink.sim.rollout import Trajectory, rollout
 from twolink.studies.scaling.synthesis import (
     LEVER_ARGMAX_DEG,
     LEVER_LEVELS,
@@ -91,12 +89,6 @@ STATUSES = ("run", "refused", "not run (quick)", "failed")
 
 _GIB = 2.0**30
 _MAX_SEED = 2**63 - MAX_LINKS
-
-
-def horizons(links: int) -> tuple:
-    """Every horizon reported for N links: (5 s,) for N = 2, (5 s, 8 s) for N >= 3."""
-    long = horizon(links)
-    return (HORIZON,) if long == HORIZON else (HORIZON, long)
 
 
 def machine_bytes() -> int:
@@ -250,31 +242,15 @@ def params_of(links: int, rule: str):
     return TABLE_I if check_links(links) == 2 else chain(links, rule)
 
 
-def truncated(traj: Trajectory, duration: float) -> Trajectory:
-    """The first ``duration`` seconds of ``traj`` (the plant and policy are causal and
-    deterministic, so this is the shorter rollout)."""
-    k = int(round(duration / TS))
-    if not 1 <= k <= traj.steps:
-        raise ValueError(f"cannot cut a {traj.t[-1]:g} s trajectory at {duration:g} s")
-    return dataclasses.replace(traj, t=traj.t[:k + 1], x=traj.x[..., :k + 1, :],
-                               u=traj.u[..., :k, :], r=traj.r[..., :k],
-                               r_links=traj.r_links[..., :k, :])
-
-
 def evaluate(policy, links: int, rule: str, *, poses: int = DEFAULT_POSES,
              seed: int = EVAL_SEED) -> Evaluation:
     """Run ``policy`` on MuJoCo from ``poses`` random poses at rest
     (:func:`random_poses` with ``seed + links``) for :func:`horizon` seconds and score every
-    horizon of :func:`horizons` on that run."""
+    horizon of :func:`horizons` on that run: :func:`twolink.sim.pose_scoring.score_on_poses`,
+    the one scorer ``twolink evaluate --links N`` uses too."""
     poses = check_poses(poses)
-    x0 = random_poses(links, poses, seed + links)
-    with make_plant("mujoco", params_of(links, rule)) as plant:
-        traj = rollout(policy, plant, x0, duration=horizon(links))
-    out = {}
-    for h in horizons(links):
-        part = truncated(traj, h)
-        out[f"{h:g}"] = score(success(part), settle_time(part)).as_dict()
-    return Evaluation(poses, seed + links, out)
+    drawn, scores = score_on_poses(policy, params_of(links, rule), poses=poses, seed=seed)
+    return Evaluation(poses, drawn, {f"{h:g}": s.as_dict() for h, s in scores.items()})
 
 
 def pd_note(links: int, rule: str) -> str:
