@@ -30,12 +30,6 @@ def baseline_names() -> tuple:
     return tuple(BASELINES)
 
 
-def _baseline(name: str):
-    from twolink.control.baselines import baseline
-
-    return baseline(name)
-
-
 def absolute_spec(spec):
     """``spec`` with the file it names (a ``file.py:callable``'s file, a policy ``.npz``)
     made absolute, so that it names the same file from another working directory (a
