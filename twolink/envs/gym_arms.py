@@ -36,9 +36,12 @@ from twolink.envs.core import (
     wrap_angles,
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
-from twolink.sim.plants import MujocoPlant, check_states
+from twolink.sim.plants import ModelPlant, MujocoPlant, check_states
 from twolink.validate import choice, is_real, is_whole, numbers, real, real_array
 
+#: The plants the arms may step on: MuJoCo (one ``mujoco.rollout`` call per Ts) or the
+#: full model (6)-(9) (N links: the rigid-body chain) integrated by numpy, batched.
+ENV_PLANTS = ("mujoco", "full")
 #: ``'box'``: torques in +-tau_max (float64); ``'discrete'``: the 3^N joint actions;
 #: ``'normalized'``: a float32 Box [-1, 1]^N scaled to +-tau_max (what deep RL libraries
 #: expect; Stable-Baselines3's checker warns about any other Box).
@@ -75,8 +78,10 @@ def _hold(u):
 
 
 class Arms:
-    """N arms under one :class:`MujocoPlant` (one ``mujoco.rollout`` call per Ts): states,
-    per-arm generators, step counts, and the challenges of :mod:`twolink.sim.perturbations`.
+    """N arms under one :class:`MujocoPlant` (one ``mujoco.rollout`` call per Ts; or, with
+    ``plant='full'``, the numpy :class:`ModelPlant` of the full model, a fixed plant only):
+    states, per-arm generators, step counts, and the challenges of
+    :mod:`twolink.sim.perturbations`.
 
     Each arm draws from its own generator, in the order: random plant (a perturbation
     size or a challenge's spread), x0 (``'random'``), then at every observation its noise
@@ -86,7 +91,8 @@ class Arms:
 
     def __init__(self, rows: int, *, params, observation: str, actions: str,
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
-                 nthread, challenge=None, links=None, rule=None, reward="paper"):
+                 nthread, challenge=None, links=None, rule=None, reward="paper",
+                 plant="mujoco"):
         if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
             raise ValueError(f"params must be an ArmParameters or a ChainParameters, got "
                              f"{type(params).__name__}")
@@ -127,7 +133,14 @@ class Arms:
         self._noisy = self.sensors.noisy
         self._delay = ActuationDelay(_hold, delay)                     # checks the delay
         self.table = joint_actions(params)      # the controller's levels, not the plant's
-        self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
+        self.plant_name = choice(plant, "plant", ENV_PLANTS)
+        if self.plant_name == "full":
+            if size:
+                raise ValueError("plant='full' steps one fixed plant; a perturbation size or a "
+                                 "challenge draws a new plant per episode (use plant='mujoco')")
+            self.plant = ModelPlant("full", fixed)
+        else:
+            self.plant = MujocoPlant([params] * rows if size else fixed, nthread=nthread)
         self.rngs: list = [None] * rows
         self.x = np.zeros((rows, 2 * n))
         self.k = np.zeros(rows, dtype=int)

@@ -7,7 +7,9 @@ batched episode core of the Gymnasium environments: the same options as
 ``'normalized'`` | ``'discrete'``, ``reward`` ``'paper'`` | ``'shaped'``, ``x0``,
 ``time_limit``, ``params``, ``perturbation``, the noise, ``delay``, ``challenge``,
 ``nthread``, ``links``, ``rule``), the same spaces, and arm i's episodes equal those of a
-``TwoLinkEnv`` reset with seed s + i, bit for bit.
+``TwoLinkEnv`` reset with seed s + i, bit for bit. ``plant='full'`` steps the arms on the
+full model (6)-(9) (N links: the rigid-body chain) integrated by numpy instead of MuJoCo
+(a fixed plant: no perturbation size or challenge).
 
 SB3's conventions, not Gymnasium's vector ones:
 
@@ -55,13 +57,14 @@ class TwoLinkSB3VecEnv(VecEnv):
                  time_limit: float | None = None, params=None, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
                  challenge=None, nthread: int | None = None, links: int | None = None,
-                 rule: str | None = None):
+                 rule: str | None = None, plant: str = "mujoco"):
         whole(num_envs, "num_envs", 1, MAX_ENVS)
         self._arms = Arms(int(num_envs), params=params, observation=observation,
                           actions=actions, x0=x0, time_limit=time_limit,
                           perturbation=perturbation, angle_noise=angle_noise,
                           speed_noise=speed_noise, delay=delay, nthread=nthread,
-                          challenge=challenge, links=links, rule=rule, reward=reward)
+                          challenge=challenge, links=links, rule=rule, reward=reward,
+                          plant=plant)
         self.links = self._arms.links
         self.render_mode = None          # VecEnv.__init__ reads it through get_attr
         self._actions = None
@@ -82,7 +85,8 @@ class TwoLinkSB3VecEnv(VecEnv):
 
     @property
     def plant(self):
-        """The :class:`twolink.sim.plants.MujocoPlant` stepping every arm."""
+        """The plant stepping every arm (:class:`twolink.sim.plants.MujocoPlant`, or the
+        full model's :class:`twolink.sim.plants.ModelPlant` with ``plant='full'``)."""
         return self._live().plant
 
     # ------------------------------------------------------------------ the VecEnv API

@@ -1,0 +1,130 @@
+"""``twolink train``: deep RL on the arm with Stable-Baselines3 (:mod:`twolink.training`).
+
+Trains PPO or SAC on N = 2..6 links, evaluates the deterministic policy on fixed poses
+every --eval-every steps, rewrites the learning curve and a checkpoint after every
+evaluation, and saves the final agent as a controller (``agent.zip``). ``--resume``
+continues an interrupted run exactly as if it had never stopped.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from twolink.commands import SUMMARIES
+from twolink.commands._options import seed_option
+from twolink.resources import output_dir
+from twolink.training.config import (
+    ALGOS,
+    DEVICES,
+    EVAL_EVERY,
+    HYPERPARAMETERS,
+    LATER_ALGOS,
+    MAX_STEPS,
+    PLANTS,
+    TrainConfig,
+    check_algo,
+)
+from twolink.viz.formatting import format_rate
+
+
+def _count(text, option: str, low: int = 1, high: int = MAX_STEPS) -> int | None:
+    """A whole number written as 1000000, 1_000_000 or 1e6 (None stays None); else a
+    one-line ValueError naming ``option``."""
+    if text is None:
+        return None
+    try:
+        value = float(str(text).replace("_", ""))
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value != int(value) or not low <= value <= high:
+        raise ValueError(f"{option} must be a whole number from {low:,} to {high:,}, got "
+                         f"{text!r}")
+    return int(value)
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "train", help=SUMMARIES["train"],
+        description="Train a deep-RL agent on the arm with Stable-Baselines3 (PPO or SAC) "
+                    "on many arms stepped together: cos/sin observations, normalized "
+                    "actions, the shaped reward, random poses at rest. Every --eval-every "
+                    "steps the deterministic policy is scored on MuJoCo (two links: the "
+                    "65-state evaluation set, 5 s; N links: 64 random poses at rest, 8 s) "
+                    "and the learning curve (DIR/curve.json) and a checkpoint "
+                    "(DIR/checkpoint.pt) are rewritten; the final agent is DIR/<algo>_<N>links_seed<S>.zip, "
+                    "a controller for evaluate, leaderboard, rollout and render. Needs the "
+                    "rl extras (scripts/install-rl-extras.sh).")
+    p.add_argument("--algo", default=None, metavar="|".join(ALGOS + LATER_ALGOS),
+                   help=f"the learner (default ppo); {' and '.join(LATER_ALGOS)} "
+                        f"(multi-agent, from skrl) come in a later step")
+    p.add_argument("--links", type=int, default=None, metavar="N",
+                   help="links of the arm, 2 to 6 (default 2)")
+    p.add_argument("--rule", choices=("tapered", "copied"), default=None,
+                   help="how links beyond two are made (default tapered)")
+    p.add_argument("--steps", default=None, metavar="N",
+                   help="environment steps, all arms together, e.g. 1e6 (default 1e6), "
+                        "rounded up to whole updates; with --resume the new total")
+    p.add_argument("--seed", default=None, help="seed of the learner and arms (default 0)")
+    p.add_argument("--plant", choices=tuple(PLANTS), default=None,
+                   help="what the arms are stepped on while training: mujoco (default) or "
+                        "model, the full model (6) integrated by numpy; evaluation is on "
+                        "MuJoCo either way")
+    p.add_argument("--envs", default=None, metavar="M",
+                   help=f"arms per batch (default PPO {HYPERPARAMETERS['ppo']['n_envs']}, "
+                        f"SAC {HYPERPARAMETERS['sac']['n_envs']})")
+    p.add_argument("--n-steps", default=None, metavar="K",
+                   help=f"PPO: steps per arm between updates (default "
+                        f"{HYPERPARAMETERS['ppo']['n_steps']})")
+    p.add_argument("--eval-every", default=None, metavar="N",
+                   help=f"environment steps between evaluations and checkpoints (default "
+                        f"PPO {EVAL_EVERY['ppo']:,}, SAC {EVAL_EVERY['sac']:,})")
+    p.add_argument("--device", choices=DEVICES, default=None,
+                   help="where torch runs the networks (default cpu; resume is bit for bit "
+                        "on the CPU)")
+    p.add_argument("--threads", default=None, metavar="T",
+                   help="torch CPU threads (default 1: the networks are small)")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="the run's folder (default <output>/train/<algo>_<N>links_seed<S>)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted run in DIR from its last checkpoint")
+    p.add_argument("--json", action="store_true", help="print the final record as JSON")
+    return p
+
+
+def given_options(args) -> dict:
+    """The options given on the command line, checked, by TrainConfig field."""
+    if args.algo is not None:
+        check_algo(args.algo)
+    given = {"algo": args.algo, "links": args.links, "rule": args.rule,
+             "steps": _count(args.steps, "--steps"),
+             "seed": None if args.seed is None else seed_option(args.seed, high=2**32 - 1),
+             "plant": args.plant, "envs": _count(args.envs, "--envs", 1, 4096),
+             "n_steps": _count(args.n_steps, "--n-steps", 2, 100_000),
+             "eval_every": _count(args.eval_every, "--eval-every"),
+             "device": args.device, "threads": _count(args.threads, "--threads", 1, 256)}
+    return {k: v for k, v in given.items() if v is not None}
+
+
+def run(args) -> int:
+    from twolink.training.run import CURVE, train
+
+    given = given_options(args)
+    config = None if args.resume else TrainConfig(**given)
+    default = config or TrainConfig(**{k: v for k, v in given.items()
+                                       if k in ("algo", "links", "seed")})
+    out = args.out or output_dir(create=False) / "train" / (
+        f"{default.algo}_{default.links}links_seed{default.seed}")
+    record = train(config if config is not None else given, out, resume=args.resume,
+                   progress=lambda text: print(text, file=sys.stderr, flush=True))
+    last = record["curve"][-1]
+    if args.json:
+        print(json.dumps(record, indent=1))
+    else:
+        print(f"{record['config']['algo']} on {record['config']['links']} links, seed "
+              f"{record['config']['seed']}: {record['steps']:,} steps in "
+              f"{record['wall_s']:.0f} s of training ({record['steps_per_s'] or 0:.0f} "
+              f"steps/s); final policy {format_rate(last['successes'], last['n'])}; agent "
+              f"{out / record['agent']}, curve {out / CURVE}")
+    return 0

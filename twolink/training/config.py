@@ -1,0 +1,157 @@
+"""What one deep-RL training run is: :class:`TrainConfig`, checked whole before any work.
+
+The agent sees and does what :data:`ENV` says (the options of
+:class:`twolink.envs.sb3.TwoLinkSB3VecEnv`): the cos/sin observation (3N numbers),
+normalized actions (a float32 Box [-1, 1]^N scaled to +-tau_max), the shaped reward
+(:func:`twolink.envs.core.shaped_reward`), random initial angles at rest, episodes of
+:func:`twolink.arm.parameters.horizon` seconds (5 s for two links, 8 s beyond). One
+hyperparameter set per algorithm (:data:`HYPERPARAMETERS`), stated once, never tuned
+per seed; ``--envs`` and ``--n-steps`` change the batch only.
+
+Training stops, evaluates and checkpoints at update boundaries only: every
+:meth:`TrainConfig.unit` environment steps (PPO: one rollout of ``n_steps`` per arm;
+SAC: one vector step of all arms), so ``steps`` and ``eval_every`` are rounded up to
+whole units.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from twolink.arm.parameters import LINK_RULES, check_links
+from twolink.validate import choice, whole
+
+#: The algorithms ``twolink train`` runs (Stable-Baselines3).
+ALGOS = ("ppo", "sac")
+#: Multi-agent algorithms named for a later step (skrl); refused for now.
+LATER_ALGOS = ("ippo", "mappo")
+#: ``--plant``: what the arms are stepped on while training -> the env's ``plant`` option.
+#: ``mujoco``: MuJoCo, one ``mujoco.rollout`` call per Ts; ``model``: the full model (6)
+#: (N links: the rigid-body chain) integrated by numpy, batched. Evaluation is on MuJoCo.
+PLANTS = {"mujoco": "mujoco", "model": "full"}
+#: ``--device``: where torch runs the networks.
+DEVICES = ("cpu", "cuda")
+#: What the agent sees and does (the options of TwoLinkSB3VecEnv).
+ENV = dict(observation="cos_sin", actions="normalized", reward="shaped", x0="random")
+#: One hyperparameter set per algorithm (those of the committed agents of
+#: ``renders/deep_rl/``). SAC: one gradient step per vector step of 8 arms; on a CPU the
+#: gradient steps, not the arms, bound the wall time, so more arms buy data at no cost.
+HYPERPARAMETERS = {
+    "sac": dict(n_envs=8, learning_rate=3e-4, buffer_size=1_000_000, batch_size=256,
+                learning_starts=5_000, gamma=0.98, tau=0.005, train_freq=1,
+                gradient_steps=1, ent_coef="auto", net_arch=[256, 256]),
+    "ppo": dict(n_envs=16, learning_rate=3e-4, n_steps=128, batch_size=256, n_epochs=10,
+                gamma=0.98, gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, vf_coef=0.5,
+                max_grad_norm=0.5, net_arch=[256, 256]),
+}
+#: Environment steps between evaluations by default, per algorithm.
+EVAL_EVERY = {"sac": 10_000, "ppo": 50_000}
+#: Most environment steps a run may ask for, arms per batch, torch threads.
+MAX_STEPS = 10**10
+MAX_ENVS = 4096
+MAX_THREADS = 256
+#: Seed of the N-link evaluation poses (N links draw from EVAL_SEED + N): the scaling
+#: table's (:data:`twolink.studies.scaling.measure.EVAL_SEED`), so the two compare.
+EVAL_SEED = 20061122
+#: Random poses at rest an N-link evaluation runs (the scaling table's default).
+EVAL_POSES = 64
+
+
+def check_algo(algo) -> str:
+    """``algo`` if ``twolink train`` runs it; the multi-agent ones are one line saying when."""
+    if algo in LATER_ALGOS:
+        raise ValueError(f"--algo {algo} (multi-agent, from skrl) comes in a later step; "
+                         f"choose one of {', '.join(ALGOS)} for now")
+    return choice(algo, "algo", ALGOS)
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """One training run. ``steps``: environment steps (all arms together); ``envs``:
+    arms per batch (default the algorithm's ``n_envs``); ``n_steps``: PPO's rollout
+    length per arm (default 128); ``eval_every``: environment steps between evaluations
+    and checkpoints (default :data:`EVAL_EVERY`); ``threads``: torch's CPU threads."""
+
+    algo: str = "ppo"
+    links: int = 2
+    rule: str = "tapered"
+    steps: int = 1_000_000
+    seed: int = 0
+    plant: str = "mujoco"
+    envs: int | None = None
+    n_steps: int | None = None
+    eval_every: int | None = None
+    device: str = "cpu"
+    threads: int = 1
+
+    def __post_init__(self):
+        check_algo(self.algo)
+        check_links(self.links)
+        choice(self.rule, "rule", LINK_RULES)
+        choice(self.plant, "plant", tuple(PLANTS))
+        choice(self.device, "device", DEVICES)
+        whole(self.steps, "steps", 1, MAX_STEPS)
+        whole(self.seed, "seed", 0, 2**32 - 1)          # SB3 seeds numpy with it
+        whole(self.threads, "threads", 1, MAX_THREADS)
+        if self.envs is not None:
+            whole(self.envs, "envs", 1, MAX_ENVS)
+        if self.n_steps is not None:
+            if self.algo != "ppo":
+                raise ValueError("n_steps (the rollout length per arm) is PPO's; SAC "
+                                 "updates after every vector step")
+            whole(self.n_steps, "n_steps", 2, 100_000)
+        if self.eval_every is not None:
+            whole(self.eval_every, "eval_every", 1, MAX_STEPS)
+
+    def hyperparameters(self) -> dict:
+        """The algorithm's :data:`HYPERPARAMETERS` with this run's arms and rollout length
+        (PPO's minibatch held to at most one rollout)."""
+        hp = dict(HYPERPARAMETERS[self.algo])
+        if self.envs is not None:
+            hp["n_envs"] = self.envs
+        if self.algo == "ppo":
+            if self.n_steps is not None:
+                hp["n_steps"] = self.n_steps
+            hp["batch_size"] = min(hp["batch_size"], hp["n_steps"] * hp["n_envs"])
+        return hp
+
+    def unit(self) -> int:
+        """Environment steps between update boundaries (PPO: a rollout of all arms; SAC:
+        one vector step)."""
+        hp = self.hyperparameters()
+        return hp["n_envs"] * (hp["n_steps"] if self.algo == "ppo" else hp["train_freq"])
+
+    def _whole_units(self, steps: int) -> int:
+        return self.unit() * math.ceil(steps / self.unit())
+
+    def total_steps(self) -> int:
+        """``steps`` rounded up to whole units."""
+        return self._whole_units(self.steps)
+
+    def every(self) -> int:
+        """``eval_every`` (or the default) rounded up to whole units."""
+        return self._whole_units(self.eval_every or EVAL_EVERY[self.algo])
+
+    def env_options(self) -> dict:
+        """The options of :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` for this run."""
+        return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
+                    plant=PLANTS[self.plant], nthread=1)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
+    IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
+                "device", "threads")
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TrainConfig":
+        """The config of ``d`` (:meth:`as_dict`); a ValueError naming a field it lacks or
+        one that is not a field."""
+        if not isinstance(d, dict):
+            raise ValueError("a training config is a dict of its fields")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ValueError(f"unknown training option {unknown[0]!r}")
+        return cls(**d)

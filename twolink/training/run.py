@@ -1,0 +1,272 @@
+"""One deep-RL training run on the arm: build, train, evaluate, checkpoint, save the agent.
+
+:func:`train` trains a Stable-Baselines3 learner (:data:`twolink.training.config.ALGOS`)
+on :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` (all arms of a batch in one
+``mujoco.rollout`` call per Ts, or the numpy full model) and writes into its folder:
+
+* ``curve.json`` (:data:`CURVE_SCHEMA`): the run's config, hyperparameters, evaluation
+  protocol and versions, and one point per evaluation (environment steps, successes of
+  n, rate, Wilson 95 % interval, median settle time, training wall and CPU seconds,
+  steps per second), rewritten atomically after every point;
+* ``checkpoint.pt`` (:mod:`twolink.training.checkpoint`), rewritten atomically at the
+  same points, from which ``resume=True`` continues exactly;
+* ``<algo>_<N>links_seed<S>.zip`` (:func:`agent_name`), the final policy (never one picked by its score) as an SB3 save with
+  the ``twolink.json`` member of :mod:`twolink.control.agent_meta`: a controller for
+  :mod:`twolink.control.sb3_agent` (``twolink evaluate/leaderboard/rollout --controller``).
+
+Evaluation (before the first step, every ``eval_every`` steps and after the last) runs
+the deterministic policy on MuJoCo: for two links the 65-state evaluation set for 5 s
+(:func:`twolink.sim.evaluation.evaluate`, the paper's metric); for N links
+:data:`~twolink.training.config.EVAL_POSES` random poses at rest
+(:func:`twolink.sim.metrics.random_poses`, seed ``EVAL_SEED + N``) for 8 s, the scaling
+table's protocol. Success: settled in the goal band from 1 s before the end on.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from twolink.arm.parameters import horizon
+from twolink.artifacts import VERSION as TWOLINK_VERSION
+from twolink.artifacts import atomic_path, write_json
+from twolink.control.agent_meta import AGENT_MEMBER, agent_record
+from twolink.control.sb3_agent import NEEDS_RL, model_torques
+from twolink.envs.core import arm
+from twolink.training import checkpoint
+from twolink.training.config import EVAL_POSES, EVAL_SEED, TrainConfig
+
+#: Schema and version of ``curve.json``.
+CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
+#: The files of a run's folder (the agent's: :func:`agent_name`).
+CURVE, CHECKPOINT = "curve.json", "checkpoint.pt"
+#: The fields of a curve point that are clocks (the rest are the same bit for bit in a
+#: resumed run).
+CLOCKS = ("wall_s", "cpu_s", "steps_per_s")
+
+
+def _imports():
+    try:
+        import stable_baselines3
+        import torch
+    except ImportError:
+        raise RuntimeError(f"twolink train {NEEDS_RL}") from None
+    return stable_baselines3, torch
+
+
+def versions() -> dict:
+    sb3, torch = _imports()
+    return {"twolink": TWOLINK_VERSION, "python": platform.python_version(),
+            "stable_baselines3": sb3.__version__, "torch": torch.__version__}
+
+
+def build(config: TrainConfig):
+    """(model, env): the seeded SB3 model of ``config`` on its vector environment."""
+    sb3, torch = _imports()
+    from twolink.envs.sb3 import TwoLinkSB3VecEnv
+
+    if config.device == "cuda" and not torch.cuda.is_available():
+        raise RuntimeError("--device cuda: torch sees no CUDA device here (torch "
+                           f"{torch.__version__}); train with --device cpu")
+    torch.set_num_threads(config.threads)
+    hp = config.hyperparameters()
+    n_envs, net = hp.pop("n_envs"), hp.pop("net_arch")
+    env = TwoLinkSB3VecEnv(n_envs, **config.env_options())
+    cls = sb3.SAC if config.algo == "sac" else sb3.PPO
+    model = cls("MlpPolicy", env, seed=config.seed, device=config.device, verbose=0,
+                policy_kwargs=dict(net_arch=net), **hp)
+    return model, env
+
+
+class PolicyController:
+    """An SB3 policy in memory under the controller protocol: states (n, 2N) -> torques
+    (n, N), the clipped deterministic action scaled to +-tau_max."""
+
+    def __init__(self, policy, params, name: str = "sb3"):
+        self.policy, self.tau_max, self.links = policy, params.tau_max, params.links
+        self.name = name
+
+    def __call__(self, x):
+        return model_torques(self.policy, x, "cos_sin", self.tau_max)
+
+
+def evaluation_protocol(config: TrainConfig) -> dict:
+    """What an evaluation of ``config``'s agent runs (recorded in the curve)."""
+    if config.links == 2:
+        return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
+                "plant": "mujoco"}
+    return {"states": f"twolink.sim.metrics.random_poses({config.links}, {EVAL_POSES}, "
+                      f"{EVAL_SEED} + {config.links})", "horizon_s": horizon(config.links),
+            "plant": "mujoco"}
+
+
+def evaluate_policy(policy, config: TrainConfig):
+    """The :class:`twolink.sim.metrics.Score` of the deterministic ``policy`` under the
+    evaluation protocol of ``config`` (see the module docstring)."""
+    params = arm(links=config.links, rule=None if config.links == 2 else config.rule)
+    agent = PolicyController(policy, params)
+    if config.links == 2:
+        from twolink.sim.evaluation import evaluate
+
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
+    from twolink.sim.metrics import random_poses, score, settle_time, success
+    from twolink.sim.plants import MujocoPlant
+    from twolink.sim.rollout import rollout
+
+    x0 = random_poses(config.links, EVAL_POSES, EVAL_SEED + config.links)
+    with MujocoPlant(params, nthread=1) as plant:
+        traj = rollout(agent, plant, x0, duration=horizon(config.links))
+    return score(success(traj), settle_time(traj))
+
+
+def save_agent(model, path, config: TrainConfig) -> Path:
+    """The SB3 save of ``model`` at ``path`` (atomically) with the ``twolink.json`` member
+    naming its arm, so :mod:`twolink.control.sb3_agent` loads it."""
+    import zipfile
+
+    record = agent_record(config.links, config.rule, algo=config.algo, seed=config.seed,
+                          steps=int(model.num_timesteps), plant=config.plant)
+    with atomic_path(path) as tmp:
+        model.save(tmp)
+        with zipfile.ZipFile(tmp, "a", zipfile.ZIP_DEFLATED) as z:
+            z.writestr(AGENT_MEMBER, json.dumps(record))
+    return Path(path)
+
+
+def agent_name(config: TrainConfig) -> str:
+    """The file name of the run's agent (its stem labels it on the leaderboard)."""
+    return f"{config.algo}_{config.links}links_seed{config.seed}.zip"
+
+
+def _point(steps: int, sc, wall: float, cpu: float) -> dict:
+    med = sc.median_settle
+    return {"steps": int(steps), "successes": int(sc.successes), "n": int(sc.n),
+            "rate": sc.rate, "wilson_95": [float(v) for v in sc.wilson_95],
+            "median_settle": None if math.isinf(med) else float(med),
+            "wall_s": round(wall, 3), "cpu_s": round(cpu, 3),
+            "steps_per_s": round(steps / wall, 1) if wall > 0 and steps else None}
+
+
+def _check_resume(header: dict, given, path: Path) -> TrainConfig:
+    """The config of the checkpoint ``header`` with ``given`` applied (a TrainConfig, or a
+    dict of the options given; None: none): every field of
+    :attr:`TrainConfig.IDENTITY` given must be the checkpoint's, ``steps`` may change;
+    and this machine's Stable-Baselines3 must be the checkpoint's."""
+    saved = TrainConfig.from_dict(header.get("config"))
+    if isinstance(given, TrainConfig):
+        given = given.as_dict()
+    given = {k: v for k, v in (given or {}).items() if v is not None}
+    for name in TrainConfig.IDENTITY:
+        if name in given and given[name] != getattr(saved, name):
+            raise ValueError(f"{path} is a checkpoint of a run with {name} "
+                             f"{getattr(saved, name)!r}, not {given[name]!r}")
+    if "steps" in given:
+        saved = TrainConfig.from_dict(dict(saved.as_dict(), steps=given["steps"]))
+    mine = versions()
+    theirs = (header.get("versions") or {}).get("stable_baselines3")
+    if theirs != mine["stable_baselines3"]:
+        raise ValueError(f"{path} was written by Stable-Baselines3 {theirs}, this is "
+                         f"{mine['stable_baselines3']}: it cannot resume exactly")
+    return saved
+
+
+def _state_of(out: Path) -> str:
+    """``'new'`` (no run in ``out``), ``'finished'`` or ``'interrupted'``."""
+    curve = out / CURVE
+    if not curve.is_file() and not (out / CHECKPOINT).is_file():
+        return "new"
+    try:
+        record = json.loads(curve.read_text())
+        done = record.get("done") is True and (out / str(record.get("agent"))).is_file()
+    except (OSError, ValueError, AttributeError):
+        done = False
+    return "finished" if done else "interrupted"
+
+
+def train(config, out, *, resume: bool = False, progress=None) -> dict:
+    """Run the training of ``config`` (a :class:`TrainConfig`) into the folder ``out``,
+    or, ``resume``, continue the run of ``out/checkpoint.pt`` (``config``: None, or the
+    options given, a TrainConfig or a dict, which must be the checkpoint's run; ``steps``
+    may grow it); the final curve record. ``progress(text)`` gets one line per
+    evaluation. A folder holding a finished run is never written over, nor one holding
+    an interrupted run unless ``resume``."""
+    out = Path(out)
+    state = _state_of(out)
+    if state == "finished":
+        raise ValueError(f"{out} holds a finished run (its agent and {CURVE}); train "
+                         f"into another --out")
+    if state == "interrupted" and not resume:
+        raise ValueError(f"{out} holds an interrupted run; --resume continues it, or give "
+                         f"another --out")
+    if resume:
+        if state == "new":
+            raise ValueError(f"no run in {out} to resume (no {CHECKPOINT})")
+        header, tensors = checkpoint.load(out / CHECKPOINT)
+        config = _check_resume(header, config, out / CHECKPOINT)
+    elif not isinstance(config, TrainConfig):
+        raise ValueError("give a TrainConfig (or resume=True)")
+    total, every = config.total_steps(), config.every()
+    model, env = build(config)
+    record = {"schema": CURVE_SCHEMA, "version": CURVE_VERSION, "config": config.as_dict(),
+              "hyperparameters": config.hyperparameters(), "env": config.env_options(),
+              "evaluation": evaluation_protocol(config), "steps_requested": total,
+              "eval_every": every, "versions": versions(),
+              "machine": {"cpus": os.cpu_count(), "torch_threads": config.threads,
+                          "device": config.device}, "curve": [], "done": False}
+    clocks = {"wall_s": 0.0, "cpu_s": 0.0}
+    if resume:
+        if header["steps"] > total:
+            raise ValueError(f"{out / CHECKPOINT} is at {header['steps']:,} steps, past the "
+                             f"{total:,} asked for")
+        checkpoint.restore(model, env, header["plain"], tensors)
+        record["curve"], clocks = header["curve"], header["clocks"]
+        record["resumed_at"] = header.get("resumed_at", []) + [header["steps"]]
+    out.mkdir(parents=True, exist_ok=True)
+    say = progress or (lambda text: None)
+    try:
+        _loop(config, model, env, out, record, clocks, total, every, say)
+    finally:
+        env.close()
+    return record
+
+
+def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
+    def point() -> None:
+        sc = evaluate_policy(model.policy, config)
+        record["curve"].append(_point(model.num_timesteps, sc, clocks["wall_s"],
+                                      clocks["cpu_s"]))
+        plain, tensors = checkpoint.capture(model, env)
+        header = {"config": config.as_dict(), "versions": record["versions"],
+                  "steps": int(model.num_timesteps), "plain": plain,
+                  "curve": record["curve"], "clocks": clocks}
+        if "resumed_at" in record:
+            header["resumed_at"] = record["resumed_at"]
+        checkpoint.save(out / CHECKPOINT, header, tensors)
+        write_json(out / CURVE, record)
+        lo, hi = sc.wilson_95
+        p = record["curve"][-1]
+        say(f"train {config.algo} {config.links} links seed {config.seed}: "
+            f"{model.num_timesteps:,}/{total:,} steps  {sc.successes}/{sc.n} succeed "
+            f"[{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
+
+    if not record["curve"]:
+        point()
+    while model.num_timesteps < total:
+        chunk = min(every - model.num_timesteps % every, total - model.num_timesteps)
+        wall, cpu = time.perf_counter(), time.process_time()
+        model.learn(total_timesteps=chunk, reset_num_timesteps=model.num_timesteps == 0,
+                    log_interval=None, progress_bar=False)
+        clocks["wall_s"] += time.perf_counter() - wall
+        clocks["cpu_s"] += time.process_time() - cpu
+        point()
+    save_agent(model, out / agent_name(config), config)
+    record.update(done=True, steps=int(model.num_timesteps), agent=agent_name(config),
+                  wall_s=round(clocks["wall_s"], 3), cpu_s=round(clocks["cpu_s"], 3),
+                  steps_per_s=round(model.num_timesteps / clocks["wall_s"], 1)
+                  if clocks["wall_s"] > 0 else None)
+    write_json(out / CURVE, record)
