@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 # The installed-stamps name the interpreter's version, so a new PYTHON misses them.
 PYVER := $(shell $(PYTHON) -c 'import platform; print(platform.python_version())' 2>/dev/null)
 
-.PHONY: demo test system-deps venv venv-test bench bench-quick docs docs-serve clean
+.PHONY: demo test system-deps venv venv-test bench bench-quick docs docs-serve clean results
 
 # demo needs twolink alone; test and the benchmarks also need '.[test]' (pytest and
 # the peer libraries the benchmarks and tests compare against).
@@ -48,6 +48,13 @@ docs: venv
 
 docs-serve: docs
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs serve
+
+# The committed results (renders/, docs/data/reproduce.json), regenerated on purpose: the
+# studies with TWOLINK_OUTPUT=renders, then docs/generate.py (scripts/results.sh; hours for
+# all of them). STEPS picks some: make results STEPS="leaderboard-md docs".
+STEPS ?=
+results: venv
+	bash scripts/results.sh $(VENV) $(STEPS)
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info

@@ -2,7 +2,7 @@
 # Usage: scripts/ci-wheel-smoke.sh [PYTHON]   (default python3)
 # Installs twolink NON-editable (`pip install .` of a clean copy of the checkout's files)
 # into a fresh virtual environment and runs the commands from a folder outside the
-# checkout, checking that outputs land where the README says: ./renders/ under the
+# checkout, checking that outputs land where the README says: ./twolink-results/ under the
 # working directory by default, $TWOLINK_OUTPUT when set, an explicit -o as given.
 set -euo pipefail
 python=${1:-python3}
@@ -59,10 +59,10 @@ step "load_policy('decentralized')"; t0=$SECONDS
 "$bin/python" -c 'from twolink.policy import load_policy; load_policy("decentralized")'
 took
 
-step "twolink reproduce -> ./renders/fig3.png"; t0=$SECONDS
+step "twolink reproduce -> ./twolink-results/fig3.png"; t0=$SECONDS
 "$bin/twolink" reproduce > reproduce.txt || fail "twolink reproduce: $(tail -3 reproduce.txt)"
-[ -s renders/fig3.png ] || fail "twolink reproduce wrote no ./renders/fig3.png"
-[ "$(ls -A | tr '\n' ' ')" = "renders reproduce.txt " ] || fail "twolink reproduce wrote $(ls -A)"
+[ -s twolink-results/fig3.png ] || fail "twolink reproduce wrote no ./twolink-results/fig3.png"
+[ "$(ls -A | tr '\n' ' ')" = "reproduce.txt twolink-results " ] || fail "twolink reproduce wrote $(ls -A)"
 took
 
 step "twolink rollout --no-save writes nothing"; t0=$SECONDS
@@ -71,9 +71,9 @@ listing=$(files .)
 [ "$(files .)" = "$listing" ] || fail "twolink rollout --no-save wrote $(comm -13 <(echo "$listing") <(files .))"
 took
 
-step "twolink rollout -> ./renders/rollout.*"; t0=$SECONDS
+step "twolink rollout -> ./twolink-results/rollout.*"; t0=$SECONDS
 "$bin/twolink" rollout > /dev/null
-for ext in csv npz; do [ -s "renders/rollout.$ext" ] || fail "no ./renders/rollout.$ext"; done
+for ext in csv npz; do [ -s "twolink-results/rollout.$ext" ] || fail "no ./twolink-results/rollout.$ext"; done
 took
 
 step "TWOLINK_OUTPUT=out twolink rollout -> out/rollout.*"; t0=$SECONDS
@@ -86,9 +86,9 @@ step "twolink render -o x.mp4 (headless EGL)"; t0=$SECONDS
 [ -s x.mp4 ] || fail "twolink render wrote no ./x.mp4"
 took
 
-step "twolink render -> ./renders/centralized_mujoco.mp4"; t0=$SECONDS
+step "twolink render -> ./twolink-results/centralized_mujoco.mp4"; t0=$SECONDS
 "$bin/twolink" render --no-progress --duration 0.2 --size 160x120 > /dev/null
-[ -s renders/centralized_mujoco.mp4 ] || fail "no ./renders/centralized_mujoco.mp4"
+[ -s twolink-results/centralized_mujoco.mp4 ] || fail "no ./twolink-results/centralized_mujoco.mp4"
 took
 
 step "twolink synthesize decentralized -o d.npz"; t0=$SECONDS

@@ -5,8 +5,10 @@
   (``pyproject.toml`` maps the top-level folders onto them), and found through
   :mod:`importlib.resources`, in an editable checkout and in a wheel alike.
 * Outputs (figures, videos, reports) go under :func:`output_dir`: ``$TWOLINK_OUTPUT`` if
-  set, else ``renders/`` in the current working directory (the repository root's
-  ``renders/`` when run from a checkout).
+  set, else ``twolink-results/`` in the current working directory, a folder git ignores
+  in a checkout, so that no documented command rewrites a tracked file. The committed
+  results under the checkout's ``renders/`` are regenerated on purpose only
+  (``make results``: the studies with ``TWOLINK_OUTPUT=renders``).
 """
 from __future__ import annotations
 
@@ -16,8 +18,8 @@ from pathlib import Path
 
 #: Environment variable naming the default output folder.
 OUTPUT_ENV = "TWOLINK_OUTPUT"
-#: Default output folder, relative to the working directory.
-DEFAULT_OUTPUT = "renders"
+#: Default output folder, relative to the working directory (ignored by git).
+DEFAULT_OUTPUT = "twolink-results"
 MODEL_FILE = "twolink.xml"
 
 
@@ -42,7 +44,8 @@ def source_checkout() -> Path | None:
 
 
 def output_dir(*, create: bool = True) -> Path:
-    """The default output folder: ``$TWOLINK_OUTPUT`` or ``./renders``; created on demand."""
+    """The default output folder: ``$TWOLINK_OUTPUT`` or ``./twolink-results``; created on
+    demand."""
     path = Path(os.environ.get(OUTPUT_ENV) or DEFAULT_OUTPUT)
     if create and not path.is_dir():
         path.mkdir(parents=True, exist_ok=True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from .blocks_agents import context_readings, context_sweeps
 from .blocks_guides import (baselines_table, centralized_3link_block, compensation_table,
                             leaderboard_headline, link_mismatch_table, policies_table,
-                            sb3_agent_summary)
+                            ranking_rule, sb3_agent_summary)
 from .blocks_mismatch import mismatch_findings
 from .common import _cell, _table
 from .nav import nav_blocks
@@ -37,6 +37,7 @@ def blocks(pages: dict) -> dict:
         "docs/guides/synthesis.md": {"policies": policies_table()},
         "docs/guides/compensation.md": {"compensation": compensation_table()},
         "docs/guides/controllers.md": {"baselines": baselines_table()},
+        "docs/guides/leaderboard.md": {"ranking": ranking_rule()},
         "docs/guides/stable-baselines3.md": {"agent": sb3_agent_summary()},
         "docs/guides/n-links.md": {"centralized-3link": centralized_3link_block(),
                                    "mismatch-3link": link_mismatch_table()},

@@ -63,35 +63,36 @@ def policies_table(link_prefix: str = "", tuned: bool = True) -> str:
 
 
 def leaderboard_headline() -> str:
-    """Each controller's success on MuJoCo (k/n with its interval, plain unless marked) nominal and under
-    every level, and its median settle / T* nominal, from the committed leaderboard."""
+    """The README's leaderboard: the catalogue's benchmark rows of the committed
+    leaderboard in the compact table (:func:`twolink.studies.leaderboard.report.compact`:
+    a success percentage per level and mode, the best of each column in bold, one line
+    per level naming the best, a reason under the table for each blank cell)."""
     report = _load("renders/leaderboard/leaderboard.json",
                    SCHEMAS["renders/leaderboard/leaderboard.json"])
     if report is None:
-        return "(no leaderboard data: run `twolink leaderboard`, then `python docs/generate.py`)"
-    from twolink.viz.formatting import format_rate
+        return "(no leaderboard data: run `make results STEPS=\"leaderboard docs\"`)"
+    from twolink.control.catalogue import BENCHMARK
+    from twolink.studies.leaderboard.report import compact
 
-    rows = {(r["controller"], r["level"], r["mode"]): r for r in report["rows"]}
-    names = list(dict.fromkeys(r["controller"] for r in report["rows"]))
-    cols = [(lv, m) for lv in report["levels"] for m in ("plain", "compensated")
-            if any((n, lv, m) in rows for n in names)]
+    present = {r["controller"] for r in report["rows"]}
+    names = [n for n in BENCHMARK if n in present]
+    import textwrap
 
-    def cell(n, lv, m):
-        r = rows.get((n, lv, m))
-        return "" if r is None else format_rate(r["successes"], r["n"])
+    caption = (f"The benchmark rows (`twolink controllers --tag benchmark`), success on MuJoCo "
+            f"from the {report['states']} evaluation states, {report['plants']} plants per "
+            f"perturbed level, seed {report['seed']}; in bold the first of each column by "
+            "the [ranking rule](docs/guides/leaderboard.md#how-rows-are-ranked); k/n, "
+            "intervals and all "
+            f"{len(present)} controllers: [full table](docs/results/leaderboard.md).")
+    return (textwrap.fill(caption, 92, break_long_words=False, break_on_hyphens=False)
+            + "\n\n" + compact(report, names).replace("T*", "T\\*"))
 
-    def ratio(n):
-        r = rows.get((n, "none", "plain"))
-        v = None if r is None else r["settle_ratio_median"]
-        return "never" if v is None else f"{v:.2f}"
 
-    order = sorted(names, key=lambda n: (-sum(rows[k]["rate"] for k in rows if k[0] == n), n))
-    header = ("controller", "settle / T*, nominal",
-              *[f"{lv}{' + comp.' if m == 'compensated' else ''}" for lv, m in cols])
-    body = [(f"`{n}`", ratio(n), *[cell(n, lv, m) for lv, m in cols]) for n in order]
-    return (f"Success on MuJoCo from the {report['states']} evaluation states "
-            f"({report['plants']} plants per perturbed level, seed {report['seed']}; "
-            f"`{report['command']}`; 95 % Wilson intervals):\n\n" + _table(header, body))
+def ranking_rule() -> str:
+    """The leaderboard's ranking rule (:data:`twolink.studies.leaderboard.ranking.RULE`)."""
+    from twolink.studies.leaderboard.ranking import RULE
+
+    return RULE.replace("T*", "T\\*")
 
 
 #: The leaderboard's data file (the guides' blocks read it as the leaderboard pages do).

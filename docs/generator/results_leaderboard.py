@@ -14,13 +14,25 @@ NEAR_GAIN = "renders/fuzzy_design/near_gain.json"
 
 
 def leaderboard_page(report: dict) -> str:
+    """The full leaderboard (twolink.studies.leaderboard.report.markdown) with its figure
+    after the introduction."""
     from twolink.studies.leaderboard.report import markdown
 
-    return "".join([_stamp("renders/leaderboard/leaderboard.json"),
-                    markdown(report).rstrip("\n").replace("T*", "T\\*"), "\n\n",
+    text = markdown(report).rstrip("\n").replace("T*", "T\\*")
+    intro, _, tables = text.partition("\n## ")
+    figure = ("![success against settle / T\\*, a panel per level](../renders/leaderboard/"
+              "leaderboard.png)\n\nEach panel: success rate against median settle / T\\* "
+              "under one level; filled markers plain, hollow ones compensated; the marker is "
+              "the family (circle fuzzy, square baseline, triangle learned, diamond user), "
+              "the colour the controller (the catalogue's benchmark rows); grey dots are the "
+              "other controllers. Each title names the best labelled controller in the plain "
+              "mode under the ranking rule.\n\n")
+    return "".join([_stamp("renders/leaderboard/leaderboard.json"), intro.rstrip("\n"),
+                    "\n\n", figure, "## ", tables, "\n\n",
                     "How to run it and add your controller: [Leaderboard]"
-                    "(../guides/leaderboard.md). Re-create the data with "
-                    "`twolink leaderboard`, then `python docs/generate.py`.\n"])
+                    "(../guides/leaderboard.md). Re-create the data with `make results "
+                    "STEPS=\"leaderboard docs\"` (`twolink leaderboard --all` into "
+                    "renders/leaderboard, then `python docs/generate.py`).\n"])
 
 
 def _kinds(names) -> dict:
@@ -43,6 +55,7 @@ def fuzzy_designs_page(report: dict) -> str:
     docs/studies/fuzzy_design.py when its data is committed."""
     from twolink.policy.registry import SHIPPED
     from twolink.sim.metrics import wilson_interval
+    from twolink.studies.leaderboard.ranking import ranked
     from twolink.viz.formatting import format_rate
 
     rows = {(r["controller"], r["level"], r["mode"]): r for r in report["rows"]}
@@ -88,9 +101,10 @@ def fuzzy_designs_page(report: dict) -> str:
             "does).\n\n",
             _table(("kind", "level", "mode", "target", "measured", ""), body), "\n\n"]
     out.append("## Best of each kind\n\nPer level and mode, the controller of each kind "
-               "with the most successes (then the shortest median settle / T\\*) and the "
-               "best fuzzy policy of that kind; *within* when the fuzzy policy's 95 % "
-               "interval reaches the best one's rate.\n\n")
+               "ranked first by the [leaderboard's rule](leaderboard.md) (success, ties "
+               "within overlapping 95 % intervals going to the shorter median settle / T\\*) "
+               "and the best fuzzy policy of that kind by the same rule; *within* when the "
+               "fuzzy policy's 95 % interval reaches the best one's rate.\n\n")
     body = []
     for level in report["levels"]:
         for mode in ("plain", "compensated"):
@@ -99,14 +113,11 @@ def fuzzy_designs_page(report: dict) -> str:
                          if lv == level and m == mode and kinds.get(n) == kind]
                 if not cands:
                     continue
-                def key(r):
-                    v = r["settle_ratio_median"]
-                    return (-r["successes"], v if v is not None else float("inf"))
-                best = min(cands, key=key)
+                best = ranked(cands)[0]
                 fuzzy = [r for r in cands if r["controller"] in SHIPPED]
                 if not fuzzy:
                     continue
-                f = min(fuzzy, key=key)
+                f = ranked(fuzzy)[0]
                 hi = wilson_interval(f["successes"], f["n"])[1]
                 verdict = "best" if f is best else ("within" if hi >= best["rate"] - 1e-9 else
                                                     "below")

@@ -211,10 +211,10 @@ def test_default_output_folder_is_made_only_for_a_run_that_writes(tmp_path, caps
     monkeypatch.delenv("TWOLINK_OUTPUT", raising=False)
     code, _, err = _run(capsys, "--csv", "x.png", "--figure", "x.png", "--duration", 0.2)
     assert code == 2 and "--csv and --figure both write x.png" in err
-    assert list(tmp_path.iterdir()) == []                # no empty renders/ left behind
+    assert list(tmp_path.iterdir()) == []                # no empty folder left behind
     code, _, _ = _run(capsys, "--plant", "simplified", "--duration", 0.2)
     assert code == 0
-    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == [
+    assert sorted(p.name for p in (tmp_path / "twolink-results").iterdir()) == [
         "rollout.csv", "rollout.npz", "rollout_fig3.png"]
 
 

@@ -153,7 +153,8 @@ def test_outputs_through_a_symlink_into_the_package_data_are_refused(tmp_path):
     assert _snapshot(data) == before
 
 
-@pytest.mark.parametrize("path", ["renders/leaderboard-quick/x", "renders/scaling-quick/x",
+@pytest.mark.parametrize("path", ["twolink-results/x", "twolink-results/leaderboard/x",
+                                  "renders/leaderboard-quick/x", "renders/scaling-quick/x",
                                   "renders/mismatch-quick/x", "renders/rollout.csv",
                                   "renders/centralized_mujoco.mp4", "identified.json",
                                   "learned_fqi.npz", "twolink.xml",

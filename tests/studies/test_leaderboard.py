@@ -63,8 +63,11 @@ def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
                  f"{mine}:pd", "--levels", "none", "medium", "--plants", "2",
                  "--out", str(out)]) == 0
     captured = capsys.readouterr()
-    text = captured.out
-    assert "| lqr | compensated |" in text and "| pd | plain |" in text
+    text = captured.out                              # where the added controller ranks
+    ranks = [line.split(":")[0] for line in text.splitlines() if " ranks " in line]
+    assert [r.replace("1 of", "k of").replace("2 of", "k of") for r in ranks] == [
+        "pd ranks k of 2 under none (plain)", "pd ranks k of 2 under medium (plain)"]
+    assert "|" not in text
     rows = captured.err.splitlines()                # one line per row, no bar besides
     assert len(rows) == 5 and all(line.startswith(f"[{k}/5] ")
                                   for k, line in enumerate(rows, 1)), rows
@@ -73,7 +76,8 @@ def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
         ("lqr", "none", "plain"), ("lqr", "medium", "plain"), ("lqr", "medium", "compensated"),
         ("pd", "none", "plain"), ("pd", "medium", "plain")}
     assert (out / "leaderboard.png").read_bytes()[:4] == b"\x89PNG"
-    assert "## medium" in (out / "leaderboard.md").read_text()
+    md = (out / "leaderboard.md").read_text()
+    assert "## medium" in md and "| lqr | compensated |" in md and "| pd | plain |" in md
 
 
 @pytest.mark.parametrize("argv, match", [

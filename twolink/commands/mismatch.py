@@ -3,10 +3,10 @@
 Open-loop error of (11) and (6) against MuJoCo, the closed-loop gap of every policy on
 every plant, the policies synthesised on (6), robustness sweeps on MuJoCo, and every policy
 under every challenge level with and without run-time compensation, written as Markdown +
-JSON + figures under renders/mismatch/ (renders/mismatch-quick/ with --quick).
+JSON + figures under twolink-results/mismatch/ (mismatch-quick/ with --quick).
 With --links N (3 to 6) a short N-link section instead: each N-link policy on the numpy
 full N-link model and on MuJoCo from random poses at rest, success k/n with 95 % Wilson
-intervals and median settle times, under renders/mismatch-<N>link/.
+intervals and median settle times, under twolink-results/mismatch-<N>link/.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def add_parser(sub):
     p.add_argument("--quick", action="store_const", dest="plan", const="quick",
                    help="the same as --plan quick")
     p.add_argument("-o", "--out", type=Path, default=None,
-                   help="report folder (default renders/mismatch, or renders/mismatch-quick); "
+                   help="report folder (default twolink-results/mismatch, or ...-quick); "
                         "one run at a time per folder, which resumes from its sweep.jsonl")
     p.add_argument("--policies", nargs="+", default=None, metavar="POLICY",
                    help=f"shipped policy names, reported in registry order "

@@ -90,7 +90,7 @@ def add_parser(sub):
     p.add_argument("-o", "--output", default=None,
                    help="video to write, .mp4 (H.264) or .gif; DIR/ (a trailing /) writes "
                         "the default name in DIR, made if missing (default "
-                        "renders/<policy>[_vs_<policy>]_<plant>.mp4)")
+                        "twolink-results/<policy>[_vs_<policy>]_<plant>.mp4)")
     p.add_argument("--no-progress", action="store_true",
                    help="hide the progress bar (printed as lines when stderr is not a "
                         "terminal; --json hides it too)")

@@ -3,7 +3,7 @@
 Synthesises the centralized policy and the decentralized agents (both readings of agent
 1's context) on the simplified model (11), runs them from x0 = [-1, -3, 0, 0] on the
 simplified plant and on MuJoCo, prints the comparison table and writes the Fig. 3
-counterpart under renders/.
+counterpart under twolink-results/.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def add_parser(sub):
                         f"{MAX_DURATION:g})")
     p.add_argument("--figure", type=Path, default=None,
                    help="Fig. 3 counterpart to write, .png, .pdf or .svg "
-                        "(default renders/fig3.png)")
+                        "(default twolink-results/fig3.png)")
     p.add_argument("--report", type=Path, default=None, help="also write the JSON report here")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     return p

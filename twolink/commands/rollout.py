@@ -72,7 +72,7 @@ def add_parser(sub):
     p.add_argument("-o", "--output", default=None, metavar="PREFIX",
                    help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png; a directory "
                         "writes DIR/rollout.*, and DIR/ (a trailing /) makes DIR if "
-                        "missing (default renders/rollout)")
+                        "missing (default twolink-results/rollout)")
     p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
     p.add_argument("--npz", type=Path, help="trajectory NPZ path (overrides the prefix)")
     p.add_argument("--figure", type=Path, help="Fig. 3 PNG path (overrides the prefix)")

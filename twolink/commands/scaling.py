@@ -3,7 +3,7 @@
 For every arm and scheme: Q-values, non-zeros of T, peak memory, synthesis time and
 sweeps, and success with median settle time on MuJoCo from random poses at rest; the
 centralized problem estimated first and refused over the memory cap. Writes scaling.md,
-scaling.png and scaling.json under renders/scaling/ (renders/scaling-quick/ with --quick).
+scaling.png and scaling.json under twolink-results/scaling/ (scaling-quick/ with --quick).
 """
 from __future__ import annotations
 
@@ -62,7 +62,7 @@ def add_parser(sub):
                         "(default; resident-set growth) or tracemalloc in this process "
                         "(faster; numpy allocations only)")
     p.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
-                   help="output folder (default renders/scaling, or renders/scaling-quick)")
+                   help="output folder (default twolink-results/scaling, or ...-quick)")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     return p
 
