@@ -1,6 +1,8 @@
-"""scripts/install-rl-extras.sh: torch's CPU wheel first, then stable-baselines3, for a
-Python 3.11 venv only; any other version installs nothing and exits 0. Checked with a
-fake interpreter that logs what it is asked to do (nothing is installed)."""
+"""scripts/install-rl-extras.sh: torch's CPU build first (PyTorch's CPU index, else the
+default index), then stable-baselines3, for Python 3.11-3.13; one line and exit 2 for
+another Python, a missing venv or no torch wheel, never exit 0 having installed nothing.
+Checked with a fake interpreter that logs what it is asked to do and answers pip as told
+(nothing is installed)."""
 import subprocess
 from pathlib import Path
 
@@ -8,41 +10,89 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "install-rl-extras.sh"
+CPU = "--retries 1 --timeout 15 --index-url https://download.pytorch.org/whl/cpu"
 
+# Reports Python VERSION; "import importlib.metadata" checks succeed for the packages
+# whose marker file exists; pip installs are logged, fail when their argument string
+# matches FAIL (a shell pattern), and on success create the package's marker.
 _FAKE = """#!/bin/sh
-# Reports Python {version}; logs every other call (pip installs) to {log}.
+here=$(dirname "$0")
 case "$*" in
   *"sys.version_info[:2]"*) echo {version}; exit 0 ;;
-  *"importlib.metadata"*) exit 1 ;;
+  *"m.version('torch')"*) [ -e "$here/has-torch" ]; exit $? ;;
+  *"m.version('stable-baselines3')"*) [ -e "$here/has-sb3" ]; exit $? ;;
+  *"importlib.metadata"*) [ -e "$here/has-sb3" ] && [ -e "$here/has-torch" ]; exit $? ;;
 esac
 echo "$*" >> {log}
+case "$*" in
+  {fail}) exit 1 ;;
+  *torch==*) touch "$here/has-torch" ;;
+  *stable-baselines3==*) touch "$here/has-sb3" ;;
+esac
 """
 
 
-def _venv(tmp_path, version):
+def _run(tmp_path, version="3.11", fail="__never__", torch=False):
     log = tmp_path / "calls.log"
     bin_dir = tmp_path / "venv" / "bin"
     bin_dir.mkdir(parents=True)
     python = bin_dir / "python"
-    python.write_text(_FAKE.format(version=version, log=log))
+    python.write_text(_FAKE.format(version=version, log=log, fail=fail))
     python.chmod(0o755)
-    return tmp_path / "venv", log
+    if torch:
+        (bin_dir / "has-torch").touch()
+    out = subprocess.run(["bash", str(SCRIPT), str(tmp_path / "venv")], capture_output=True,
+                         text=True)
+    calls = log.read_text().splitlines() if log.exists() else []
+    return out, calls
 
 
-@pytest.mark.parametrize("version", ["3.12", "3.13"])
-def test_other_pythons_install_nothing(tmp_path, version):
-    venv, log = _venv(tmp_path, version)
-    out = subprocess.run(["bash", str(SCRIPT), str(venv)], capture_output=True, text=True)
+@pytest.mark.parametrize("version", ["3.11", "3.12", "3.13"])
+def test_torch_cpu_first_then_sb3_on_every_supported_python(tmp_path, version):
+    out, calls = _run(tmp_path, version)
     assert out.returncode == 0, out.stderr
-    assert "nothing installed" in out.stdout and not log.exists()
+    assert calls == [f"-m pip install -q {CPU} torch==2.13.0",
+                     "-m pip install -q stable-baselines3==2.9.2"]
+    assert "torch 2.13.0 (CPU) from https://download.pytorch.org/whl/cpu" in out.stdout
 
 
-def test_python_311_installs_torch_first(tmp_path):
-    venv, log = _venv(tmp_path, "3.11")
-    out = subprocess.run(["bash", str(SCRIPT), str(venv)], capture_output=True, text=True)
+def test_an_unreachable_cpu_index_falls_back_to_the_default_index(tmp_path):
+    out, calls = _run(tmp_path, fail="*download.pytorch.org*")
     assert out.returncode == 0, out.stderr
-    assert log.read_text().splitlines() == ["-m pip install -q torch==2.13.0",
-                                            "-m pip install -q stable-baselines3==2.9.2"]
+    assert calls == [f"-m pip install -q {CPU} torch==2.13.0",
+                     "-m pip install -q torch==2.13.0",
+                     "-m pip install -q stable-baselines3==2.9.2"]
+    assert "from the default index" in out.stdout
+
+
+def test_no_torch_wheel_is_one_line_and_exit_2(tmp_path):
+    out, calls = _run(tmp_path, fail="*torch==*")
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [
+        "twolink: no torch 2.13.0 wheel installs for Python 3.11 on this machine (tried "
+        "https://download.pytorch.org/whl/cpu and the default index); install torch "
+        "yourself, then rerun"]
+    assert not any("stable-baselines3" in c for c in calls)
+
+
+def test_a_preinstalled_torch_is_kept(tmp_path):
+    out, calls = _run(tmp_path, "3.12", torch=True)
+    assert out.returncode == 0, out.stderr
+    assert calls == ["-m pip install -q stable-baselines3==2.9.2"]
+
+
+def test_a_failed_sb3_install_is_exit_2(tmp_path):
+    out, _ = _run(tmp_path, fail="*stable-baselines3==*")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
+    assert "stable-baselines3 2.9.2 did not install" in out.stderr
+
+
+@pytest.mark.parametrize("version", ["3.10", "3.14"])
+def test_other_pythons_are_one_line_and_exit_2(tmp_path, version):
+    out, calls = _run(tmp_path, version)
+    assert out.returncode == 2 and calls == []
+    assert out.stderr.strip() == (f"twolink: the rl extras need Python 3.11-3.13; "
+                                  f"{tmp_path / 'venv'} is Python {version}")
 
 
 def test_the_pins_are_the_rl_extra():
@@ -51,7 +101,9 @@ def test_the_pins_are_the_rl_extra():
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
         "optional-dependencies"]
     assert extras["rl"] == ["stable-baselines3==2.9.2"]
-    assert "stable-baselines3==2.9.2" in SCRIPT.read_text()
+    text = SCRIPT.read_text()
+    assert "SB3=2.9.2" in text and "TORCH=2.13.0" in text
+    assert "torch==2.13.0" in (ROOT / "pyproject.toml").read_text()     # the comment
     assert "bash scripts/install-rl-extras.sh .venv" in (ROOT / ".ci" / "run").read_text()
 
 
