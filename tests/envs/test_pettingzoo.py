@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pettingzoo
 import pytest
+from dm_control.utils.rewards import tolerance
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 from pettingzoo.utils import conversions
 
@@ -17,7 +18,7 @@ from twolink.arm.parameters import PAPER_X0, REWARD_GOAL, TABLE_I
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.envs import dm as twolink_env
 from twolink.envs import pettingzoo as tpz
-from twolink.envs.core import OBSERVATION_NAMES
+from twolink.envs.core import OBSERVATION_NAMES, shaped_reward
 from twolink.sim.challenges import Challenge
 from twolink.sim.perturbations import ActuationDelay, ObservationDelay, perturbed
 from twolink.sim.plants import MujocoPlant
@@ -240,8 +241,17 @@ def test_rewards(reward):
         _, rewards, *_ = env.step({a: np.zeros(1) for a in env.agents})
         x = env.state()
         own = [float(agent_reward(x, i)) for i in (1, 2)]
-        expected = {"individual": own, "centralized": [float(centralized_reward(x))] * 2,
-                    "sum": [sum(own)] * 2}[reward]
+        team = float(shaped_reward(x))
+        per_link = [0.0 if own[i] == REWARD_GOAL else min(
+            tolerance(abs(x[i]), bounds=(0, np.radians(5)), margin=np.pi,
+                      sigmoid="reciprocal", value_at_margin=0.1)
+            * tolerance(abs(x[2 + i]), bounds=(0, 0.1), margin=2 * np.pi,
+                        sigmoid="reciprocal", value_at_margin=0.1) - 1.0, -1e-12)
+            for i in (0, 1)]
+        expected = {"individual": own, "paper": own,
+                    "centralized": [float(centralized_reward(x))] * 2,
+                    "sum": [sum(own)] * 2, "shaped": per_link,
+                    "shaped_team": [team] * 2}[reward]
         assert [rewards[a] for a in tpz.AGENTS] == expected
         assert all(type(r) is float for r in rewards.values())
 
@@ -340,9 +350,13 @@ def test_bad_actions_refused_state_untouched(actions, message):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(reward="team"), "reward must be one of 'individual', 'centralized', 'sum'"),
+    (dict(reward="team"), "reward must be one of 'paper', 'individual', 'centralized', 'sum', "
+                           "'shaped', 'shaped_team'"),
     (dict(link1_tau2="current"), "impossible in a parallel step"),
     (dict(link1_tau2="yes"), "link1_tau2 must be one of"),
+    (dict(actions="discrete"), "actions must be one of 'box', 'normalized'"),
+    (dict(observation="pixels"), "observation must be one of 'state', 'cos_sin'"),
+    (dict(observe="neighbors"), "observe must be one of 'neighbours', 'local', 'global'"),
     (dict(render_mode="human"), "render_mode must be one of 'rgb_array'"),
     (dict(time_limit=0.0), "time_limit must be a positive number"),
     (dict(time_limit=np.inf), "time_limit must be a positive number"),

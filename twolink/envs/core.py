@@ -235,6 +235,34 @@ def shaped_reward(x) -> np.ndarray:
     return np.where(in_goal_band(x), 0.0, np.minimum(r, SHAPED_OUTSIDE_MAX))
 
 
+#: Reward options of the multi-agent environments (:mod:`twolink.envs.pettingzoo`), what
+#: each agent ``linkI`` gets on the state reached: ``'paper'`` (17) of its own link (the
+#: paper's decentralized reward; ``'individual'`` is its older name), ``'centralized'``
+#: (15) to every agent, ``'sum'`` the sum of every link's (17) to every agent,
+#: ``'shaped'`` the dense :func:`shaped_reward` of its own link (per link: 0 when link I
+#: is in its goal band, in [-1, 0) outside), ``'shaped_team'`` the Gymnasium env's
+#: :func:`shaped_reward` of the whole arm, the same number to every agent.
+AGENT_REWARD_OPTIONS = ("paper", "individual", "centralized", "sum", "shaped", "shaped_team")
+#: Action options of the multi-agent environments: ``'box'`` a torque in
+#: +-tau_i_max (float64), ``'normalized'`` a float32 Box [-1, 1] scaled to +-tau_i_max
+#: (as :data:`twolink.envs.gym_arms.ACTIONS` names them for the Gymnasium env).
+AGENT_ACTION_OPTIONS = ("box", "normalized")
+#: What each agent of the multi-agent environments observes of the arm (``observe``):
+#: ``'neighbours'`` its joint and its outer neighbour's (:func:`observation_names`, (18)
+#: for two links; the default), ``'local'`` its own joint only (theta_I, dtheta_I), as the
+#: paper's agent 2 does, ``'global'`` the whole state.
+OBSERVE_OPTIONS = ("neighbours", "local", "global")
+
+
+def check_agent_reward(reward) -> str:
+    """``reward`` if it is one of :data:`AGENT_REWARD_OPTIONS`, else a ValueError; the
+    shaped ones need dm-control (an ImportError now, as :func:`check_reward`)."""
+    choice(reward, "reward", AGENT_REWARD_OPTIONS)
+    if reward in ("shaped", "shaped_team"):
+        check_reward("shaped")
+    return reward
+
+
 def check_reward(reward) -> str:
     """``reward`` if it is one of :data:`REWARD_OPTIONS`, else a ValueError; for
     ``'shaped'`` an ImportError now, not at the first step, where dm-control is missing."""

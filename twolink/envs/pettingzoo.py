@@ -10,15 +10,35 @@ PettingZoo's own converter (:func:`pettingzoo.utils.conversions.parallel_to_aec`
 Agents ``link1``, ``link2`` (one per joint of :data:`twolink.arm.mjcf.JOINTS`). Each sends
 its torque tau_i as an array of shape (1,), clipped to +-tau_i_max, and observes (18):
 ``link1`` (theta1, dtheta1, theta2), ``link2`` (theta2, dtheta2). Rewards are (17) per
-link on the state reached (``reward="individual"``), or the same number to every agent:
-(15) (``"centralized"``) or r1 + r2 (``"sum"``). Episodes are truncated at the time limit
-(default 5 s = 100 steps), never terminated.
+link on the state reached (``reward="paper"``, the default; ``"individual"`` is its older
+name), or the same number to every agent: (15) (``"centralized"``) or r1 + r2
+(``"sum"``). Episodes are truncated at the time limit (default 5 s = 100 steps), never
+terminated.
+
+Options for learners (:mod:`twolink.envs.core` names them once, :mod:`twolink.envs.multi_agent`
+defines them for this env and the batched one):
+
+- ``reward="shaped"``: each agent the dense shaped reward of its own link
+  (:func:`twolink.envs.multi_agent.shaped_link_rewards`: 0 in its goal band, in [-1, 0)
+  outside); ``"shaped_team"``: the Gymnasium env's :func:`twolink.envs.core.shaped_reward`
+  of the whole arm, the same number to every agent.
+- ``actions="normalized"``: each agent's action a float32 Box [-1, 1] of shape (1,),
+  clipped to it and scaled to the nominal +-tau_i_max (``"box"``, the default: the torque).
+- ``observation="cos_sin"``: every angle an agent observes replaced in place by its
+  (cos, sin), as the Gymnasium env's ``observation="cos_sin"`` (``"state"``, the default).
+- ``observe``: what each agent sees of the arm, ``"neighbours"`` (the default: the
+  one-hop observations above), ``"local"`` (its own joint only, (theta_I, dtheta_I), the
+  information of the paper's agent 2) or ``"global"`` (the whole state).
+
+Many arms in one MuJoCo call per Ts, for multi-agent learners:
+:func:`twolink.envs.pettingzoo_batched.batched_parallel_env` (dicts of arrays, same-step
+autoreset; not a PettingZoo env).
 
 N links (``links=3`` .. 6, ``rule`` ``'tapered'`` | ``'copied'``): agents
 ``link1`` .. ``linkN``, one per joint; ``linkI`` (I < N) observes the one-hop
 (theta_I, dtheta_I, theta_{I+1}, dtheta_{I+1}) and ``linkN`` (theta_N, dtheta_N)
-(:func:`twolink.envs.core.observation_names`); rewards (17) per link (or (15), or their sum,
-to every agent); episodes of 8 s from random angles at rest by default
+(:func:`twolink.envs.core.observation_names`) with ``observe="neighbours"``; rewards (17)
+per link (or any reward option above); episodes of 8 s from random angles at rest by default
 (:func:`twolink.envs.core.horizon`). ``link1_tau2`` then applies to every inner agent: link I
 sees its outer neighbour's torque tau_{I+1} (``"previous"``; in the AEC form
 ``"current"``, with the turns running linkN first down to link1). Perturbations,
@@ -29,8 +49,8 @@ reads it in the same sample.
 - ``"previous"`` (parallel and AEC-through-the-converter): in a parallel step both agents
   act at once, so no observation can hold the tau2 of that step; the only causal reading
   is link2's *previous* torque, appended to link1's observation (as link2 commanded it,
-  before the plant clips it to +-tau2_max, as a policy's agent 1 reads it; 0 after
-  reset). The converter refreshes observations once per cycle, so its AEC form
+  before the plant clips it to +-tau2_max, as a policy's agent 1 reads it; in [-1, 1]
+  units with ``actions="normalized"``; 0 after reset). The converter refreshes observations once per cycle, so its AEC form
   shows link1 that same previous tau2, whatever the turn order.
 - ``"current"`` (AEC only, ``env(link1_tau2="current")``): :class:`SequentialArm` lets
   link2 act first and then shows link1 the tau2 just chosen: the paper's ordering (18).
@@ -59,14 +79,17 @@ from pettingzoo.utils import conversions
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink.arm import mjcf
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters, check_links, state_names
-from twolink.arm.task import agent_reward, centralized_reward
+from twolink.arm.parameters import TS, ArmParameters, ChainParameters
+from twolink.arm.observations import OBSERVATIONS
 from twolink.envs.core import (
+    AGENT_ACTION_OPTIONS,
+    AGENT_REWARD_OPTIONS,
     BAD_TIME_LIMIT,
+    OBSERVE_OPTIONS,
     arm,
     check_action,
+    check_agent_reward,
     check_challenge,
-    check_policy_links,
     check_reset_options,
     check_two_link_options,
     check_x0,
@@ -74,10 +97,17 @@ from twolink.envs.core import (
     default_x0,
     horizon,
     initial_state,
-    observation_names,
-    observe,
     perturbed_params,
     state_bounds,
+)
+from twolink.envs.multi_agent import (  # noqa: F401 (policy_actions: public here too)
+    agent_bounds,
+    agent_observations,
+    agent_rewards,
+    agents,
+    check_agent_action,
+    float_box,
+    policy_actions,
 )
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import MujocoPlant
@@ -86,49 +116,14 @@ from twolink.validate import choice, is_real, real
 from twolink.validate import seed as check_seed
 
 
-def agents(links: int = 2) -> tuple:
-    """The agents of an arm of ``links`` links, one per joint: ``link1`` .. ``linkN``;
-    agent ``linkI`` is agent I of (17)-(18)."""
-    return tuple(f"link{i}" for i in range(1, check_links(links) + 1))
-
-
 #: The agents of the two-link arm, one per joint; agent ``linkI`` is agent I of (17)-(18).
 AGENTS = agents(len(mjcf.JOINTS))
-#: Reward modes: (17) per agent, (15) to every agent, or the sum of (17) to every agent.
-REWARDS = ("individual", "centralized", "sum")
+#: Reward options (:data:`twolink.envs.core.AGENT_REWARD_OPTIONS`, where each is defined).
+REWARDS = AGENT_REWARD_OPTIONS
 #: What link1 may see of link2's torque in a parallel step (see the module docstring);
 #: ``"current"`` exists in the AEC form only (:class:`SequentialArm`).
 LINK1_TAU2 = ("none", "previous")
 RESET_OPTIONS = ("x0",)
-
-
-def _task_keys(names) -> dict:
-    """Agent ``linkI`` -> its observation ``agentI`` of :func:`twolink.envs.core.observation_names`."""
-    return {agent: f"agent{i}" for i, agent in enumerate(names, 1)}
-
-
-def _box(high) -> spaces.Box:
-    """The float64 Box [-high, high]."""
-    high = np.asarray(high, dtype=np.float64)
-    return spaces.Box(-high, high, high.shape, np.float64)
-
-
-def _check_agent_action(agent: str, action) -> np.ndarray:
-    """The torque of ``agent`` as float64 (1,), or a ValueError naming the agent."""
-    try:
-        a = np.asarray(action)
-    except Exception:
-        a = np.asarray(None)
-    if a.dtype.kind not in "fiu":
-        raise ValueError(f"action of {agent} must be real numbers, got {action!r} "
-                         f"(dtype {a.dtype})")
-    if a.shape != (1,):
-        raise ValueError(f"action of {agent} must have shape (1,) [its torque], "
-                         f"got shape {a.shape}")
-    a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"action of {agent} contains NaN or infinite values: {a.tolist()}")
-    return a
 
 
 class ParallelArm(pettingzoo.ParallelEnv):
@@ -141,7 +136,8 @@ class ParallelArm(pettingzoo.ParallelEnv):
     speeds an agent observes under observation noise (``angle_noise``, ``speed_noise``, a
     noisy ``challenge``: Gaussian noise can carry a reading past any bound; ``state()``
     is the true state and stays bounded), and the neighbour's torque of ``link1_tau2``
-    (the torque as commanded, before the plant clips it: any finite number).
+    (the torque as commanded, before the plant clips it: any finite number). A cos or
+    sin (``observation="cos_sin"``) is declared in [-1, 1], noisy or not.
     """
 
     metadata = {"name": "twolink_decentralized_v0", "render_modes": ["rgb_array"],
@@ -149,9 +145,11 @@ class ParallelArm(pettingzoo.ParallelEnv):
 
     def __init__(self, *, x0=None, params=None, perturbation=None,
                  angle_noise: float = 0.0, speed_noise: float = 0.0, delay: int = 0,
-                 reward: str = "individual", link1_tau2: str = "none",
+                 reward: str = "paper", link1_tau2: str = "none",
                  time_limit: float | None = None, render_mode: str | None = None,
-                 challenge=None, links: int | None = None, rule: str | None = None):
+                 challenge=None, links: int | None = None, rule: str | None = None,
+                 actions: str = "box", observation: str = "state",
+                 observe: str = "neighbours"):
         if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
             raise ValueError(f"params must be ArmParameters or ChainParameters, got {params!r}")
         params = arm(params, links=links, rule=rule)
@@ -166,7 +164,10 @@ class ParallelArm(pettingzoo.ParallelEnv):
                              "exist when link1 observes; use 'previous', or the AEC form "
                              "env(link1_tau2='current') for the paper's ordering (18)")
         self._link1_tau2 = choice(link1_tau2, "link1_tau2", LINK1_TAU2)
-        self._reward = choice(reward, "reward", REWARDS)
+        self._reward = check_agent_reward(reward)
+        self._actions = choice(actions, "actions", AGENT_ACTION_OPTIONS)
+        self._observation = choice(observation, "observation", OBSERVATIONS)
+        self._observe = choice(observe, "observe", OBSERVE_OPTIONS)
         if render_mode is not None:
             choice(render_mode, "render_mode", self.metadata["render_modes"])
         self._steps = steps_for(real(time_limit, "time_limit", 0, open_low=True,
@@ -195,23 +196,22 @@ class ParallelArm(pettingzoo.ParallelEnv):
         self.render_mode = render_mode
 
         self._agents = agents(n)
-        self._keys = _task_keys(self._agents)
         self.possible_agents = list(self._agents)
         self.agents: list = []
-        names = observation_names(n)
-        # With link1_tau2="previous" every inner agent also sees its outer neighbour's torque.
+        # With link1_tau2="previous" every inner agent also sees its outer neighbour's action.
         extra = 1 if link1_tau2 == "previous" else 0
         bound = state_bounds(self._speed_max)
         self.state_space = spaces.Box(-bound, bound, (2 * n,), np.float64)
         seen = np.full(2 * n, np.inf) if sensors.noisy else bound
-        state = list(state_names(n))
+        highs = agent_bounds(n, observe, observation, seen)
         self.observation_spaces = {
-            a: _box([seen[state.index(c)] for c in names[self._keys[a]]]
-                    + [np.inf] * (extra if i < n else 0))
+            a: float_box([*highs[i - 1]] + [np.inf] * (extra if i < n else 0))
             for i, a in enumerate(self._agents, 1)}
         tau_max = params.tau_max
-        self.action_spaces = {a: spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64)
-                              for i, a in enumerate(self._agents)}
+        self.action_spaces = {
+            a: (spaces.Box(-1.0, 1.0, (1,), np.float32) if actions == "normalized"
+                else spaces.Box(-tau_max[i], tau_max[i], (1,), np.float64))
+            for i, a in enumerate(self._agents)}
 
         self._rng = None
         self._plant = None
@@ -275,8 +275,11 @@ class ParallelArm(pettingzoo.ParallelEnv):
             raise ValueError(f"actions must name every agent exactly ({', '.join(self.agents)}); "
                              + "; ".join(f"{what}: {', '.join(map(repr, names))}" for what, names
                                          in (("unknown", unknown), ("missing", missing)) if names))
-        commanded = np.concatenate([_check_agent_action(a, actions[a]) for a in self._agents])
-        tau = check_action(commanded, self.params.tau_max)
+        commanded = np.concatenate([check_agent_action(a, actions[a]) for a in self._agents])
+        if self._actions == "normalized":   # [-1, 1] scaled to the nominal +-tau_max
+            tau = check_action(commanded, np.ones(self.links)) * self._base.tau_max
+        else:
+            tau = check_action(commanded, self.params.tau_max)
         applied = np.asarray(self._delay_line(tau), dtype=np.float64)
         x = self._plant.step(self._x, applied)
         self._x, self._k, self._last, self._applied = x, self._k + 1, commanded, applied
@@ -292,22 +295,20 @@ class ParallelArm(pettingzoo.ParallelEnv):
         return obs, rewards, terminations, truncations, infos
 
     def _observations(self) -> dict:
-        """Per-agent observations (18), fresh arrays; noise on the measured state only."""
-        seen = self._noise(self._x)
-        obs = {a: observe(seen, self._keys[a]) for a in self._agents}
-        if self._link1_tau2 == "previous":          # agent i sees tau_{i+1}, i < N
+        """Per-agent observations (:mod:`twolink.envs.multi_agent`), fresh arrays; noise on
+        the measured state only (drawn once per observation)."""
+        seen = agent_observations(self._noise(self._x), self.links, self._observe,
+                                  self._observation)
+        obs = dict(zip(self._agents, seen))
+        if self._link1_tau2 == "previous":          # agent i sees a_{i+1}, i < N
             for i, a in enumerate(self._agents[:-1]):
                 obs[a] = np.append(obs[a], self._last[i + 1])
         return {a: obs[a] for a in self.agents}
 
     def _reward_of(self, x) -> dict:
-        """(17) per agent, (15) to every agent, or the sum of (17) to every agent."""
-        if self._reward == "centralized":
-            return dict.fromkeys(self._agents, float(centralized_reward(x)))
-        own = {a: float(agent_reward(x, i)) for i, a in enumerate(self._agents, 1)}
-        if self._reward == "sum":
-            return dict.fromkeys(self._agents, float(sum(own.values())))
-        return own
+        """Every agent's reward on the state reached (:func:`~twolink.envs.multi_agent.agent_rewards`)."""
+        r = agent_rewards(x, self._reward)
+        return {a: float(r[i]) for i, a in enumerate(self._agents)}
 
     def state(self) -> np.ndarray:
         """The true state x = [theta1 .. thetaN, dtheta1 .. dthetaN] (a copy)."""
@@ -379,7 +380,7 @@ class SequentialArm(pettingzoo.AECEnv):
         self.observation_spaces = {a: arm.observation_space(a) for a in self._agents}
         for a in self._agents[:-1]:                # inner agents: + tau_{i+1}, unbounded
             own = arm.observation_space(a).high
-            self.observation_spaces[a] = _box([*own, np.inf])
+            self.observation_spaces[a] = float_box([*own, np.inf])
         self.action_spaces = {a: arm.action_space(a) for a in self._agents}
         self.state_space = arm.state_space
 
@@ -415,7 +416,7 @@ class SequentialArm(pettingzoo.AECEnv):
             self._was_dead_step(action)
             return
         i = self._agents.index(agent)
-        a = _check_agent_action(agent, action)
+        a = check_agent_action(agent, action)
         if agent == self.agents[0]:
             self._clear_rewards()
         self._cumulative_rewards[agent] = 0.0
@@ -463,32 +464,3 @@ def env(**kwargs):
     if kwargs.get("link1_tau2") == "current":
         return OrderEnforcingWrapper(raw_env(**kwargs))
     return conversions.parallel_to_aec(parallel_env(**kwargs))
-
-
-def policy_actions(policy, observations) -> dict:
-    """``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.fuzzy_policy.Policy` in the
-    ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
-    agent 1, which reads link1's observation (its (18) components) and that tau2. For N
-    links the same down the chain (agent N first); the arm's N is the number of
-    ``linkI`` observations, and a policy of another N is refused (ValueError)."""
-    from twolink.envs.dm import (
-        policy_action,  # the one implementation of (18) for policies
-    )
-
-    n = sum(1 for key in observations if str(key).startswith("link"))
-    names = agents(n) if 2 <= n else AGENTS
-    missing = [a for a in names if a not in observations]
-    if missing:
-        raise ValueError(f"observations lack agent(s) {', '.join(missing)}")
-    check_policy_links(policy, len(names))
-    keys, wanted = _task_keys(names), observation_names(len(names))
-    seen = {}
-    for a in names:
-        o = np.asarray(observations[a], dtype=float)
-        k = len(wanted[keys[a]])
-        if o.ndim != 1 or len(o) < k:
-            raise ValueError(f"observation of {a} must be a vector of at least {k} numbers, "
-                             f"got shape {o.shape}")
-        seen[keys[a]] = o[:k]
-    tau = policy_action(policy, seen)
-    return {a: np.array([tau[i]], dtype=np.float64) for i, a in enumerate(names)}
