@@ -36,7 +36,7 @@ STATE_SETS = ("full", "quick")
 DEFAULT_POSES = 64
 POSE_SEED = 20061122
 #: Options of the two-link evaluation that ``--links`` does not take, and vice versa.
-TWO_LINK_OPTIONS = ("challenge", "compensate", "plants", "states")
+TWO_LINK_OPTIONS = ("challenge", "compensate", "plants", "states", "worst_case")
 LINKS_OPTIONS = ("rule", "poses")
 
 
@@ -60,6 +60,10 @@ def add_parser(sub):
     p.add_argument("--states", choices=STATE_SETS, default=None,
                    help="initial states: the 65 of the evaluation set (full) or every 13th "
                         "(quick)")
+    p.add_argument("--worst-case", action="store_true",
+                   help="also run the controller on the level's grid of plants (its "
+                        "parameter box's centre and 24 corners, twolink.sim.plant_grid) and "
+                        "report the worst grid plant beside the random plants' average")
     p.add_argument("--json", action="store_true",
                    help="print the result as JSON (and no progress bar)")
     p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
@@ -143,10 +147,15 @@ def rule_of(params) -> str:
 
 def result(controller: str, *, challenge: str = "none", compensate: bool = False,
            plants: int = 32, seed: int = 2026, states: str = "full",
-           progress: bool = False, timeout: float | None = None) -> dict:
+           progress: bool = False, timeout: float | None = None,
+           worst_case: bool = False) -> dict:
     """The JSON of ``twolink evaluate``; ``progress`` shows the evaluation's bar
     (:func:`twolink.sim.progress.progress_bar`) on stderr; ``timeout`` limits each call
-    of the controller to that many seconds (:class:`twolink.sim.controller.Checked`)."""
+    of the controller to that many seconds (:class:`twolink.sim.controller.Checked`);
+    ``worst_case`` adds ``"grid"``: the run on the level's grid of plants
+    (:func:`twolink.sim.plant_grid.worst_case`, the same states, seed and mode).
+    ``"hint"`` says, for a plain run under a perturbed level of a controller that names
+    its model, what ``--compensate`` would do."""
     import numpy as np
 
     from twolink.control.controllers import resolve_controller
@@ -177,11 +186,20 @@ def result(controller: str, *, challenge: str = "none", compensate: bool = False
         med, worst = float(np.median(ratio)), float(ratio.max())
         out["settle_ratio_median"] = med if math.isfinite(med) else None
         out["settle_ratio_worst"] = worst if math.isfinite(worst) else None
+    if worst_case:
+        from twolink.sim.plant_grid import worst_case as on_grid
+
+        out["grid"] = on_grid(c, ch, x0=x0, compensate=compensate, seed=seed).as_dict()
+    if not compensate and ch.name != "none" and "model" in (c.meta or {}):
+        out["hint"] = (f"{c.name} names its model ({c.meta['model']}); --compensate runs it "
+                       f"behind the delay predictor and state observer, which predict through "
+                       f"{ch.name}'s delays and filter its noise with that model "
+                       f"(docs/guides/compensation.md)")
     return out
 
 
 def _given(args, names) -> list:
-    return [f"--{n}" for n in names if getattr(args, n) not in (None, False)]
+    return [f"--{n.replace('_', '-')}" for n in names if getattr(args, n) not in (None, False)]
 
 
 def run_links(args) -> int:
@@ -223,7 +241,7 @@ def run(args) -> int:
                plants=32 if args.plants is None else args.plants,
                seed=2026 if args.seed is None else args.seed,
                states="full" if args.states is None else args.states,
-               progress=not args.json, timeout=args.timeout)
+               progress=not args.json, timeout=args.timeout, worst_case=args.worst_case)
     if args.json:
         print(json.dumps(r, indent=2))
         return 0
@@ -238,4 +256,11 @@ def run(args) -> int:
         line += (f"; settle / T* {fmt(r['settle_ratio_median'])} median, "
                  f"{fmt(r['settle_ratio_worst'])} worst")
     print(line)
+    if "grid" in r:
+        g = r["grid"]
+        print(f"grid of {g['plants']} plants (centre and corners of {g['level']}'s box): "
+              f"{format_rate(g['successes'], g['n'])}; worst plant "
+              f"{g['worst_plant_successes']}/{g['states']} ({g['worst_plant']})")
+    if "hint" in r:
+        print(f"hint: {r['hint']}")
     return 0
