@@ -31,7 +31,7 @@ MODES = {
              "eval_horizon": 5.0, "mpc_quick": False},
 }
 SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env",
-            "evaluation", "mpc")
+            "evaluation", "mpc", "training")
 
 
 def machine() -> dict:
@@ -88,6 +88,10 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
             r, summary[section] = evaluation.bench_evaluation(states=cfg["eval_states"],
                                                               horizon=cfg["eval_horizon"],
                                                               repeats=cfg["repeats"])
+        elif section == "training":
+            from benchmarks import training
+            r, summary[section] = training.bench_training(
+                n_steps=64 if mode == "quick" else 128, updates=1 if mode == "quick" else 3)
         elif section == "mpc":
             from benchmarks import mpc
             r, summary[section] = (mpc.bench_mpc(states=mpc.QUICK_STATES, duration=1.0)

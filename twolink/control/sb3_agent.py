@@ -469,6 +469,10 @@ class SB3Agent:
     def __call__(self, x) -> np.ndarray:
         """Torques (..., N) of states x (..., 2N): the clipped deterministic action scaled
         to +-tau_max."""
+        x = np.asarray(x, dtype=float)
+        if x.shape[-1:] != (2 * self.links,):
+            raise ValueError(f"a {self.links}-link agent maps states (..., {2 * self.links}) "
+                             f"to torques, got states of shape {x.shape}")
         return model_torques(self.policy, x, self.observation, self.tau_max)
 
     def __reduce__(self):

@@ -1,0 +1,95 @@
+"""Deep-RL training cost per environment step: ``twolink train``'s PPO (updates included)
+beside the physics alone, for N = 2 and 6 links.
+
+Three figures per N, in CPU microseconds per environment step (one arm, one sample
+period), one process, torch on one thread, MuJoCo on one thread:
+
+* training: :meth:`model.learn` of the PPO that ``twolink train`` builds
+  (:func:`twolink.training.run.build`, its hyperparameters; ``n_steps`` per arm per
+  update), over whole updates, after one warm-up update: rollouts (the policy's forward
+  pass, the vector environment) plus the updates (n_epochs of minibatch gradient steps);
+* the vector environment alone: :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` stepped with
+  random normalized actions (physics, reward, observations, autoreset);
+* the physics alone: :class:`twolink.sim.plants.MujocoPlant` stepping the same batch.
+
+Needs the rl extras; without them the section reports nothing and says so.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from benchmarks.common import Row
+
+SECTION = "training"
+
+
+def _cpu(fn) -> float:
+    t0 = time.process_time()
+    fn()
+    return time.process_time() - t0
+
+
+def measure(links: int, *, envs: int = 16, n_steps: int = 128, updates: int = 2) -> dict:
+    """CPU seconds per environment step of PPO training, of the vector environment and of
+    the plant, for an arm of ``links`` links."""
+    from twolink.training.config import TrainConfig
+    from twolink.training.run import build
+
+    config = TrainConfig(algo="ppo", links=links, envs=envs, n_steps=n_steps)
+    unit = config.unit()
+    model, env = build(config)
+    try:
+        model.learn(unit, log_interval=None)                      # warm-up update
+        train = _cpu(lambda: model.learn(unit * updates, reset_num_timesteps=False,
+                                         log_interval=None))
+        steps = unit * updates
+        rng = np.random.default_rng(0)
+        actions = rng.uniform(-1, 1, (n_steps, envs, links)).astype(np.float32)
+
+        def run_env():
+            for a in actions:
+                env.step(a)
+
+        def run_plant():
+            x = env.states
+            for a in actions:
+                x = env.plant.step(x, a * env._live().params.tau_max)
+
+        env_s, plant_s = _cpu(run_env), _cpu(run_plant)
+    finally:
+        env.close()
+    per = envs * n_steps
+    return {"links": links, "envs": envs, "n_steps": n_steps, "updates": updates,
+            "train_us": 1e6 * train / steps, "env_us": 1e6 * env_s / per,
+            "plant_us": 1e6 * plant_s / per}
+
+
+def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
+                   updates: int = 2) -> tuple[list[Row], dict]:
+    """The rows of :func:`measure` for every N of ``links``."""
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError:
+        return [], {"skipped": "needs the rl extras (scripts/install-rl-extras.sh)"}
+    import torch
+
+    torch.set_num_threads(1)
+    rows, summary = [], {}
+    for n in links:
+        m = measure(n, envs=envs, n_steps=n_steps, updates=updates)
+        sec = f"{SECTION}: PPO, {n} links, {envs} arms"
+        note = (f"{updates} update{'s' if updates > 1 else ''} of {envs} x {n_steps} "
+                f"steps, 10 epochs each")
+        rows += [
+            Row(sec, "training, updates included: CPU per env step", m["train_us"], "us",
+                note),
+            Row(sec, "vector env alone: CPU per env step", m["env_us"], "us",
+                "TwoLinkSB3VecEnv, random normalized actions"),
+            Row(sec, "physics alone: CPU per env step", m["plant_us"], "us",
+                "MujocoPlant.step of the batch"),
+            Row(sec, "training / physics", m["train_us"] / m["plant_us"], "x"),
+        ]
+        summary[n] = m
+    return rows, summary
