@@ -167,7 +167,8 @@ def task_keys(names) -> dict:
 
 
 def policy_actions(policy, observations) -> dict:
-    """For the default observations (``observe='neighbours'``, ``observation='state'``):
+    """For the default observations and actions (``observe='neighbours'``,
+    ``observation='state'``, ``actions='box'``: the torques it returns are in N m):
     ``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.fuzzy_policy.Policy` in the
     ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
     agent 1, which reads link1's observation (its (18) components) and that tau2. For N
