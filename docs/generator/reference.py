@@ -137,6 +137,9 @@ API_LAYERS = (
     ("viz", "twolink.viz", "Rendering, videos, plots and formatting.", "twolink.viz"),
     ("studies", "twolink.studies", "The studies behind the reports: each measures (returns "
      "data) beside the module that presents it.", "twolink.studies"),
+    ("training", "twolink.training", "Deep RL on the arm (`twolink train`): the run's "
+     "config, training with evaluation and the learning curve, checkpoints that resume "
+     "exactly.", "twolink.training"),
     ("base", "base modules", "What every layer uses: atomic writes and provenance, where "
      "files live, the GL backend, value checks.", ""),
 )
@@ -171,7 +174,7 @@ def api_pages() -> dict:
         mine = [m for m in modules if _layer_of(m) == stem]
         text = [_stamp(source), f"# {title}\n\n", about, "\n\n"]
         if stem == "index":
-            text += ["The layers, highest first, are `commands` (the CLI), `studies`, "
+            text += ["The layers, highest first, are `commands` (the CLI), `studies` and `training`, "
                      "`envs`, `viz` and `control`, `synthesis` and `limits`, `sim`, `policy`, `fqi`, "
                      "`arm` and the base "
                      "modules; a module imports only from its own layer or those below it "
