@@ -10,8 +10,9 @@ x_{j+1} = f(x_j, u_{j-d}).
 :class:`StateEstimator` turns readings into the state the next command will act on:
 
 * the **observer** is a predictor-corrector on the synthesis model f (the RK4 sample
-  step of (6) or (11), :func:`twolink.arm.integrate.sample_step`): the prior
-  x^-_m = f(x_{m-1}, u_{m-1-d}) is corrected by a constant gain, x_m = x^-_m + L (y - x^-_m),
+  step of (6) or (11), :func:`twolink.arm.integrate.sample_step`, run compiled:
+  :func:`twolink.arm.integrate.sample_step_compiled`, its operations in its order): the
+  prior x^-_m = f(x_{m-1}, u_{m-1-d}) is corrected by a constant gain, x_m = x^-_m + L (y - x^-_m),
   angles of the innovation and of the estimate wrapped. L is the steady-state Kalman gain
   of each joint's sampled double integrator (angle, speed) with white acceleration
   disturbances (:data:`PROCESS_STD`) and the reading's noise (default: the medium
@@ -32,8 +33,7 @@ import math
 import numpy as np
 import scipy.linalg
 
-from twolink.arm.dynamics import MODELS
-from twolink.arm.integrate import sample_step, wrap_angle
+from twolink.arm.integrate import sample_step_compiled, wrap_angle
 from twolink.arm.parameters import TABLE_I, TS, ArmParameters
 from twolink.sim.challenges import LEVELS
 from twolink.validate import is_whole
@@ -137,7 +137,6 @@ class StateEstimator:
             raise ValueError(f"observer must be True or False, got {observer!r}")
         self.observer = bool(observer)
         self.model, self.params = _synthesis_model(None, model, params)
-        self._accel = MODELS[self.model]
         if not (isinstance(angle_noise_deg, (int, float, np.number))
                 and math.isfinite(angle_noise_deg)):
             raise ValueError(f"angle_noise_deg must be a finite number, got {angle_noise_deg!r}")
@@ -201,7 +200,9 @@ class StateEstimator:
         return flat, idx
 
     def _step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return sample_step(self._accel, self.params, x, u)
+        """One sample period of the synthesis model from x (B, 4) under u (B, 2): the
+        compiled RK4 (one pass per row, no numpy call per substep)."""
+        return sample_step_compiled(self.model, self.params, x, u)
 
     # ----------------------------------------------------------------- update
     def update(self, y, rows=None) -> np.ndarray:
