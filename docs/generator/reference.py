@@ -80,6 +80,20 @@ def _argument_rows(parser, prog: str):
     return rows
 
 
+def _grammar_section(parser) -> str:
+    """The grammar every command follows (:data:`twolink.commands._grammar.RULES`) and the
+    old spellings that still parse, with a warning, for one release."""
+    from twolink.commands._grammar import DEPRECATED, RULES
+
+    rows = [(f"`twolink {c}`", f"`{old}`", new.replace("(", "").replace(")", ""))
+            for c, old, new in sorted(DEPRECATED)]
+    return "".join(["## One grammar\n\n", "".join(f"- {r}\n" for r in RULES), "\n",
+                    "Old spellings still parse for one release: each prints one warning "
+                    "line naming its new spelling on stderr and then does what the new "
+                    "spelling does.\n\n",
+                    _table(("command", "old spelling", "use"), rows), "\n"])
+
+
 def cli_pages() -> dict:
     from twolink.cli import build_parser
     from twolink.commands import SUMMARIES
@@ -96,7 +110,7 @@ def cli_pages() -> dict:
         _table(("command", "what it does"), rows), "\n\n",
         "Every command has `--help`. Errors are one line (`twolink COMMAND: error: ...`) "
         "with exit status 2, and no output file is left half-written: every file is "
-        "written atomically, also on Ctrl-C or SIGTERM.\n"])
+        "written atomically, also on Ctrl-C or SIGTERM.\n\n", _grammar_section(parser)])
     for name, sub in _subparsers(parser).items():
         prog = f"twolink {name}"
         text = [_stamp(source), f"# `twolink {name}`\n\n", SUMMARIES[name][:1].upper(),

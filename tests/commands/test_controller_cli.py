@@ -120,7 +120,8 @@ def test_refused_specs_one_line_exit_2_no_file(command, spec, message, user, tmp
     spec = spec.replace("{user}", str(user)).replace("{tmp}", str(tmp_path))
     out = tmp_path / "out"
     out.mkdir()
-    argv = [command, "--controller", spec, "--duration", "0.3", "-o",
+    argv = [command, "--controller", spec, "--duration", "0.3",
+            "-o" if command == "render" else "--prefix",
             str(out / ("v.gif" if command == "render" else "run"))]
     code = main(argv + (["--size", "64x48", "--no-progress"] if command == "render" else []))
     err = capsys.readouterr().err
@@ -130,7 +131,7 @@ def test_refused_specs_one_line_exit_2_no_file(command, spec, message, user, tmp
 
 
 def test_refused_spec_from_the_shell(user, tmp_path):
-    r = _cli("rollout", "--controller", f"{user}:one_state", "--duration", 0.3, "-o",
+    r = _cli("rollout", "--controller", f"{user}:one_state", "--duration", 0.3, "--prefix",
              tmp_path / "run")
     assert r.returncode == 2 and r.stdout == ""
     assert r.stderr.count("\n") == 1 and "per_state" in r.stderr

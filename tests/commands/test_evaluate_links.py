@@ -84,8 +84,8 @@ def test_pd_entries_carry_the_tuned_gains():
     (["pd_3link_tapered", "--links", "3", "--poses", "100001"], "--poses must be"),
     (["pd_3link_tapered", "--links", "3", "--seed", "-1"], "--seed must be"),
     (["pd_3link_tapered", "--links", "3", "--challenge", "hard"], "--challenge is a two-link"),
-    (["pd_3link_tapered", "--links", "3", "--compensate", "--states", "quick"],
-     "--compensate, --states are two-link"),
+    (["pd_3link_tapered", "--links", "3", "--compensate", "--quick"],
+     "--compensate, --quick are two-link"),
     (["pd_3link_tapered", "--links", "3", "--rule", "copied"], "give --rule tapered"),
     (["pd_3link_tapered", "--links", "4"], "controls an arm of 3 links; give --links 3"),
     (["lqr", "--links", "3"], "controls an arm of 2 links"),
@@ -104,6 +104,6 @@ def test_bad_input_is_one_line_exit_2(argv, words, capsys):
 def test_two_links_on_the_protocol_and_the_two_link_evaluate_unchanged(capsys):
     got = _json(capsys, "pd", "--links", "2", "--poses", "4")
     assert (got["links"], got["rule"], got["horizon"], got["n"]) == (2, "Table I", 5.0, 4)
-    plain = _json(capsys, "pd", "--states", "quick")
+    plain = _json(capsys, "pd", "--quick")
     assert (plain["challenge"], plain["states"], plain["seed"], plain["plants"]) == \
         ("none", 5, 2026, 1)

@@ -59,7 +59,7 @@ def cheats(tmp_path):
 
 def _evaluate(spec, *extra, timeout=60, **kw):
     return subprocess.run([sys.executable, "-m", "twolink.cli", "evaluate", str(spec), "--json",
-                           "--states", "quick", *extra], capture_output=True, text=True,
+                           "--quick", *extra], capture_output=True, text=True,
                           timeout=timeout, check=False, **kw)
 
 
@@ -112,7 +112,7 @@ def test_a_bad_timeout_is_one_line(value):
 
 def test_a_real_ctrl_c_still_interrupts(cheats):
     p = subprocess.Popen([sys.executable, "-m", "twolink.cli", "evaluate", f"{cheats}:spin",
-                          "--json", "--states", "quick"], stdout=subprocess.PIPE,
+                          "--json", "--quick"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:

@@ -13,8 +13,7 @@ def _run(capsys, *argv):
 
 
 def test_worst_case_adds_the_grid_beside_the_random_plants(capsys):
-    code, out, _ = _run(capsys, "lqr", "--challenge", "easy", "--compensate", "--states",
-                        "quick", "--plants", "2", "--worst-case", "--json")
+    code, out, _ = _run(capsys, "lqr", "--challenge", "easy", "--compensate", "--quick", "--plants", "2", "--worst-case", "--json")
     assert code == 0
     r = json.loads(out)
     g = r["grid"]
@@ -25,12 +24,12 @@ def test_worst_case_adds_the_grid_beside_the_random_plants(capsys):
 
 
 def test_a_plain_run_of_a_model_based_controller_hints_at_compensate(capsys):
-    code, out, _ = _run(capsys, "lqr", "--challenge", "medium", "--states", "quick",
+    code, out, _ = _run(capsys, "lqr", "--challenge", "medium", "--quick",
                         "--plants", "1")
     assert code == 0
     hint = out.strip().splitlines()[-1]
     assert hint.startswith("hint: lqr names its model (full); --compensate runs it")
-    code, out, _ = _run(capsys, "lqr", "--states", "quick")           # level none
+    code, out, _ = _run(capsys, "lqr", "--quick")           # level none
     assert code == 0 and "hint" not in out
 
 

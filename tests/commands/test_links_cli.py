@@ -62,7 +62,7 @@ def _refused(capsys, tmp_path, *argv) -> str:
 
 def _outputs(command: str, tmp_path) -> list:
     out = tmp_path / "out"
-    return {"rollout": ["-o", out / "run"], "render": ["-o", out / "v.gif"],
+    return {"rollout": ["--prefix", out / "run"], "render": ["-o", out / "v.gif"],
             "synthesize": ["decentralized", "-o", out / "p.npz"],
             "mismatch": ["--out", out / "m"]}[command]
 
@@ -190,7 +190,7 @@ def test_tip_positions_are_mujocos_sites(links, rng):
 @pytest.mark.slow
 def test_mismatch_section_counts_are_the_plants(three_link, tmp_path, capsys):
     out = tmp_path / "m"
-    code, stdout, err = _run(capsys, "mismatch", "--links", 3, "--plan", "quick",
+    code, stdout, err = _run(capsys, "mismatch", "--links", 3, "--quick",
                              "--policies", three_link, "--json", "--out", out)
     assert code == 0, err
     rep = json.loads(stdout)

@@ -25,7 +25,7 @@ def _run(capsys, *argv):
 @pytest.mark.parametrize("plant", PLANTS)
 def test_rollout_each_plant_json_matches_library(plant, tmp_path, capsys, centralized):
     code, out, _ = _run(capsys, "--plant", plant, "--duration", 1.5, "--json",
-                        "-o", tmp_path / "run")
+                        "--prefix", tmp_path / "run")
     assert code == 0
     rep = json.loads(out)
     (entry,) = rep["runs"]
@@ -101,31 +101,31 @@ def test_rollout_x0_degrees_and_random_seed(tmp_path, capsys):
     (["--x0", "1", "2", "nan", "0"], "NaN"),
     (["--duration", "0"], "duration must be a positive"),
     (["--figure", "{tmp}/fig.jpg"], "use a .png"),
-    (["-o", "{tmp}/no/such/dir/run"], "does not exist"),
-    (["-o", "{tmp}/afile/run"], "afile is not a directory"),
+    (["--prefix", "{tmp}/no/such/dir/run"], "does not exist"),
+    (["--prefix", "{tmp}/afile/run"], "afile is not a directory"),
     (["--npz", "{tmp}"], "is a directory"),
     (["--x0", "2e10", "0", "0", "0"], "--x0 has an angle of magnitude 2e+10 rad, beyond the bound"),
     (["--x0", "0", "0", "1e9", "0"], "--x0 has a speed of magnitude 1e+09 rad/s, beyond the bound"),
     (["--duration", "1e12"], "duration must be at most 3600 s"),
     (["--csv", "{tmp}/x.png", "--figure", "{tmp}/x.png"], "--csv and --figure both write"),
     (["--npz", "{tmp}/afile/../r.npz", "--csv", "{tmp}/r.npz"], "does not exist"),
-    (["-o", "{tmp}/r", "--npz", "{tmp}/r.csv"], "--csv and --npz both write"),
+    (["--prefix", "{tmp}/r", "--npz", "{tmp}/r.csv"], "--csv and --npz both write"),
     (["--policy", "centralized", "--policy", "{tmp}/centralized.npz"], "share the label"),
     (["--challenge", "extreme"], "unknown challenge 'extreme'; choose one of none, easy, "
                                  "medium, hard"),
     (["--delay", "10"], "a delay of 10 samples is not shorter than the horizon of 10 samples"),
     (["--challenge", "hard", "--duration", "0.1"], "a delay of 2 samples is not shorter"),
     (["--delay", "-1"], "--delay must be a non-negative whole number"),
-    (["--angle-noise", "-0.5"], "--angle-noise must be a non-negative number of degrees"),
-    (["--angle-noise", "nan"], "--angle-noise must be a non-negative number of degrees"),
+    (["--angle-noise-deg", "-0.5"], "--angle-noise-deg must be a non-negative number of degrees"),
+    (["--angle-noise-deg", "nan"], "--angle-noise-deg must be a non-negative number of degrees"),
     (["--challenge", "medium", "--delay", "1"], "give either --challenge or --delay"),
     (["--challenge", "easy", "--seed", "-3"], "--seed must be a non-negative"),
 ])
 def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
-    if not any(a in ("-o", "--output") for a in argv):
-        argv += ["-o", str(tmp_path / "run")]
+    if not any(a in ("-o", "--out", "--prefix") for a in argv):
+        argv += ["--prefix", str(tmp_path / "run")]
     code, out, err = _run(capsys, "--duration", 0.5, *argv)
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("twolink rollout: error: ")
@@ -135,7 +135,7 @@ def test_rollout_bad_input_one_line_error_no_files(argv, message, tmp_path, caps
 
 def test_rollout_cli_entry_point_exit_status(tmp_path):
     res = subprocess.run([sys.executable, "-m", "twolink.cli", "rollout", "--x0", "1", "2",
-                          "-o", str(tmp_path / "r")], capture_output=True, text=True)
+                          "--prefix", str(tmp_path / "r")], capture_output=True, text=True)
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [
         "twolink rollout: error: --x0 must be four numbers (theta1 theta2 dtheta1 dtheta2), "
@@ -149,7 +149,7 @@ def test_rollout_output_directory_gets_the_default_names(tmp_path, capsys):
     (tmp_path / "results").mkdir()
     for prefix in (tmp_path / "results", f"{tmp_path / 'new'}/"):
         code, _, err = _run(capsys, "--plant", "simplified", "--duration", 0.2, "-o", prefix)
-        assert code == 0, err
+        assert code == 0 and err == "", err
     for d in ("results", "new"):
         assert sorted(p.name for p in (tmp_path / d).iterdir()) == [
             "rollout.csv", "rollout.npz", "rollout_fig3.png"]
@@ -164,7 +164,7 @@ def test_mujoco_instability_fails_the_run_loudly(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(plants, "MAX_ANGLE", 1e12)     # let MuJoCo see a state it rejects
     code, out, err = _run(capsys, "--x0", "2e10", "0", "0", "0", "--plant", "mujoco",
-                          "-o", tmp_path / "r")
+                          "--prefix", tmp_path / "r")
     assert code == 2 and "success" not in out
     assert err.count("\n") == 1 and "MuJoCo went unstable" in err and "x0 = [+2e+10" in err
     assert list(tmp_path.iterdir()) == []                # no MUJOCO_LOG.TXT, no outputs

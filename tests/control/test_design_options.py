@@ -164,7 +164,7 @@ def test_design_options_are_two_link_only():
     (["centralized", "--levels", "9", "--bins", "goal", "--refine", "2"], "over the 64 MiB"),
     (["decentralized", "--links", "3", "--levels", "5"], "--levels: two-link options"),
     (["--ship", "centralized_tuned", "--levels", "5"], "--ship takes everything"),
-    (["centralized", "--argmax-beyond", "200"], r"--argmax-beyond must lie in \[10, 180\]"),
+    (["centralized", "--argmax-beyond-deg", "200"], r"--argmax-beyond-deg must lie in \[10, 180\]"),
     (["centralized", "--model", "full", "--agent2-link1", "locked"],
      "agent2_link1 is how the decentralized agent 2 reads link 1"),
     (["decentralized", "--agent2-link1", "locked"], r"under \(11\) link 2 does not depend"),

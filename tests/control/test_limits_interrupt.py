@@ -15,7 +15,7 @@ def test_ctrl_c_stops_limits_at_once_and_writes_nothing(tmp_path, workers):
     out = tmp_path / "limits.json"
     proc = subprocess.Popen(
         [sys.executable, "-m", "twolink.cli", "limits", "--evaluation-set", "--model", "full",
-         "--no-mujoco", "--write", str(out), *workers],
+         "--no-mujoco", "-o", str(out), *workers],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         first = proc.stderr.readline()                  # its first progress line

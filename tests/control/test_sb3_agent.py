@@ -92,7 +92,7 @@ def test_without_sb3_one_line_says_what_to_install(tiny, monkeypatch):
 
 def test_the_leaderboard_gives_the_agent_plain_rows_only(tiny, tmp_path, capsys):
     out = tmp_path / "lb"
-    assert main(["leaderboard", "--quick", "--controllers", str(tiny[1]), "--levels",
+    assert main(["leaderboard", "--quick", "--only", "--controller", str(tiny[1]), "--levels",
                  "none", "medium", "--plants", "2", "--out", str(out)]) == 0
     capsys.readouterr()
     rows = json.loads((out / "leaderboard.json").read_text())["rows"]

@@ -128,7 +128,7 @@ def test_the_cli_runs_nothing_of_a_crafted_save(tiny, tmp_path):
     marker = tmp_path / "MARKER"
     extra, _, kwargs = _crafted(tiny, tmp_path, marker)
     env = {**os.environ, "TWOLINK_OUTPUT": str(tmp_path / "out")}
-    cmd = [sys.executable, "-m", "twolink.cli", "evaluate", "--states", "quick", "--json"]
+    cmd = [sys.executable, "-m", "twolink.cli", "evaluate", "--quick", "--json"]
     ok = subprocess.run([*cmd, str(extra)], capture_output=True, text=True, env=env,
                         cwd=tmp_path, timeout=300)
     assert ok.returncode == 0, ok.stderr

@@ -241,7 +241,7 @@ def test_the_command_json(capsys):
 def test_the_command_computes_and_writes(capsys, tmp_path):
     out = tmp_path / "limits.json"
     assert main(["limits", "--model", "simplified", "--x0", "0.3", "-0.2", "0", "0",
-                 "--no-mujoco", "--workers", "1", "--write", str(out), "--json"]) == 0
+                 "--no-mujoco", "--workers", "1", "-o", str(out), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     row = data["models"]["simplified"]["rows"][0]
     assert row["lower"] == row["upper"] and row["x0"] == [0.3, -0.2, 0.0, 0.0]
@@ -251,8 +251,8 @@ def test_the_command_computes_and_writes(capsys, tmp_path):
 
 
 def test_the_command_refuses_write_without_states(capsys):
-    assert main(["limits", "--write", "x.json"]) == 2
-    assert "--write saves computed tables" in capsys.readouterr().err
+    assert main(["limits", "-o", "x.json"]) == 2
+    assert "-o/--out saves computed tables" in capsys.readouterr().err
 
 
 def test_wrap_state_keeps_angles_in_range_bit_for_bit():

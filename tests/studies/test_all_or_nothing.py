@@ -25,7 +25,7 @@ REPORT = {"command": "twolink leaderboard --quick", "states": 5, "plants": 4, "s
 
 
 def _snapshot(folder: Path) -> dict:
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
 
 
 @pytest.fixture
@@ -107,7 +107,7 @@ def test_merge_refuses_a_corrupted_report_before_measuring(saved, corrupt, messa
     corrupt(data)
     path.write_text(json.dumps(data))
     before = _snapshot(saved)
-    res, seconds = _cli("leaderboard", "--quick", "--merge", "--controllers", "lqr",
+    res, seconds = _cli("leaderboard", "--quick", "--merge", "--only", "--controller", "lqr",
                         "--levels", "none", "--out", str(saved))
     assert res.returncode == 2, res.stderr
     lines = res.stderr.strip().splitlines()
@@ -121,7 +121,7 @@ def test_merge_names_a_truncated_report(saved):
     path = saved / "leaderboard.json"
     path.write_text(path.read_text()[:50])
     before = _snapshot(saved)
-    assert main(["leaderboard", "--quick", "--merge", "--controllers", "lqr",
+    assert main(["leaderboard", "--quick", "--merge", "--only", "--controller", "lqr",
                  "--out", str(saved)]) == 2
     assert _snapshot(saved) == before
 
@@ -140,9 +140,9 @@ def test_outputs_through_a_symlink_into_the_package_data_are_refused(tmp_path):
     before = _snapshot(data)
     link = tmp_path / "link"
     link.symlink_to(data, target_is_directory=True)
-    for argv in (["leaderboard", "--quick", "--controllers", "pd", "--levels", "none",
+    for argv in (["leaderboard", "--quick", "--only", "--controller", "pd", "--levels", "none",
                   "--out", str(link)],
-                 ["limits", "--x0", "0.3", "0.3", "0", "0", "--write",
+                 ["limits", "--x0", "0.3", "0.3", "0", "0", "-o",
                   str(link / "limits.json")],
                  ["mismatch", "--links", "3", "--out", str(link)],
                  ["scaling", "--quick", "-o", str(link)]):

@@ -59,14 +59,16 @@ def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
                     "    return np.clip(-np.array([1.0, 2.0]) * x[:, :2]"
                     " - np.array([0.15, 0.05]) * x[:, 2:], [-1.5, -0.1], [1.5, 0.1])\n")
     out = tmp_path / "lb"
-    assert main(["leaderboard", "--quick", "--controllers", "lqr", "--controller",
+    assert main(["leaderboard", "--quick", "--only", "--controller", "lqr", "--controller",
                  f"{mine}:pd", "--levels", "none", "medium", "--plants", "2",
                  "--out", str(out)]) == 0
     captured = capsys.readouterr()
     text = captured.out                              # where the added controller ranks
     ranks = [line.split(":")[0] for line in text.splitlines() if " ranks " in line]
-    assert [r.replace("1 of", "k of").replace("2 of", "k of") for r in ranks] == [
+    ranks = [r.replace("1 of", "k of").replace("2 of", "k of") for r in ranks]
+    assert [r for r in ranks if r.startswith("pd ")] == [        # --only: both are given
         "pd ranks k of 2 under none (plain)", "pd ranks k of 2 under medium (plain)"]
+    assert "lqr ranks k of 1 under medium (compensated)" in ranks
     assert "|" not in text
     rows = captured.err.splitlines()                # one line per row, no bar besides
     assert len(rows) == 5 and all(line.startswith(f"[{k}/5] ")
@@ -81,7 +83,7 @@ def test_the_command_writes_markdown_json_and_figure(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, match", [
-    (["--controllers", "nosuch"], "unknown controller 'nosuch'"),
+    (["--only", "--controller", "nosuch"], "unknown controller 'nosuch'"),
     (["--levels", "wild"], "unknown challenge 'wild'"),
     (["--plants", "0"], "--plants must be from 1 to 10000"),
     (["--controller", "no_module_xyz:f"], "cannot import controller module"),
@@ -95,14 +97,14 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, match)
 
 
 def test_evaluate_prints_the_score_against_the_limit(capsys):
-    assert main(["evaluate", "lqr", "--states", "quick", "--json"]) == 0
+    assert main(["evaluate", "lqr", "--quick", "--json"]) == 0
     out, err = capsys.readouterr()
     r = json.loads(out)
     assert err == ""                                 # --json: no progress bar
     assert (r["controller"], r["challenge"], r["mode"], r["n"]) == ("lqr", "none", "plain", 5)
     assert r["successes"] == 5 and r["settle_ratio_median"] >= 1.0
     assert main(["evaluate", "pd_deadzone", "--challenge", "medium", "--plants", "2",
-                 "--states", "quick"]) == 0
+                 "--quick"]) == 0
     line = capsys.readouterr().out.strip()
     assert line.startswith("pd_deadzone under medium (plain): ") and "settle / T*" in line
     assert main(["evaluate", "nosuch"]) == 2
@@ -115,7 +117,7 @@ def test_evaluate_logs_its_progress_unless_json(tmp_path, monkeypatch):
     log = tmp_path / "log.txt"
     with open(log, "w") as fh:
         monkeypatch.setattr("sys.stderr", fh)
-        assert main(["evaluate", "lqr", "--states", "quick"]) == 0
+        assert main(["evaluate", "lqr", "--quick"]) == 0
     lines = log.read_text().splitlines()
     assert lines and all(line.startswith("evaluate lqr:") for line in lines), lines
     assert "100%" in lines[-1] and "100/100" in lines[-1], lines
@@ -125,10 +127,10 @@ def test_evaluate_logs_its_progress_unless_json(tmp_path, monkeypatch):
 def test_merge_adds_rows_as_a_full_run_would_give_them(tmp_path, capsys):
     both, merged = tmp_path / "both", tmp_path / "merged"
     common = ["leaderboard", "--quick", "--levels", "medium", "--plants", "1"]
-    assert main([*common, "--controllers", "pd", "lqr", "--out", str(both)]) == 0
-    assert main([*common, "--controllers", "pd", "--out", str(merged)]) == 0
+    assert main([*common, "--only", "--controller", "pd", "--controller", "lqr", "--out", str(both)]) == 0
+    assert main([*common, "--only", "--controller", "pd", "--out", str(merged)]) == 0
     capsys.readouterr()
-    assert main(["leaderboard", "--quick", "--merge", "--controllers", "lqr",
+    assert main(["leaderboard", "--quick", "--merge", "--only", "--controller", "lqr",
                  "--out", str(merged)]) == 0
     keys = ("controller", "level", "mode", "successes", "n", "median_settle",
             "settle_ratio_median", "mean_abs_torque")
@@ -142,9 +144,9 @@ def test_merge_adds_rows_as_a_full_run_would_give_them(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, match", [
-    (["--merge", "--controllers", "pd"], "does not exist; run the leaderboard once"),
+    (["--merge", "--only", "--controller", "pd"], "does not exist; run the leaderboard once"),
     (["--merge"], "--merge needs the controllers to add"),
-    (["--merge", "--controllers", "pd", "--plants", "3"], "takes the saved leaderboard's"),
+    (["--merge", "--only", "--controller", "pd", "--plants", "3"], "takes the saved leaderboard's"),
 ])
 def test_merge_refuses_what_it_cannot_join(tmp_path, capsys, argv, match):
     assert main(["leaderboard", "--quick", "--out", str(tmp_path / "none"), *argv]) == 2

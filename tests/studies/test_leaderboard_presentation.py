@@ -163,7 +163,7 @@ def test_merge_prints_where_the_controller_ranks_not_the_table(tmp_path, capsys)
     mine.write_text(PD)
     out = tmp_path / "lb"
     common = ["leaderboard", "--quick", "--levels", "none", "--out", str(out)]
-    assert main([*common, "--controllers", "lqr", "pd"]) == 0
+    assert main([*common, "--only", "--controller", "lqr", "--controller", "pd"]) == 0
     capsys.readouterr()
     assert main(["leaderboard", "--quick", "--merge", "--controller", f"{mine}:DampedPD",
                  "--out", str(out)]) == 0
@@ -202,7 +202,7 @@ def test_a_stuck_controller_ends_at_the_timeout(tmp_path, capsys):
     mine = tmp_path / "mine.py"
     mine.write_text(PD)
     out = tmp_path / "lb"
-    assert main(["leaderboard", "--quick", "--levels", "none", "--controllers", "pd",
+    assert main(["leaderboard", "--quick", "--levels", "none", "--only", "--controller", "pd",
                  "--controller", f"{mine}:spin", "--timeout", "0.5", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == "twolink leaderboard: error: controller spin took longer than 0.5 s " \
@@ -235,7 +235,7 @@ def test_the_default_output_folder_is_outside_the_tracked_tree_and_ignored(monke
 def test_the_leaderboard_writes_into_the_default_folder(monkeypatch, tmp_path, capsys):
     monkeypatch.delenv("TWOLINK_OUTPUT", raising=False)
     monkeypatch.chdir(tmp_path)
-    assert main(["leaderboard", "--quick", "--levels", "none", "--controllers", "lqr"]) == 0
+    assert main(["leaderboard", "--quick", "--levels", "none", "--only", "--controller", "lqr"]) == 0
     assert sorted(os.listdir(tmp_path / "twolink-results" / "leaderboard-quick")) == [
         "leaderboard.json", "leaderboard.md", "leaderboard.png"]
     assert os.listdir(tmp_path) == ["twolink-results"]

@@ -26,7 +26,7 @@ def test_ray_rows_equal_local_rows(tmp_path, capsys):
     pytest.importorskip("ray")
     mine = tmp_path / "mine.py"
     mine.write_text(PD)
-    argv = ["leaderboard", "--quick", "--controllers", "lqr", "--controller", f"{mine}:pd",
+    argv = ["leaderboard", "--quick", "--only", "--controller", "lqr", "--controller", f"{mine}:pd",
             "--levels", "medium", "--plants", "2", "--json", "--no-save"]
     local = _rows(capsys, argv)
     remote = _rows(capsys, [*argv, "--executor", "ray"])
@@ -51,7 +51,7 @@ def test_a_ray_address_that_does_not_answer_is_one_line_no_file(tmp_path, capsys
     pytest.importorskip("ray")
     out = tmp_path / "lb"
     argv = [a.replace("{port}", str(_free_port())) for a in argv]
-    assert main(["leaderboard", "--quick", "--controllers", "lqr", "--out", str(out),
+    assert main(["leaderboard", "--quick", "--only", "--controller", "lqr", "--out", str(out),
                  *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and match in err[0] and err[0].startswith("twolink leaderboard: ")

@@ -209,7 +209,7 @@ def test_render_cli_gif_at_chosen_rate(tmp_path, capsys):
     (["--x0", "0", "0", "1e9", "0"], "beyond the bound"),
     (["--challenge", "nosuch"], "unknown challenge 'nosuch'"),
     (["--delay", "4"], "a delay of 4 samples is not shorter than the horizon of 4 samples"),
-    (["--angle-noise", "-1"], "--angle-noise must be a non-negative number of degrees"),
+    (["--angle-noise-deg", "-1"], "--angle-noise-deg must be a non-negative number of degrees"),
 ])
 def test_render_bad_input_one_line_no_file(argv, message, tmp_path, capsys):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]

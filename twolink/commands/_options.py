@@ -1,5 +1,5 @@
 """Options several commands share: the arm (--links, --rule), initial states (--x0),
-challenges (--challenge, --delay, --angle-noise, --compensate) and policy labels."""
+challenges (--challenge, --delay, --angle-noise-deg, --compensate) and policy labels."""
 from __future__ import annotations
 
 import math
@@ -86,7 +86,7 @@ def check_two_link_options(args, links: int) -> None:
     if links == 2:
         return
     given = [o for o, v in (("--challenge", args.challenge), ("--delay", args.delay),
-                            ("--angle-noise", args.angle_noise),
+                            ("--angle-noise-deg", args.angle_noise),
                             ("--compensate", args.compensate)) if v]
     if given:
         verb = "applies" if len(given) == 1 else "apply"
@@ -102,7 +102,7 @@ def check_two_link_options(args, links: int) -> None:
 
 
 def add_challenge_options(p) -> None:
-    """--challenge, --delay, --angle-noise and --compensate (rollout and render)."""
+    """--challenge, --delay, --angle-noise-deg and --compensate (rollout and render)."""
     p.add_argument("--challenge", metavar="LEVEL", default=None,
                    help=f"run under a challenge level ({', '.join(LEVELS)}): the plant is "
                         "its first random plant of --seed, with its delays, noise and "
@@ -110,12 +110,17 @@ def add_challenge_options(p) -> None:
     p.add_argument("--delay", type=int, default=0, metavar="SAMPLES",
                    help="without --challenge: torques reach the plant this many sample "
                         "periods late (default 0)")
-    p.add_argument("--angle-noise", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--angle-noise-deg", dest="angle_noise", type=float, default=0.0,
+                   metavar="DEG",
                    help="without --challenge: Gaussian noise on the measured angles, std in "
                         "degrees, with speed noise 0.02 rad/s per degree (default 0)")
     p.add_argument("--compensate", action="store_true",
                    help="drive the policy through the run-time delay predictor and state "
                         "observer (twolink.sim.estimation) for the challenge's delays and noise")
+    from twolink.commands._grammar import deprecated
+
+    deprecated(p, p.prog.split()[-1], "--angle-noise", "--angle-noise-deg", dest="angle_noise",
+               type=float)
 
 
 #: The largest seed a command takes (numpy's generators take any, the JSON files int64).

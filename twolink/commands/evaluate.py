@@ -25,6 +25,7 @@ import math
 
 from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import deprecated
 from twolink.sim.challenges import LEVELS
 from twolink.sim.controller import MAX_TIMEOUT, MIN_TIMEOUT
 from twolink.sim.metrics import MAX_POSES
@@ -57,9 +58,10 @@ def add_parser(sub):
                    help=f"seed of the plants, noise and faults (default 2026); with --links, "
                         f"of the poses (drawn from S + N; default {POSE_SEED}, the scaling "
                         f"table's)")
-    p.add_argument("--states", choices=STATE_SETS, default=None,
-                   help="initial states: the 65 of the evaluation set (full) or every 13th "
-                        "(quick)")
+    p.add_argument("--quick", action="store_const", const="quick", dest="states", default=None,
+                   help="every 13th of the 65 states of the evaluation set (5 states)")
+    deprecated(p, "evaluate", "--states", "--quick (or nothing: the 65 states)", dest="states",
+               choices=STATE_SETS)
     p.add_argument("--worst-case", action="store_true",
                    help="also run the controller on the level's grid of plants (its "
                         "parameter box's centre and 24 corners, twolink.sim.plant_grid) and "
@@ -199,7 +201,9 @@ def result(controller: str, *, challenge: str = "none", compensate: bool = False
 
 
 def _given(args, names) -> list:
-    return [f"--{n.replace('_', '-')}" for n in names if getattr(args, n) not in (None, False)]
+    spelt = {"states": "quick"}                 # the option that sets the attribute
+    return [f"--{spelt.get(n, n).replace('_', '-')}" for n in names
+            if getattr(args, n) not in (None, False)]
 
 
 def run_links(args) -> int:

@@ -15,6 +15,7 @@ from twolink.arm import parameter_file
 from twolink.arm.parameters import TS
 from twolink.artifacts import check_outputs, make_folders, output_file, provenance
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import add_out
 from twolink.commands._options import seed_option
 from twolink.sim import excitation, identify
 
@@ -59,9 +60,9 @@ def add_parser(sub):
     p.add_argument("--bootstrap", type=_number(int, "must be a whole number"), default=20,
                    help="bootstrap replicates for the standard errors (default 20; 2 to "
                         f"{identify.MAX_BOOTSTRAP})")
-    p.add_argument("-o", "--output", default=None,
-                   help=f"parameter file to write (default ./{DEFAULT_OUTPUT}; DIR/ writes "
-                        f"DIR/{DEFAULT_OUTPUT}, making DIR)")
+    add_out(p, "identify", default=None, metavar="FILE",
+            help=f"parameter file to write (default ./{DEFAULT_OUTPUT}; DIR/ writes "
+                 f"DIR/{DEFAULT_OUTPUT}, making DIR)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--reveal", action="store_true",
                    help="after the fit, print the hidden plant's values and the errors")

@@ -3,8 +3,8 @@
 By default the benchmark rows of the controller catalogue (its tag benchmark: the paper's
 three policies, the best fuzzy design of each kind, the five classical baselines and the
 learned agent ppo_seed0 where its file and Stable-Baselines3 are there); --tag T the
-entries of another tag, --all every two-link entry, --controllers names, and --controller
-any controller of yours (module:callable, path/to/file.py:callable, a policy .npz or an
+entries of another tag, --all every two-link entry, and --controller (repeatable; with
+--only, instead of the benchmark rows) any controller of yours (module:callable, path/to/file.py:callable, a policy .npz or an
 SB3 agent .zip). Each runs under the levels none, easy, medium and hard, plain and (for
 controllers that name their model) compensated, on MuJoCo from the 65 states of the
 evaluation set: k/n with the 95 % Wilson interval, the worst plant, the median settle
@@ -23,6 +23,7 @@ import sys
 from pathlib import Path
 
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import deprecated
 from twolink.sim.challenges import LEVELS
 
 #: --quick: every 13th state of the evaluation set, 4 plants, levels none and medium.
@@ -35,16 +36,19 @@ def add_parser(sub):
     p = sub.add_parser("leaderboard", help=SUMMARIES["leaderboard"],
                        description=" ".join(__doc__.replace("``", "").split("\n\n")[1].split()))
     which = p.add_mutually_exclusive_group()
-    which.add_argument("--controllers", nargs="+", default=None, metavar="NAME",
-                       help="which controllers (default: the catalogue's benchmark tag; "
-                            "`twolink controllers --tag benchmark` lists them; no folder is "
-                            "searched for .zip agents)")
+    which.add_argument("--only", action="store_const", const=[], dest="controllers",
+                       default=None,
+                       help="run only the --controller values (default: the catalogue's "
+                            "benchmark tag, `twolink controllers --tag benchmark`, beside "
+                            "them; no folder is searched for .zip agents)")
     which.add_argument("--tag", default=None, metavar="TAG",
                        help="the two-link catalogue entries with this tag (paper, benchmark, "
                             "baseline, tuned, fuzzy, learned, user or one of your catalogue)")
     which.add_argument("--all", action="store_true",
                        help="every two-link catalogue entry (every shipped two-link policy, "
                             "baseline and learned agent, and those of your catalogue)")
+    deprecated(p, "leaderboard", "--controllers", "--only --controller NAME (repeatable)",
+               dest="controllers", nargs="+")
     p.add_argument("--controller", action="append", default=[], metavar="SPEC",
                    help="add a controller: module:callable, path/to/file.py:callable, a "
                         "policy .npz or an SB3 agent .zip (repeatable); the output says "
@@ -62,7 +66,7 @@ def add_parser(sub):
     p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
                    help="end the run (exit status 2) when one call of a controller takes "
                         "longer than this (default: no limit)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
                    help="folder of leaderboard.md, .json and .png (default "
                         "leaderboard, or leaderboard-quick, in twolink-results/ or "
                         "$TWOLINK_OUTPUT)")
@@ -184,7 +188,7 @@ def _saved(args):
     if args.no_save:
         raise ValueError("--merge writes into the saved leaderboard; give no --no-save")
     if args.controllers is None and args.tag is None and not args.all and not args.controller:
-        raise ValueError("--merge needs the controllers to add: --controllers or --controller")
+        raise ValueError("--merge needs the controllers to add: --controller NAME (repeatable)")
     if args.plants is not None or args.seed is not None:
         raise ValueError("--merge takes the saved leaderboard's plants and seed; give no "
                          "--plants or --seed")
@@ -206,7 +210,7 @@ def _rerender(args) -> int:
     from twolink.studies.leaderboard.merge import saved_report
     from twolink.studies.leaderboard.report import FILES, write
 
-    given = [o for o, v in (("--merge", args.merge), ("--controllers", args.controllers),
+    given = [o for o, v in (("--merge", args.merge), ("--only", args.controllers),
                             ("--controller", args.controller), ("--tag", args.tag),
                             ("--all", args.all), ("--levels", args.levels),
                             ("--plants", args.plants), ("--seed", args.seed),

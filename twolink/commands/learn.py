@@ -13,6 +13,7 @@ from pathlib import Path
 
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import add_out
 from twolink.commands._options import seed_option
 from twolink.synthesis.learning import Learner, evaluate, stays_above, steps_to_reach
 from twolink.synthesis.learning_setup import (
@@ -118,10 +119,9 @@ def add_parser(sub):
     p.add_argument("--eval-every", default="0", metavar="N",
                    help="control steps between evaluations and checkpoints (default: "
                         "steps / 20)")
-    p.add_argument("-o", "--output", default=None, metavar="FILE",
-                   help="checkpoint policy file (default ./learned_<learner>.npz; with "
-                        "--resume, the resumed file; DIR/ writes that name in DIR, making "
-                        "DIR)")
+    add_out(p, "learn", default=None, metavar="FILE",
+            help="checkpoint policy file (default ./learned_<learner>.npz; with --resume, "
+                 "the resumed file; DIR/ writes that name in DIR, making DIR)")
     p.add_argument("--plot", type=Path, default=None, metavar="PNG",
                    help="learning-curve figure (default: the checkpoint's name with "
                         "_curve.png)")

@@ -3,8 +3,8 @@ torque sequence brings the arm into the goal band to stay (twolink.limits).
 
 Without states it prints the shipped table of the 65 evaluation states (``data/limits.json``,
 no CasADi needed); ``--x0`` or ``--evaluation-set`` computes (CasADi and IPOPT: ``pip install
-'twolink[limits]'``), and ``--write FILE`` saves what was computed in the shipped format
-(``twolink limits --evaluation-set --ship`` re-creates the shipped file; ``--write`` never
+'twolink[limits]'``), and ``-o/--out FILE`` saves what was computed in the shipped format
+(``twolink limits --evaluation-set --ship`` re-creates the shipped file; ``-o`` never
 writes into the package or its shipped data). The solver is silent unless ``--verbose``;
 Ctrl-C stops a computation within an IPOPT iteration and writes nothing.
 """
@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import deprecated
 from twolink.commands._options import X0_HELP
 
 MODEL_CHOICES = ("full", "simplified", "both")
@@ -41,12 +42,13 @@ def add_parser(sub):
     p.add_argument("--evaluation-set", action="store_true",
                    help="compute the 65 evaluation states (twolink.sim.metrics.evaluation_set)")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
-    p.add_argument("--write", type=Path, default=None, metavar="FILE",
+    p.add_argument("-o", "--out", dest="write", type=Path, default=None, metavar="FILE",
                    help="write the computed tables with their provenance to FILE (the "
                         "format of the shipped data/limits.json)")
     p.add_argument("--ship", action="store_true",
                    help="write the computed tables over the shipped data/limits.json (the "
                         "only way to write into the package's data)")
+    deprecated(p, "limits", "--write", "-o/--out", dest="write", type=Path)
     p.add_argument("--verbose", action="store_true",
                    help="let IPOPT and CasADi print their iterations and warnings")
     p.add_argument("--workers", type=int, default=None, metavar="N",
@@ -92,7 +94,7 @@ def _command_line(args) -> str:
         if value is not None:
             words += [flag, str(value)]
     if args.write is not None:
-        words += ["--write", str(args.write)]
+        words += ["-o", str(args.write)]
     if args.ship:
         words += ["--ship"]
     return " ".join(words)
@@ -116,13 +118,13 @@ def run(args) -> int:
     models = list(to.MODELS) if args.model == "both" else [args.model]
     states = _states(args)
     if args.ship and args.write is not None:
-        raise ValueError("--ship writes the shipped data/limits.json; give no --write")
+        raise ValueError("--ship writes the shipped data/limits.json; give no -o/--out")
     if args.ship:
         from twolink.resources import limits_file
         args.write = limits_file()
     if states is None:
         if args.write is not None:
-            raise ValueError(f"{'--ship' if args.ship else '--write'} saves computed tables: "
+            raise ValueError(f"{'--ship' if args.ship else '-o/--out'} saves computed tables: "
                              f"give --x0 or --evaluation-set")
         shipped = to.shipped_tables()
         tables = {m: shipped[m] for m in models}
@@ -130,7 +132,7 @@ def run(args) -> int:
         source = "shipped data/limits.json"
     else:
         if args.write is not None:
-            check_outputs({"--ship" if args.ship else "--write": args.write}, ship=args.ship)
+            check_outputs({"--ship" if args.ship else "-o/--out": args.write}, ship=args.ship)
         options = {k: v for k, v in (("starts", args.starts),
                                      ("max_samples", args.max_samples)) if v is not None}
         t0 = time.perf_counter()

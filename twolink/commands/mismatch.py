@@ -18,6 +18,7 @@ from pathlib import Path
 
 from twolink.artifacts import staged_set, write_json, write_text
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import deprecated
 from twolink.commands._options import (
     add_arm_options,
     arm_of,
@@ -41,12 +42,13 @@ from twolink.viz.formatting import format_rate
 def add_parser(sub):
     p = sub.add_parser("mismatch", help=SUMMARIES["mismatch"],
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
-    p.add_argument("--plan", choices=list(PLANS), default="full",
-                   help="what to measure: full (the committed report) or quick (5 initial "
-                        "states per sweep cell, fewer sizes; the closed-loop table keeps "
-                        "all 65): under a minute, for CI")
     p.add_argument("--quick", action="store_const", dest="plan", const="quick",
-                   help="the same as --plan quick")
+                   default="full",
+                   help="5 initial states per sweep cell and fewer sizes (the closed-loop "
+                        "table keeps all 65): under a minute, for CI; default: the full plan "
+                        "of the committed report")
+    deprecated(p, "mismatch", "--plan", "--quick (or nothing: the full plan)", dest="plan",
+               choices=list(PLANS))
     p.add_argument("-o", "--out", type=Path, default=None,
                    help="report folder (default twolink-results/mismatch, or ...-quick); "
                         "one run at a time per folder, which resumes from its sweep.jsonl")

@@ -5,6 +5,7 @@ from __future__ import annotations
 from twolink.arm import mjcf
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import deprecated
 from twolink.commands._options import add_arm_options, arm_of
 from twolink.resources import MODEL_FILE, model_file, source_checkout
 
@@ -25,12 +26,13 @@ def add_parser(sub):
                                    "replaces the committed models/twolink.xml of a source "
                                    "checkout).")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("-o", "--output", default=None,
+    where.add_argument("-o", "--out", dest="output", default=None, metavar="FILE",
                        help=f"file to write (default ./{MODEL_FILE}, with --links N "
                             f"./twolink_<N>link[_<rule>].xml; DIR/ writes that name in DIR, "
                             f"making DIR)")
     where.add_argument("--ship", action="store_true",
                        help="overwrite the committed models/twolink.xml (source checkouts only)")
+    deprecated(p, "mjcf", "--output", "-o/--out", dest="output")
     add_arm_options(p)
     return p
 

@@ -5,7 +5,7 @@ arm following the simplified-model (11) rollout of the same policy from the same
 and a text overlay with time, torques and reward. Two ``--policy`` values render side
 by side; ``--controller`` takes any controller (``module:callable``,
 ``path/to/file.py:callable``, a baseline name or a policy file) in their place or beside
-one. ``--challenge`` (or ``--delay`` / ``--angle-noise``) and ``--compensate`` run them as
+one. ``--challenge`` (or ``--delay`` / ``--angle-noise-deg``) and ``--compensate`` run them as
 ``twolink rollout`` does. ``--links N`` renders an N-link arm, its ghost then the
 numpy full N-link model's rollout. Rendering speed is measured by the benchmarks
 (``make bench``).
@@ -22,6 +22,7 @@ import numpy as np
 from twolink.arm.parameters import HORIZON, TS
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import add_out
 from twolink.commands._controllers import add_controller_option
 from twolink.commands._controllers import controllers_of as command_controllers
 from twolink.commands._options import (
@@ -87,10 +88,10 @@ def add_parser(sub):
                    help="draw time, torques and reward on the frames (default on)")
     p.add_argument("--antialias", action="store_true",
                    help="4x multisample anti-aliasing (about 3x slower without a GPU)")
-    p.add_argument("-o", "--output", default=None,
-                   help="video to write, .mp4 (H.264) or .gif; DIR/ (a trailing /) writes "
-                        "the default name in DIR, made if missing (default "
-                        "twolink-results/<policy>[_vs_<policy>]_<plant>.mp4)")
+    add_out(p, "render", default=None, metavar="FILE",
+            help="video to write, .mp4 (H.264) or .gif; DIR/ (a trailing /) writes the "
+                 "default name in DIR, made if missing (default "
+                 "twolink-results/<policy>[_vs_<policy>]_<plant>.mp4)")
     p.add_argument("--no-progress", action="store_true",
                    help="hide the progress bar (printed as lines when stderr is not a "
                         "terminal; --json hides it too)")

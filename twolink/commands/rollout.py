@@ -5,7 +5,7 @@ Fig. 3-style figure (one column per policy, one line style per plant). ``--contr
 adds any controller (``module:callable``, ``path/to/file.py:callable``, a baseline name
 or a policy file, :func:`twolink.control.controllers.resolve_controller`) to the same
 closed loop. ``--challenge``
-(or ``--delay`` / ``--angle-noise``) runs them under a challenge level, ``--compensate``
+(or ``--delay`` / ``--angle-noise-deg``) runs them under a challenge level, ``--compensate``
 behind the run-time compensator (:mod:`twolink.sim.estimation`). ``--links N`` (with
 ``--rule``) runs an N-link arm (:func:`twolink.arm.parameters.chain`) on MuJoCo or the numpy
 full N-link model; the simplified model (11) and the challenges are the two-link arm's.
@@ -13,6 +13,7 @@ full N-link model; the simplified model (11) and the challenges are the two-link
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from twolink.arm.parameters import (
@@ -20,6 +21,7 @@ from twolink.arm.parameters import (
 )
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import add_out
 from twolink.commands._controllers import add_controller_option, context_of, kind_of
 from twolink.commands._controllers import controllers_of as command_controllers
 from twolink.commands._options import (
@@ -69,10 +71,11 @@ def add_parser(sub):
                         "(default 0)")
     add_arm_options(p)
     add_challenge_options(p)
-    p.add_argument("-o", "--output", default=None, metavar="PREFIX",
-                   help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png; a directory "
-                        "writes DIR/rollout.*, and DIR/ (a trailing /) makes DIR if "
-                        "missing (default twolink-results/rollout)")
+    add_out(p, "rollout", default=None, metavar="DIR",
+            help="folder of rollout.csv, rollout.npz and rollout_fig3.png (DIR/, with a "
+                 "trailing /, is made if missing; default twolink-results/)")
+    p.add_argument("--prefix", default=None, metavar="PREFIX",
+                   help="write PREFIX.csv, PREFIX.npz and PREFIX_fig3.png instead")
     p.add_argument("--csv", type=Path, help="trajectory CSV path (overrides the prefix)")
     p.add_argument("--npz", type=Path, help="trajectory NPZ path (overrides the prefix)")
     p.add_argument("--figure", type=Path, help="Fig. 3 PNG path (overrides the prefix)")
@@ -88,11 +91,19 @@ def _outputs(args) -> tuple[dict, list]:
     if args.no_save:
         return {}, []
     default = output_dir(create=False)
+    if args.prefix is not None and args.output is not None:
+        raise ValueError("give -o/--out DIR or --prefix PREFIX, not both")
     prefix, folders = output_file(args.output, "rollout")
-    if not args.output:
+    if args.prefix is not None:
+        prefix, folders = Path(args.prefix), []
+    elif not args.output:
         prefix = default / "rollout"
     elif not folders and prefix.is_dir():
         prefix = prefix / "rollout"
+    elif not folders:       # -o PREFIX, the old meaning: still a prefix, with a warning
+        print(f"twolink rollout: warning: -o {args.output} (a file prefix) is deprecated and "
+              f"goes in the next release; give --prefix {args.output}, or -o "
+              f"{args.output}/ for a folder", file=sys.stderr)
     out = {"csv": args.csv or prefix.with_name(prefix.name + ".csv"),
            "npz": args.npz or prefix.with_name(prefix.name + ".npz"),
            "figure": args.figure or prefix.with_name(prefix.name + "_fig3.png")}

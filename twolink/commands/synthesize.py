@@ -27,6 +27,7 @@ from twolink.arm.parameters import DELTA, GAMMA, GOAL_SPEED, TABLE_I
 from twolink.arm.task import MAX_LEVELS, PAPER_LEVELS
 from twolink.artifacts import check_outputs, output_file
 from twolink.commands import SUMMARIES
+from twolink.commands._grammar import add_out, deprecated
 from twolink.commands._options import add_arm_options, arm_of
 from twolink.synthesis.problems import (
     CONTEXTS,
@@ -127,7 +128,7 @@ def add_parser(sub):
                    help=f"read every speed through a dead zone of W rad/s, 0 <= W <= "
                         f"{GOAL_SPEED} (twolink.policy.readout; default 0: none), recorded "
                         f"in the file")
-    p.add_argument("--argmax-beyond", default=None, metavar="DEG",
+    p.add_argument("--argmax-beyond-deg", dest="argmax_beyond", default=None, metavar="DEG",
                    help=f"where an agent reads an angle beyond DEG degrees ({MIN_ARGMAX_DEG:g} "
                         f"to 180), act by the argmax of the interpolated Q instead of (14)'s "
                         f"weighted greedy actions (twolink.policy.readout; default: (14) "
@@ -164,9 +165,10 @@ def add_parser(sub):
     p.add_argument("--gamma", type=float, default=GAMMA, help=f"discount factor (default {GAMMA})")
     p.add_argument("--delta", type=float, default=DELTA,
                    help=f"stop when max |Q_l - Q_(l-1)| <= delta (default {DELTA})")
-    p.add_argument("-o", "--output", default=None,
-                   help="policy file to write (default: "
-                        "./<kind>[_<model>][_<context>][_robust|_mean].npz)")
+    deprecated(p, "synthesize", "--argmax-beyond", "--argmax-beyond-deg", dest="argmax_beyond")
+    add_out(p, "synthesize", default=None, metavar="FILE",
+            help="policy file to write (default: "
+                 "./<kind>[_<model>][_<context>][_robust|_mean].npz)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--ship", action="append", metavar="NAME", default=None,
                    help="re-synthesise the shipped policy NAME into policies/ of the source "
@@ -252,9 +254,9 @@ def _design_options(args) -> dict:
             raise ValueError(f"--speed-dead-zone must lie in [0, {GOAL_SPEED}] rad/s (the "
                              f"goal band's speed), got {args.speed_dead_zone}")
     if args.argmax_beyond is not None:
-        beyond = _number(args.argmax_beyond, "--argmax-beyond", float)
+        beyond = _number(args.argmax_beyond, "--argmax-beyond-deg", float)
         if not MIN_ARGMAX_DEG <= beyond <= 180.0:
-            raise ValueError(f"--argmax-beyond must lie in [{MIN_ARGMAX_DEG:g}, 180] degrees, "
+            raise ValueError(f"--argmax-beyond-deg must lie in [{MIN_ARGMAX_DEG:g}, 180] degrees, "
                              f"got {args.argmax_beyond}")
     gain, near = 1.0, None
     if args.near_gain is not None:
@@ -335,7 +337,7 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
             raise ValueError("--ship takes everything from the registry: give no kind, "
                              "--model, --context, --sweeps, --refine, --robust, --draws, "
                              "--spread, --seed, --params, --gamma, --delta, --links, --rule, "
-                             "--levels, --bins, --speed-dead-zone, --argmax-beyond, "
+                             "--levels, --bins, --speed-dead-zone, --argmax-beyond-deg, "
                              "--near-gain, --near-deg, --agent2-link1, -o or --force with "
                              "it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
@@ -350,7 +352,7 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
     if links != 2:
         given = [o for o, v in (("--levels", args.levels), ("--bins", args.bins),
                                 ("--speed-dead-zone", args.speed_dead_zone),
-                                ("--argmax-beyond", args.argmax_beyond),
+                                ("--argmax-beyond-deg", args.argmax_beyond),
                                 ("--near-gain", args.near_gain),
                                 ("--near-deg", args.near_deg),
                                 ("--agent2-link1", args.agent2_link1)) if v is not None]

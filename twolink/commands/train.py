@@ -85,7 +85,7 @@ def add_parser(sub):
                         "on the CPU)")
     p.add_argument("--threads", default=None, metavar="T",
                    help="torch CPU threads (default 1: the networks are small)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
                    help="the run's folder (default <output>/train/<algo>_<N>links_seed<S>)")
     p.add_argument("--resume", action="store_true",
                    help="continue the interrupted run in DIR from its last checkpoint")

@@ -277,13 +277,13 @@ def requested(name=None, *, delay: int = 0, angle_noise_deg: float = 0.0) -> Cha
     :func:`twolink.sim.evaluation.evaluate` builds it; None when nothing is asked for."""
     if name is not None:
         if delay or angle_noise_deg:
-            raise ValueError("give either --challenge or --delay/--angle-noise, not both "
+            raise ValueError("give either --challenge or --delay/--angle-noise-deg, not both "
                              "(a challenge sets its own delays and noise)")
         return challenge(name)
     if not delay and not angle_noise_deg:
         return None
     if angle_noise_deg < 0 or not math.isfinite(angle_noise_deg):
-        raise ValueError(f"--angle-noise must be a non-negative number of degrees, "
+        raise ValueError(f"--angle-noise-deg must be a non-negative number of degrees, "
                          f"got {angle_noise_deg:g}")
     if delay < 0:
         raise ValueError(f"--delay must be a non-negative whole number of samples, got {delay}")
