@@ -1,4 +1,4 @@
-"""Run the benchmark suite: ``python -m benchmarks.run [--quick] [--json PATH]``.
+"""Run the benchmark suite: ``python -m benchmarks.run [--quick] [--json PATH [--merge]]``.
 
 Quick mode (CI, well under two minutes on 2 cores) and full mode (the README's figures)
 measure the same rows; full mode repeats more, uses bigger batches, runs the finer
@@ -23,15 +23,19 @@ MODES = {
               "central": (1, 2), "decentral": (1, 2, 3),
               "batch": 64, "frames": 10, "render_repeats": 1,
               "vector_samples": 20, "eval_states": 13,
-              "eval_horizon": 2.0, "mpc_quick": True},
+              "eval_horizon": 2.0, "mpc_quick": True,
+              "board_plants": 12, "board_states": 13, "board_repeats": 2,
+              "board_through": ("lqr",)},
     "full": {"repeats": 5, "sweep_repeats": 15, "full_setup": True,
              "central": (1, 2, 3, 4), "decentral": (1, 2, 3, 6),
              "batch": 256, "frames": 40, "render_repeats": 3,
              "vector_samples": 100, "eval_states": 65,
-             "eval_horizon": 5.0, "mpc_quick": False},
+             "eval_horizon": 5.0, "mpc_quick": False,
+             "board_plants": 32, "board_states": 65, "board_repeats": 2,
+             "board_through": ("lqr", "decentralized_locked_gain")},
 }
 SECTIONS = ("startup", "synthesis", "scaling", "rollouts", "rendering", "vector_env",
-            "evaluation", "mpc", "training")
+            "evaluation", "mpc", "training", "leaderboard")
 
 
 def machine() -> dict:
@@ -88,6 +92,11 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
             r, summary[section] = evaluation.bench_evaluation(states=cfg["eval_states"],
                                                               horizon=cfg["eval_horizon"],
                                                               repeats=cfg["repeats"])
+        elif section == "leaderboard":
+            from benchmarks import leaderboard
+            r, summary[section] = leaderboard.bench_leaderboard(
+                plants=cfg["board_plants"], states=cfg["board_states"],
+                repeats=cfg["board_repeats"], through=cfg["board_through"])
         elif section == "training":
             from benchmarks import training
             r, summary[section] = training.bench_training(
@@ -118,6 +127,37 @@ def _jsonable(obj):
     return obj
 
 
+def _section(row: dict) -> str:
+    return row["section"].split(":", 1)[0]
+
+
+def _earlier(path: Path, measured) -> dict | None:
+    """The results file at ``path`` (None if there is none) less the sections
+    ``measured``; a ValueError naming the file if it is no results file."""
+    if not path.is_file():
+        return None
+    import json
+    try:
+        data = json.loads(path.read_text())
+        kept = sorted({_section(r) for r in data["rows"]} - set(measured))
+        return {"rows": [r for r in data["rows"] if _section(r) in kept],
+                "summary": {k: v for k, v in data["summary"].items() if k in kept},
+                "seconds": {k: v for k, v in data["seconds"].items() if k in kept},
+                "earlier": {**{k: data[k] for k in ("mode", "command", "machine")},
+                            "sections": kept}}
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise ValueError(f"{path}: not a benchmark results file ({exc})") from None
+
+
+def _merged(result: dict, earlier: dict) -> dict:
+    """This run's ``result`` with the ``earlier`` file's other sections (their rows
+    first, in their order), and under ``earlier`` the run they came from."""
+    return {**result, "rows": earlier["rows"] + result["rows"],
+            "summary": {**earlier["summary"], **result["summary"]},
+            "seconds": {**earlier["seconds"], **result["seconds"]},
+            "earlier": earlier["earlier"]}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.run",
                                  description=__doc__.split("\n")[0])
@@ -125,9 +165,15 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, help="write the results as JSON to this path")
     ap.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS),
                     help="run only these sections")
+    ap.add_argument("--merge", action="store_true",
+                    help="with --json: keep the sections of the existing file that this "
+                         "run does not measure (recorded with their own run's machine)")
     args = ap.parse_args(argv)
     if args.json is not None and not args.json.parent.is_dir():
         ap.error(f"cannot write {args.json}: directory {args.json.parent} does not exist")
+    if args.merge and args.json is None:
+        ap.error("--merge needs --json PATH")
+    earlier = _earlier(args.json, args.only) if args.merge else None
     t0 = time.perf_counter()
     result = run("quick" if args.quick else "full", args.only)
     result["seconds"]["total"] = time.perf_counter() - t0
@@ -137,7 +183,7 @@ def main(argv=None) -> int:
     print(format_table([Row(**r) for r in result["rows"]]))
     print(f"\n{result['seconds']['total']:.1f} s in all")
     if args.json is not None:
-        write_json(args.json, result)
+        write_json(args.json, result if earlier is None else _merged(result, earlier))
         print(f"wrote {args.json}")
     return 0
 

@@ -293,3 +293,53 @@ def test_mpc_rows_are_milliseconds_per_step():
     assert summary["real_time"] == (s["first_ms"] <= 50 and s["max_ms"] <= 50)
     _positive_finite([r for r in rows if r.name != "steps over Ts"])
     assert "mpc" in run.SECTIONS
+
+
+def test_leaderboard_rows_and_ratios_are_the_times():
+    """A leaderboard row against raw mujoco.rollout of the same physics steps, and one
+    controller through every level: every row there, ratios the times' ratios."""
+    from benchmarks import leaderboard
+
+    rows, summary = leaderboard.bench_leaderboard(plants=2, states=3, repeats=1,
+                                                  through=("pd",), nthread=1)
+    by = _by_name(rows)
+    sec = "leaderboard: lqr under medium, 2 plants x 3 states x 100 Ts, 1 thread"
+    assert summary["physics_steps"] == 2 * 3 * 100 * 10
+    for mode in ("plain", "compensated"):
+        ratio = by[(sec, f"row ({mode}) / raw mujoco.rollout steps/s")].value
+        assert ratio == pytest.approx(summary["raw_seconds"]
+                                      / summary["rows"][mode]["seconds"], rel=1e-12)
+    through = [r for r in rows if r.section.startswith("leaderboard: pd through")]
+    assert len([r for r in through if r.name.startswith("row ")]) == 7   # pd has a model
+    assert set(summary["through"]["pd"]["rows"]) == {
+        "none/plain", *(f"{lv}/{m}" for lv in ("easy", "medium", "hard")
+                        for m in ("plain", "compensated"))}
+    _positive_finite(rows)
+    assert "leaderboard" in run.SECTIONS
+
+
+def test_merge_keeps_the_other_sections_of_the_results_file(tmp_path):
+    path = tmp_path / "results.json"
+    old = {"mode": "full", "command": "python -m benchmarks.run", "machine": {"cpu_count": 2},
+           "seconds": {"rollouts": 5.0, "leaderboard": 9.0, "total": 14.0},
+           "rows": [{"section": "rollouts: mujoco, 1 thread", "name": "a", "value": 1.0,
+                     "unit": "x", "note": ""},
+                    {"section": "leaderboard: old", "name": "b", "value": 2.0, "unit": "x",
+                     "note": ""}],
+           "summary": {"rollouts": {"1": 1}, "leaderboard": {"old": True}}}
+    path.write_text(json.dumps(old))
+    new = {"mode": "quick", "command": "c", "machine": {"cpu_count": 2},
+           "seconds": {"leaderboard": 3.0, "total": 3.0},
+           "rows": [{"section": "leaderboard: new", "name": "c", "value": 3.0, "unit": "x",
+                     "note": ""}], "summary": {"leaderboard": {"new": True}}}
+    merged = run._merged(new, run._earlier(path, ["leaderboard"]))
+    assert [r["name"] for r in merged["rows"]] == ["a", "c"]
+    assert merged["summary"] == {"rollouts": {"1": 1}, "leaderboard": {"new": True}}
+    assert merged["seconds"] == {"rollouts": 5.0, "leaderboard": 3.0, "total": 3.0}
+    assert merged["earlier"]["sections"] == ["rollouts"]
+    assert merged["earlier"]["mode"] == "full"
+    path.write_text("[1, 2]")
+    with pytest.raises(ValueError, match="not a benchmark results file"):
+        run._earlier(path, ["leaderboard"])
+    with pytest.raises(SystemExit):
+        run.main(["--only", "leaderboard", "--merge"])
