@@ -16,10 +16,11 @@ SEEDED = {
     "rollout": ["--no-save"],
     "scaling": ["--quick"],
     "synthesize": ["decentralized", "--robust", "worst"],
+    "train": ["--steps", "1000"],
 }
 #: Where each command is told to write (so that nothing lands in the working directory).
 OUTPUT = {"identify": "-o", "learn": "-o", "mismatch": "--out", "render": "-o",
-          "scaling": "-o", "synthesize": "-o"}
+          "scaling": "-o", "synthesize": "-o", "train": "-o"}
 
 
 def test_every_command_with_a_seed_is_listed():
