@@ -145,6 +145,25 @@ def _performance_findings(data: dict) -> str:
                f"{_bench_value(ro['simplified'])} sample periods/s, full (6)–(9) "
                f"{_bench_value(ro['full'])}." if "simplified" in ro and "full" in ro else "")
             + "\n\n")
+    lb = summ.get("leaderboard", {})
+    if lb.get("rows"):
+        t = lb["nthread"]
+        out.append(
+            f"**Leaderboard rows.** One leaderboard row (`{lb['controller']}` under "
+            f"`{lb['level']}`: {lb['plants']} plants × {lb['states']} states × "
+            f"{lb['samples']} sample periods, one `mujoco.rollout` call per sample period, "
+            "the controller once per sample on the whole batch, the level's noise and "
+            "delays, summed up) against raw `mujoco.rollout` of the same models, initial "
+            f"states and {lb['physics_steps']:,} physics steps in one call, on the same "
+            f"{t} thread{'s' if t != 1 else ''}, interleaved: "
+            + ", ".join(f"{mode} {lb['rows'][mode]['seconds']:.1f} s, "
+                        f"{lb['rows'][mode]['ratio']:.2f}× raw's steps/s"
+                        for mode in ("plain", "compensated") if mode in lb["rows"])
+            + f" (raw {lb['raw_seconds']:.1f} s; load average {lb['load_average']:.1f} "
+            "when the section started). "
+            + " ".join(f"`{name}` through every level and mode: {v['seconds']:.0f} s "
+                       f"({len(v['rows'])} rows)." for name, v in lb.get("through", {}).items())
+            + "\n\n")
     rd = summ.get("rendering", {})
     sizes = [s for s in rd if isinstance(rd[s], dict)]
     if sizes:
@@ -166,6 +185,17 @@ def _performance_findings(data: dict) -> str:
     return "".join(out)
 
 
+def _earlier(data: dict) -> str:
+    """A sentence on the sections kept from an earlier run (``--merge``), if any."""
+    e = data.get("earlier")
+    if not e:
+        return ""
+    m = e["machine"]
+    return (f"The sections {', '.join(f'`{s}`' for s in e['sections'])} come from an "
+            f"earlier `{e['command']}` run ({e['mode']} mode, load average "
+            f"{m['load_average'][0]:.1f} at its start).\n\n")
+
+
 def performance_page(data: dict) -> str:
     sections: dict = {}
     for row in data["rows"]:
@@ -179,7 +209,8 @@ def performance_page(data: dict) -> str:
             + f", load average {m['load_average'][0]:.1f} at the start; Python {m['python']}, "
             f"numpy {m['numpy_version']}, MuJoCo {m['mujoco_version']}, twolink "
             f"{m['twolink_version']}. How the kernels came to their shape: "
-            "[Performance notes](../performance.md).\n\n", _performance_findings(data)]
+            "[Performance notes](../performance.md).\n\n" + _earlier(data),
+            _performance_findings(data)]
     for section, rows in sections.items():
         text += [f"## {section}\n\n",
                  _table(("quantity", "value", "unit", "note"),
