@@ -15,8 +15,13 @@ from pathlib import Path
 from twolink.commands import SUMMARIES
 from twolink.commands._options import seed_option
 from twolink.resources import output_dir
+from twolink.control.history import MAX_HISTORY
+from twolink.sim.challenges import LEVELS
+from twolink.validate import choice
 from twolink.training.config import (
     ALGOS,
+    EVAL_SEED,
+    EVALUATION_SEEDS,
     DEVICES,
     EVAL_EVERY,
     HYPERPARAMETERS,
@@ -80,6 +85,15 @@ def add_parser(sub):
     p.add_argument("--eval-every", default=None, metavar="N",
                    help=f"environment steps between evaluations and checkpoints (default "
                         f"PPO {EVAL_EVERY['ppo']:,}, SAC {EVAL_EVERY['sac']:,})")
+    p.add_argument("--challenge", default=None, metavar="|".join(LEVELS),
+                   help="train under this challenge level: every episode on a new plant "
+                        "drawn from the level, with its noise, delays and faults (two "
+                        "links); the curve is evaluated under the same level on 8 plants of "
+                        f"seed {EVAL_SEED}; seeds {' and '.join(map(str, EVALUATION_SEEDS))} "
+                        "(the evaluation seeds) are refused")
+    p.add_argument("--history", default=None, metavar="K",
+                   help=f"observe the last K observations and K-1 actions, 1 to "
+                        f"{MAX_HISTORY} (default 1: the present observation only)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -103,19 +117,21 @@ def given_options(args) -> dict:
              "plant": args.plant, "envs": _count(args.envs, "--envs", 1, 4096),
              "n_steps": _count(args.n_steps, "--n-steps", 2, 100_000),
              "eval_every": _count(args.eval_every, "--eval-every"),
-             "device": args.device, "threads": _count(args.threads, "--threads", 1, 256)}
+             "device": args.device, "threads": _count(args.threads, "--threads", 1, 256),
+             "challenge": None if args.challenge is None else
+             choice(args.challenge, "--challenge level", tuple(LEVELS)),
+             "history": _count(args.history, "--history", 1, MAX_HISTORY)}
     return {k: v for k, v in given.items() if v is not None}
 
 
 def run(args) -> int:
-    from twolink.training.run import CURVE, train
+    from twolink.training.run import CURVE, run_name, train
 
     given = given_options(args)
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
-                                       if k in ("algo", "links", "seed")})
-    out = args.out or output_dir(create=False) / "train" / (
-        f"{default.algo}_{default.links}links_seed{default.seed}")
+                                       if k in ("algo", "links", "seed", "challenge", "history")})
+    out = args.out or output_dir(create=False) / "train" / run_name(default)
     record = train(config if config is not None else given, out, resume=args.resume,
                    progress=lambda text: print(text, file=sys.stderr, flush=True))
     last = record["curve"][-1]

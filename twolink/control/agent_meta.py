@@ -58,3 +58,33 @@ def agent_arm(path, links: int, extra: bytes | None) -> tuple:
         raise ControllerError(f"{path}: its {AGENT_MEMBER} names the link rule {_short(rule)}; "
                               f"choose one of {', '.join(LINK_RULES)}")
     return links, (None if links == 2 else rule)
+
+
+def agent_observation(path, extra: bytes | None, size, links: int) -> tuple:
+    """(history length K, observation) of a saved agent of ``links`` links whose saved
+    observation space has ``size`` numbers: the history K (and its recorded layout) of
+    its ``twolink.json`` (K = 1 without one), and the observation per sample (2N numbers:
+    ``'state'``, 3N: ``'cos_sin'``) that, stacked K times with K - 1 actions of N
+    (:mod:`twolink.control.history`), makes ``size``. One ControllerError line for a
+    history length out of range or a size or recorded layout that disagrees."""
+    from twolink.control.history import MAX_HISTORY, history_layout, history_size
+
+    meta = json.loads(extra) if extra is not None else {}
+    k = meta.get("history", 1) if isinstance(meta, dict) else 1
+    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_HISTORY:
+        raise ControllerError(f"{path}: its {AGENT_MEMBER} says history {_short(k)}; a "
+                              f"history is a whole number of samples from 1 to {MAX_HISTORY}")
+    by_size = {history_size(k, 2 * links, links): ("state", 2 * links),
+               history_size(k, 3 * links, links): ("cos_sin", 3 * links)}
+    if size not in by_size:
+        raise ControllerError(
+            f"{path}: the agent observes shape {_short(size, 40)}; a {links}-link agent "
+            f"with a history of {k} observes {history_size(k, 2 * links, links)} (state) or "
+            f"{history_size(k, 3 * links, links)} (cos/sin) numbers")
+    observation, d = by_size[size]
+    layout = meta.get("observation_layout")
+    if layout is not None and layout != history_layout(k, d, links):
+        raise ControllerError(f"{path}: its {AGENT_MEMBER} records the observation layout "
+                              f"{_short(layout, 60)}, not that of its history {k} and "
+                              f"observation space ({size} numbers)")
+    return k, observation

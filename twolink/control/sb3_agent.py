@@ -54,7 +54,8 @@ import numpy as np
 
 from twolink.arm.observations import features
 from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, chain
-from twolink.control.agent_meta import AGENT_MEMBER, agent_arm
+from twolink.control.agent_meta import AGENT_MEMBER, agent_arm, agent_observation
+from twolink.control.history import ObservationHistory
 from twolink.sim.controller import ControllerError
 
 #: Attributes only each algorithm's save holds (in its ``data`` JSON).
@@ -227,18 +228,13 @@ def _space(data: dict, key: str, path) -> tuple:
     return tuple(shape), low, high, dtype
 
 
-def _observation(data: dict, path, links: int = 2) -> str:
-    """The observation the agent of ``links`` links was trained on, from its saved space's
-    size (2N: the state, 3N: its cos/sin features)."""
-    shape = (data.get("observation_space") or {}).get("_shape") \
-        if isinstance(data.get("observation_space"), dict) else None
-    by_size = {(2 * links,): "state", (3 * links,): "cos_sin"}
-    shape = tuple(shape) if isinstance(shape, list) else None
-    if shape not in by_size:
-        raise ControllerError(f"{path}: the agent observes shape {_line(shape, 40)}; a "
-                              f"{links}-link agent observes the state ({2 * links},) or its "
-                              f"cos/sin features ({3 * links},)")
-    return by_size[shape]
+def _observation(data: dict, path, links: int, extra) -> tuple:
+    """(history K, observation) from the saved space's size and the ``twolink.json``
+    member (:func:`twolink.control.agent_meta.agent_observation`)."""
+    space = data.get("observation_space")
+    shape = space.get("_shape") if isinstance(space, dict) else None
+    size = shape[0] if isinstance(shape, list) and len(shape) == 1 else shape
+    return agent_observation(path, extra, size, links)
 
 
 def _action_space(data: dict, path) -> tuple:
@@ -452,7 +448,9 @@ class SB3Agent:
         elif params.links != self.links:
             raise ControllerError(f"{path}: a {self.links}-link agent given the parameters "
                                   f"of {params.links} links")
-        self.observation = _observation(data, path, self.links)
+        self.history, self.observation = _observation(data, path, self.links,
+                                                      members.get(AGENT_MEMBER))
+        self._buffer = None
         try:
             import stable_baselines3 as sb3
         except ImportError:
@@ -463,7 +461,7 @@ class SB3Agent:
         self.path = path
         self.meta = {"algo": self.algo, "seed": data.get("seed"),
                      "steps": data.get("num_timesteps"), "observation": self.observation,
-                     "links": self.links, "rule": self.rule,
+                     "links": self.links, "rule": self.rule, "history": self.history,
                      "file": str(path), "stable_baselines3": sb3.__version__}
 
     def __call__(self, x) -> np.ndarray:
@@ -473,7 +471,23 @@ class SB3Agent:
         if x.shape[-1:] != (2 * self.links,):
             raise ValueError(f"a {self.links}-link agent maps states (..., {2 * self.links}) "
                              f"to torques, got states of shape {x.shape}")
-        return model_torques(self.policy, x, self.observation, self.tau_max)
+        if self.history == 1:
+            return model_torques(self.policy, x, self.observation, self.tau_max)
+        obs = features(x, self.observation).reshape(-1, 3 * self.links if
+                                                    self.observation == "cos_sin" else 2 * self.links)
+        if self._buffer is None or self._buffer.rows != len(obs):
+            self.reset(len(obs))
+        action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        self._buffer.act(a)
+        return (a * self.tau_max).reshape(x.shape[:-1] + (self.links,))
+
+    def reset(self, n: int) -> None:
+        """Start ``n`` rows afresh: with a history K > 1, their last K observations and
+        K - 1 actions (:class:`twolink.control.history.ObservationHistory`) are zeros."""
+        if self.history > 1:
+            d = 3 * self.links if self.observation == "cos_sin" else 2 * self.links
+            self._buffer = ObservationHistory(int(n), d, self.links, self.history)
 
     def __reduce__(self):
         """Pickled as its file and name (a worker loads the file again)."""

@@ -8,6 +8,19 @@ normalized actions (a float32 Box [-1, 1]^N scaled to +-tau_max), the shaped rew
 hyperparameter set per algorithm (:data:`HYPERPARAMETERS`), stated once, never tuned
 per seed; ``--envs`` and ``--n-steps`` change the batch only.
 
+Under a challenge level (``challenge``, :data:`twolink.sim.challenges.LEVELS`) every
+episode of every arm runs on a plant drawn anew from the level's distribution, with its
+noise, delays and faults (the env's ``challenge`` option, the implementation the
+leaderboard evaluates with). Arm i draws plants, initial poses and noise from
+``np_random(train_stream(seed) + i)``, :func:`train_stream` being a 32-bit word of
+``SeedSequence([seed, TRAIN_STREAM])``: one-word entropy, never the two-word
+``SeedSequence([seed, PLANT_STREAM], spawn_key=...)`` of the evaluation's plants, so no
+training seed draws an evaluation plant. The evaluation seeds themselves
+(:data:`EVALUATION_SEEDS`: the leaderboard's and ``twolink evaluate``'s 2026 and the
+curve's :data:`EVAL_SEED`) are refused as training seeds under a challenge, so no run is
+ever named after the plants it is scored on. ``history`` K > 1 hands the agent the last
+K observations and K - 1 actions (:mod:`twolink.envs.history`).
+
 Training stops, evaluates and checkpoints at update boundaries only: every
 :meth:`TrainConfig.unit` environment steps (PPO: one rollout of ``n_steps`` per arm;
 SAC: one vector step of all arms), so ``steps`` and ``eval_every`` are rounded up to
@@ -18,7 +31,11 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from twolink.arm.parameters import LINK_RULES, check_links
+from twolink.control.history import check_history
+from twolink.sim.challenges import LEVELS
 from twolink.validate import choice, whole
 
 #: The algorithms ``twolink train`` runs (Stable-Baselines3).
@@ -55,6 +72,22 @@ MAX_THREADS = 256
 EVAL_SEED = 20061122
 #: Random poses at rest an N-link evaluation runs (the scaling table's default).
 EVAL_POSES = 64
+#: Second word of the seed of a challenge run's training stream (:func:`train_stream`).
+TRAIN_STREAM = 611_953
+#: The leaderboard's and ``twolink evaluate``'s seed
+#: (:data:`twolink.studies.leaderboard.measure.SEED`; a lower layer cannot import it).
+LEADERBOARD_SEED = 2026
+#: Seeds a challenge run may not train with: those its agent is evaluated on.
+EVALUATION_SEEDS = (LEADERBOARD_SEED, EVAL_SEED)
+#: Plants of the curve's evaluation under a challenge: ``challenge.plants(EVAL_PLANTS,
+#: EVAL_SEED)`` (the leaderboard row runs 32 of seed 2026).
+EVAL_PLANTS = 8
+
+
+def train_stream(seed: int) -> int:
+    """The seed of a challenge run's arms (arm i: this + i): a 32-bit word of
+    ``SeedSequence([seed, TRAIN_STREAM])``."""
+    return int(np.random.SeedSequence([int(seed), TRAIN_STREAM]).generate_state(1)[0])
 
 
 def check_algo(algo) -> str:
@@ -83,6 +116,8 @@ class TrainConfig:
     eval_every: int | None = None
     device: str = "cpu"
     threads: int = 1
+    challenge: str | None = None
+    history: int = 1
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -102,6 +137,19 @@ class TrainConfig:
             whole(self.n_steps, "n_steps", 2, 100_000)
         if self.eval_every is not None:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
+        check_history(self.history)
+        if self.challenge is not None:
+            choice(self.challenge, "challenge level", tuple(LEVELS))
+            if self.links != 2:
+                raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
+                                 f"this run has {self.links} links")
+            if self.plant != "mujoco":
+                raise ValueError("a challenge draws a new plant every episode: train it on "
+                                 "--plant mujoco")
+            if self.seed in EVALUATION_SEEDS:
+                raise ValueError(f"seed {self.seed} is an evaluation seed (the leaderboard's "
+                                 f"and evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
+                                 f"training seeds must differ from the evaluation seeds")
 
     def hyperparameters(self) -> dict:
         """The algorithm's :data:`HYPERPARAMETERS` with this run's arms and rollout length
@@ -135,14 +183,14 @@ class TrainConfig:
     def env_options(self) -> dict:
         """The options of :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` for this run."""
         return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
-                    plant=PLANTS[self.plant], nthread=1)
+                    plant=PLANTS[self.plant], nthread=1, challenge=self.challenge)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
-                "device", "threads")
+                "device", "threads", "challenge", "history")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

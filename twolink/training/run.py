@@ -19,7 +19,14 @@ the deterministic policy on MuJoCo: for two links the 65-state evaluation set fo
 (:func:`twolink.sim.evaluation.evaluate`, the paper's metric); for N links
 :data:`~twolink.training.config.EVAL_POSES` random poses at rest
 (:func:`twolink.sim.metrics.random_poses`, seed ``EVAL_SEED + N``) for 8 s, the scaling
-table's protocol. Success: settled in the goal band from 1 s before the end on.
+table's protocol. Success: settled in the goal band from 1 s before the end on. Under a
+challenge level the evaluation is the same level's: the 65 states on the
+:data:`~twolink.training.config.EVAL_PLANTS` plants of seed
+:data:`~twolink.training.config.EVAL_SEED` (``evaluate(..., challenge=level,
+seed=EVAL_SEED)``: neither the training stream nor the leaderboard's seed 2026). With an
+observation history (``history`` K > 1) the arms are wrapped in
+:class:`twolink.envs.history.HistoryVecEnv` and the agent's ``twolink.json`` records K
+and the observation layout.
 """
 from __future__ import annotations
 
@@ -36,10 +43,11 @@ from twolink.arm.parameters import horizon
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import atomic_path, write_json
 from twolink.control.agent_meta import AGENT_MEMBER, agent_record
+from twolink.control.history import ObservationHistory, history_layout
 from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
-from twolink.training import checkpoint
-from twolink.training.config import EVAL_POSES, EVAL_SEED, TrainConfig
+from twolink.training import checkpoint, episodes
+from twolink.training.config import EVAL_PLANTS, EVAL_POSES, EVAL_SEED, TrainConfig, train_stream
 
 #: Schema and version of ``curve.json``.
 CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
@@ -77,9 +85,15 @@ def build(config: TrainConfig):
     hp = config.hyperparameters()
     n_envs, net = hp.pop("n_envs"), hp.pop("net_arch")
     env = TwoLinkSB3VecEnv(n_envs, **config.env_options())
+    if config.history > 1:
+        from twolink.envs.history import HistoryVecEnv
+
+        env = HistoryVecEnv(env, config.history)
     cls = sb3.SAC if config.algo == "sac" else sb3.PPO
     model = cls("MlpPolicy", env, seed=config.seed, device=config.device, verbose=0,
                 policy_kwargs=dict(net_arch=net), **hp)
+    if config.challenge is not None:         # the arms' own stream (config's docstring)
+        env.seed(train_stream(config.seed))
     return model, env
 
 
@@ -87,16 +101,34 @@ class PolicyController:
     """An SB3 policy in memory under the controller protocol: states (n, 2N) -> torques
     (n, N), the clipped deterministic action scaled to +-tau_max."""
 
-    def __init__(self, policy, params, name: str = "sb3"):
+    def __init__(self, policy, params, name: str = "sb3", history: int = 1):
         self.policy, self.tau_max, self.links = policy, params.tau_max, params.links
-        self.name = name
+        self.name, self.history, self._buffer = name, history, None
+
+    def reset(self, n: int) -> None:
+        if self.history > 1:
+            self._buffer = ObservationHistory(n, 3 * self.links, self.links, self.history)
 
     def __call__(self, x):
-        return model_torques(self.policy, x, "cos_sin", self.tau_max)
+        if self.history == 1:
+            return model_torques(self.policy, x, "cos_sin", self.tau_max)
+        from twolink.arm.observations import features
+
+        if self._buffer is None or self._buffer.rows != len(x):
+            self.reset(len(x))
+        action, _ = self.policy.predict(self._buffer.observe(features(x, "cos_sin")),
+                                        deterministic=True)
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        self._buffer.act(a)
+        return a * np.asarray(self.tau_max, dtype=float)
 
 
 def evaluation_protocol(config: TrainConfig) -> dict:
     """What an evaluation of ``config``'s agent runs (recorded in the curve)."""
+    if config.challenge is not None:
+        return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
+                "plant": "mujoco", "challenge": config.challenge, "plants": EVAL_PLANTS,
+                "seed": EVAL_SEED}
     if config.links == 2:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco"}
@@ -109,11 +141,14 @@ def evaluate_policy(policy, config: TrainConfig):
     """The :class:`twolink.sim.metrics.Score` of the deterministic ``policy`` under the
     evaluation protocol of ``config`` (see the module docstring)."""
     params = arm(links=config.links, rule=None if config.links == 2 else config.rule)
-    agent = PolicyController(policy, params)
+    agent = PolicyController(policy, params, history=config.history)
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
-        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
+        level = {} if config.challenge is None else dict(
+            challenge=config.challenge, seed=EVAL_SEED, count=EVAL_PLANTS)
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1,
+                        **level).score
     from twolink.sim.metrics import random_poses, score, settle_time, success
     from twolink.sim.plants import MujocoPlant
     from twolink.sim.rollout import rollout
@@ -130,7 +165,10 @@ def save_agent(model, path, config: TrainConfig) -> Path:
     import zipfile
 
     record = agent_record(config.links, config.rule, algo=config.algo, seed=config.seed,
-                          steps=int(model.num_timesteps), plant=config.plant)
+                          steps=int(model.num_timesteps), plant=config.plant,
+                          challenge=config.challenge, history=config.history,
+                          observation_layout=history_layout(config.history,
+                                                            3 * config.links, config.links))
     with atomic_path(path) as tmp:
         model.save(tmp)
         with zipfile.ZipFile(tmp, "a", zipfile.ZIP_DEFLATED) as z:
@@ -140,7 +178,15 @@ def save_agent(model, path, config: TrainConfig) -> Path:
 
 def agent_name(config: TrainConfig) -> str:
     """The file name of the run's agent (its stem labels it on the leaderboard)."""
-    return f"{config.algo}_{config.links}links_seed{config.seed}.zip"
+    return run_name(config) + ".zip"
+
+
+def run_name(config: TrainConfig) -> str:
+    """``<algo>_<N>links[_<level>][_h<K>]_seed<S>``: the run's default folder and its
+    agent's stem."""
+    level = f"_{config.challenge}" if config.challenge is not None else ""
+    memory = f"_h{config.history}" if config.history > 1 else ""
+    return f"{config.algo}_{config.links}links{level}{memory}_seed{config.seed}"
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
@@ -223,7 +269,9 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
         if header["steps"] > total:
             raise ValueError(f"{out / CHECKPOINT} is at {header['steps']:,} steps, past the "
                              f"{total:,} asked for")
-        checkpoint.restore(model, env, header["plain"], tensors)
+        checkpoint.restore(model, episodes.base(env), header["plain"], tensors)
+        if "episodes" in tensors:
+            episodes.restore(env, tensors["episodes"])
         record["curve"], clocks = header["curve"], header["clocks"]
         record["resumed_at"] = header.get("resumed_at", []) + [header["steps"]]
     out.mkdir(parents=True, exist_ok=True)
@@ -240,7 +288,9 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
         sc = evaluate_policy(model.policy, config)
         record["curve"].append(_point(model.num_timesteps, sc, clocks["wall_s"],
                                       clocks["cpu_s"]))
-        plain, tensors = checkpoint.capture(model, env)
+        plain, tensors = checkpoint.capture(model, episodes.base(env))
+        if plain["started"] and (config.challenge is not None or config.history > 1):
+            tensors["episodes"] = episodes.capture(env)
         header = {"config": config.as_dict(), "versions": record["versions"],
                   "steps": int(model.num_timesteps), "plain": plain,
                   "curve": record["curve"], "clocks": clocks}
