@@ -71,7 +71,9 @@ def add_parser(sub):
     p.add_argument("--steps", default=None, metavar="N",
                    help="environment steps, all arms together, e.g. 1e6 (default 1e6), "
                         "rounded up to whole updates; with --resume the new total")
-    p.add_argument("--seed", default=None, help="seed of the learner and arms (default 0)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="seed of the learner and arms (default 0; under --challenge not "
+                        "an evaluation seed)")
     p.add_argument("--plant", choices=tuple(PLANTS), default=None,
                    help="what the arms are stepped on while training: mujoco (default) or "
                         "model, the full model (6) integrated by numpy; evaluation is on "
