@@ -26,8 +26,10 @@ or extra weights, weights of other shapes) is one :class:`ControllerError` line.
 :class:`SB3Agent` maps states (n, 2N) to torques (n, N) as the training environment
 (:class:`twolink.envs.sb3.TwoLinkSB3VecEnv`, ``actions='normalized'``) does: the
 observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'``, 3N
-numbers, or ``'state'``, 2N, told apart by the saved observation space's size), the
-policy's deterministic action, clipped to [-1, 1] and scaled to +-tau_max. N is the size
+numbers, or ``'state'``, 2N, told apart by the saved observation space's size; with a
+``history`` K > 1 in ``twolink.json`` the last K of them and the last K - 1 actions of
+each row, :mod:`twolink.control.history`, reset by ``reset(n)``), the policy's
+deterministic action, clipped to [-1, 1] and scaled to +-tau_max. N is the size
 of the saved action space (2 to 6); an agent of N > 2 links names its arm's link rule in
 the optional member ``twolink.json`` (:mod:`twolink.control.agent_meta`, ``{"schema":
 "twolink.agent", "version": 1, "links": N, "rule": "tapered"|"copied"}``, which
@@ -473,8 +475,7 @@ class SB3Agent:
                              f"to torques, got states of shape {x.shape}")
         if self.history == 1:
             return model_torques(self.policy, x, self.observation, self.tau_max)
-        obs = features(x, self.observation).reshape(-1, 3 * self.links if
-                                                    self.observation == "cos_sin" else 2 * self.links)
+        obs = features(x, self.observation).reshape(x.size // x.shape[-1], -1)
         if self._buffer is None or self._buffer.rows != len(obs):
             self.reset(len(obs))
         action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
@@ -483,8 +484,7 @@ class SB3Agent:
         return (a * self.tau_max).reshape(x.shape[:-1] + (self.links,))
 
     def reset(self, n: int) -> None:
-        """Start ``n`` rows afresh: with a history K > 1, their last K observations and
-        K - 1 actions (:class:`twolink.control.history.ObservationHistory`) are zeros."""
+        """Start ``n`` rows afresh: with a history K > 1, its buffers of zeros."""
         if self.history > 1:
             d = 3 * self.links if self.observation == "cos_sin" else 2 * self.links
             self._buffer = ObservationHistory(int(n), d, self.links, self.history)
