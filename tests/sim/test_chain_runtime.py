@@ -221,7 +221,7 @@ def test_random_poses_shape_range_determinism_and_cap():
     assert not np.array_equal(poses, random_poses(4, 1000, 8))
     with pytest.raises(ValueError, match=f"count must be a whole number from 1 to {MAX_POSES}"):
         random_poses(3, MAX_POSES + 1, 0)
-    with pytest.raises(ValueError, match="seed must be an int"):
+    with pytest.raises(TypeError, match="seed must be an int"):      # a type, not a value
         random_poses(3, 10, None)
     with pytest.raises(ValueError, match="links must be a whole number from 2 to 6"):
         random_poses(1, 10, 0)
