@@ -240,3 +240,27 @@ def test_the_leaderboard_writes_into_the_default_folder(monkeypatch, tmp_path, c
         "leaderboard.json", "leaderboard.md", "leaderboard.png"]
     assert os.listdir(tmp_path) == ["twolink-results"]
     assert "wrote twolink-results/leaderboard-quick/leaderboard.md" in capsys.readouterr().out
+
+
+def test_worst_case_rows_carry_the_grid_and_the_table_shows_it(tmp_path, capsys):
+    """--worst-case: every row of a perturbing level also runs on the level's grid of
+    plants (centre and 24 corners); the saved row holds it and --merge accepts it."""
+    import json
+
+    from twolink.cli import main
+    from twolink.studies.leaderboard.merge import saved_report
+
+    out = tmp_path / "lb"
+    assert main(["leaderboard", "--quick", "--only", "--controller", "lqr", "--levels",
+                 "none", "medium", "--plants", "1", "--worst-case", "-o", str(out)]) == 0
+    capsys.readouterr()
+    rows = json.loads((out / "leaderboard.json").read_text())["rows"]
+    medium = [r for r in rows if r["level"] == "medium"]
+    assert {r["mode"] for r in medium} == {"plain", "compensated"}
+    for r in medium:
+        g = r["grid"]
+        assert g["plants"] == 25 and g["n"] == 25 * r["n"]
+        assert g["worst_plant_successes"] == min(g["per_plant"].values())
+    assert all("grid" not in r for r in rows if r["level"] == "none")   # one nominal plant
+    assert "grid (worst plant)" in (out / "leaderboard.md").read_text()
+    assert saved_report(out / "leaderboard.json")["rows"] == rows         # merge reads it

@@ -66,6 +66,11 @@ def add_parser(sub):
     p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
                    help="end the run (exit status 2) when one call of a controller takes "
                         "longer than this (default: no limit)")
+    p.add_argument("--worst-case", action="store_true",
+                   help="also run every row of a perturbing level on the level's grid of "
+                        "plants (its parameter box's centre and 24 corners, "
+                        "twolink.sim.plant_grid): a grid column with the worst plant "
+                        "(about doubles the time)")
     p.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
                    help="folder of leaderboard.md, .json and .png (default "
                         "leaderboard, or leaderboard-quick, in twolink-results/ or "
@@ -215,6 +220,7 @@ def _rerender(args) -> int:
                             ("--all", args.all), ("--levels", args.levels),
                             ("--plants", args.plants), ("--seed", args.seed),
                             ("--quick", args.quick), ("--timeout", args.timeout),
+                            ("--worst-case", args.worst_case),
                             ("--address", args.address)) if v]
     if given:
         raise ValueError(f"--from-json measures nothing; give no {', '.join(given)}")
@@ -273,7 +279,7 @@ def _measure_and_write(args, controllers, specs, x0, limits, source, levels, pla
     log = None if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
     rows = measure(controllers, x0, limits, levels=levels, plants=plants, seed=seed, log=log,
                    executor=args.executor, address=args.address, specs=specs,
-                   timeout=args.timeout)
+                   timeout=args.timeout, worst_case=args.worst_case)
     report = {"command": command, "states": len(x0), "plants": plants, "seed": seed,
               "horizon": 5.0, "limits": source, "levels": levels,
               "rows": [r.as_dict() for r in rows]}

@@ -82,6 +82,7 @@ class Entry:
     settle_ratio_worst: float
     mean_abs_torque: float
     seconds: float
+    grid: dict | None = None        # the worst case over the level's grid (plant_grid)
 
     def as_dict(self) -> dict:
         def finite(v):
@@ -90,7 +91,8 @@ class Entry:
                 **self.score.as_dict(),
                 "settle_ratio_median": finite(self.settle_ratio_median),
                 "settle_ratio_worst": finite(self.settle_ratio_worst),
-                "mean_abs_torque": self.mean_abs_torque, "seconds": self.seconds}
+                "mean_abs_torque": self.mean_abs_torque, "seconds": self.seconds,
+                **({"grid": self.grid} if self.grid is not None else {})}
 
 
 def has_model(controller) -> bool:
@@ -122,11 +124,15 @@ EXECUTORS = ("local", "ray")
 
 def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
                 limits: np.ndarray, plants: int, seed: int, nthread=None,
-                progress: bool = False, timeout: float | None = None) -> Entry:
+                progress: bool = False, timeout: float | None = None,
+                worst_case: bool = False) -> Entry:
     """One row: ``controller`` (a controller, or a spec for
     :func:`twolink.control.controllers.resolve_controller`) under ``level`` in ``mode``,
     evaluated from ``x0`` against ``limits``; ``progress`` shows the evaluation's bar;
-    ``timeout`` limits each call of the controller (:func:`twolink.sim.controller.checked`)."""
+    ``timeout`` limits each call of the controller (:func:`twolink.sim.controller.checked`);
+    ``worst_case`` adds the run on the level's grid of plants
+    (:func:`twolink.sim.plant_grid.worst_case`: its centre and 24 corners, the same
+    states, seed and mode) for a level that perturbs the plant."""
     if isinstance(controller, str):
         from twolink.control.controllers import resolve_controller
         controller = resolve_controller(controller)
@@ -138,18 +144,25 @@ def measure_row(controller, name: str, level: str, mode: str, x0: np.ndarray,
                   compensate=mode == "compensated", label=name, nthread=nthread,
                   progress=progress)
     ratio = settle_ratios(ev.settle, ev.success, limits)
+    grid = None
+    if worst_case and ch.perturbs_plant():
+        from twolink.sim.plant_grid import worst_case as on_grid
+
+        grid = on_grid(meter.controller, ch, x0=x0, compensate=mode == "compensated",
+                       seed=seed, nthread=nthread).as_dict()
     return Entry(name, level, mode, ev.score, float(np.median(ratio)), float(ratio.max()),
-                 meter.mean, time.perf_counter() - t0)
+                 meter.mean, time.perf_counter() - t0, grid)
 
 
-def _ray_rows(tasks, done, *, address, timeout=None) -> list:
+def _ray_rows(tasks, done, *, address, timeout=None, worst_case=False) -> list:
     """Every task of :func:`measure_row` on Ray, one CPU each; ``done(i, entry)`` as each
     ends; the entries in task order."""
     from twolink.sim.cells import ray_session
 
     with ray_session(address, None, "--address") as ray:
         remote = ray.remote(num_cpus=1)(measure_row)
-        refs = [remote.remote(*task, nthread=1, timeout=timeout) for task in tasks]
+        refs = [remote.remote(*task, nthread=1, timeout=timeout, worst_case=worst_case)
+                for task in tasks]
         index = {ref: i for i, ref in enumerate(refs)}
         out = [None] * len(refs)
         pending = list(refs)
@@ -164,7 +177,8 @@ def _ray_rows(tasks, done, *, address, timeout=None) -> list:
 def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(LEVELS),
         plants: int = 32, seed: int = SEED, log=None, executor: str = "local",
         address: str | None = None, specs: dict | None = None,
-        progress: bool = False, timeout: float | None = None) -> list[Entry]:
+        progress: bool = False, timeout: float | None = None,
+        worst_case: bool = False) -> list[Entry]:
     """Every controller (``{name: controller}``) x level x mode (:func:`modes_for`) from
     the states ``x0`` (n, 4) whose limits are ``limits`` (n,) seconds; ``plants`` plants
     per level that perturbs the plant. ``log(line)`` hears of every finished row.
@@ -172,7 +186,9 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
     initialised Ray or a new local one); ``specs`` (``{name: spec}``) sends those
     controllers to Ray by spec instead of pickled (a file's callable then imports there).
     ``progress``: each local row's evaluation bar besides the ``log`` lines (Ray rows
-    have none). ``timeout``: seconds one call of a controller may take (none by default)."""
+    have none). ``timeout``: seconds one call of a controller may take (none by default).
+    ``worst_case``: every row of a perturbing level also runs on the level's grid of plants
+    (:func:`measure_row`), about doubling the time."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     levels = [challenge(name).name for name in levels]
@@ -197,10 +213,12 @@ def run(controllers: dict, x0: np.ndarray, limits: np.ndarray, *, levels=tuple(L
 
         tasks = [(absolute_spec(specs.get(name, controllers[name])), name, level, mode, x0,
                   limits, plants, seed) for name, level, mode in cells]
-        return _ray_rows(tasks, done, address=address, timeout=timeout)
+        return _ray_rows(tasks, done, address=address, timeout=timeout,
+                         worst_case=worst_case)
     rows = []
     for i, (name, level, mode) in enumerate(cells):
         rows.append(measure_row(controllers[name], name, level, mode, x0, limits, plants,
-                                seed, progress=progress, timeout=timeout))
+                                seed, progress=progress, timeout=timeout,
+                                worst_case=worst_case))
         done(i, rows[-1])
     return rows

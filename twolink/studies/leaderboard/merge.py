@@ -94,6 +94,13 @@ def _check_row(row, report: dict) -> str | None:
         v = row[key]
         if not _is_number(v) or v < 0:
             return f"{key} {v!r}: not a non-negative finite number"
+    if "grid" in row:
+        g = row["grid"]
+        if not isinstance(g, dict) or not all(_is_int(g.get(k)) and g[k] >= 0 for k in (
+                "successes", "n", "worst_plant_successes", "states")) \
+                or not isinstance(g.get("worst_plant"), str) or g["successes"] > g["n"]:
+            return "grid: not a worst case over the level's grid (successes, n, states, " \
+                   "worst_plant, worst_plant_successes)"
     return None
 
 

@@ -93,11 +93,17 @@ def markdown(report: dict) -> str:
     if plain_only:
         lines += ["No compensated rows (they name no model to predict with): "
                   + ", ".join(plain_only) + ".", ""]
+    grid = any("grid" in r for r in report["rows"])
+    if grid:
+        lines += ["*grid*: the same controller on the level's grid of plants (its parameter "
+                  "box's centre and 24 corners, twolink.sim.plant_grid): successes over the "
+                  "grid and its worst plant.", ""]
     for level in report["levels"]:
         lines += [f"## {level}", "",
                   "| # | controller | mode | success | worst plant | median settle | "
-                  "settle / T* (median, worst) | mean abs torque [N m] |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  "settle / T* (median, worst) | mean abs torque [N m] |"
+                  + (" grid (worst plant) |" if grid else ""),
+                  "|---|---|---|---|---|---|---|---|" + ("---|" if grid else "")]
         for mode in ("plain", "compensated"):
             for k, r in enumerate(ranked_in(report, level, mode), 1):
                 worst = ("-" if r["worst_plant"] is None
@@ -107,9 +113,17 @@ def markdown(report: dict) -> str:
                              f"{_settle(r['median_settle'])} | "
                              f"{_ratio(r['settle_ratio_median'])}, "
                              f"{_ratio(r['settle_ratio_worst'])} | "
-                             f"{r['mean_abs_torque']:.3f} |")
+                             f"{r['mean_abs_torque']:.3f} |" + (_grid_cell(r) if grid else ""))
         lines.append("")
     return "\n".join(lines)
+
+
+def _grid_cell(row: dict) -> str:
+    g = row.get("grid")
+    if g is None:
+        return " - |"
+    return (f" {format_rate(g['successes'], g['n'])} "
+            f"({g['worst_plant_successes']}/{g['states']}) |")
 
 
 def _column_name(level: str, mode: str) -> str:
