@@ -249,3 +249,14 @@ def test_the_resume_comparison_can_fail(whole_run, tmp_path):
     checkpoint.save(tmp_path / "checkpoint.pt", header, tensors)
     train(None, tmp_path, resume=True)
     assert not _same(_weights(tmp_path / AGENT), _weights(whole / AGENT))
+
+
+def test_the_command_names_level_and_history(tmp_path, capsys):
+    assert main(["train", "--challenge", "hard", "--history", "2", "--seed", "5", "--steps",
+                 "128", "--envs", "4", "--n-steps", "32", "--eval-every", "128", "--out",
+                 str(tmp_path)]) == 0
+    out = capsys.readouterr()
+    assert "ppo on 2 links under hard, history 2, seed 5: 128 steps" in out.out
+    assert "train ppo 2 links under hard history 2 seed 5: 128/128 steps" in out.err
+    agent = sb3_agent(tmp_path / "ppo_2links_hard_h2_seed5.zip")
+    assert agent.history == 2 and agent.meta["history"] == 2

@@ -140,7 +140,10 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(record, indent=1))
     else:
-        print(f"{record['config']['algo']} on {record['config']['links']} links, seed "
+        c = record["config"]
+        level = (f" under {c['challenge']}" if c.get("challenge") else "") + (
+            f", history {c['history']}" if c.get("history", 1) > 1 else "")
+        print(f"{c['algo']} on {c['links']} links{level}, seed "
               f"{record['config']['seed']}: {record['steps']:,} steps in "
               f"{record['wall_s']:.0f} s of training ({record['steps_per_s'] or 0:.0f} "
               f"steps/s); final policy {format_rate(last['successes'], last['n'])}; agent "

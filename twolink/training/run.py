@@ -300,7 +300,9 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
         write_json(out / CURVE, record)
         lo, hi = sc.wilson_95
         p = record["curve"][-1]
-        say(f"train {config.algo} {config.links} links seed {config.seed}: "
+        under = "" if config.challenge is None else f" under {config.challenge}"
+        memory = "" if config.history == 1 else f" history {config.history}"
+        say(f"train {config.algo} {config.links} links{under}{memory} seed {config.seed}: "
             f"{model.num_timesteps:,}/{total:,} steps  {sc.successes}/{sc.n} succeed "
             f"[{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
 
