@@ -1,6 +1,7 @@
 """Every controller by one name: shipped fuzzy policies, classical baselines, policy files,
 saved Stable-Baselines3 agents (a PPO or SAC ``.zip``, :mod:`twolink.control.sb3_agent`,
-read as data, never unpickled), the learned agents shipped in the repository by name
+read as data, never unpickled), saved multi-agent arms (an IPPO or MAPPO ``.marl.pt``,
+:mod:`twolink.control.marl_agent`, read with ``torch.load(weights_only=True)``), the learned agents shipped in the repository by name
 (:data:`twolink.control.learned.LEARNED_AGENTS`, e.g. ``ppo_seed0``) and a user's own
 ``module:callable`` or ``path/to/file.py:callable``.
 
@@ -38,7 +39,7 @@ def absolute_spec(spec):
 
     if not isinstance(spec, str) or spec in catalogue():
         return spec
-    if spec.endswith((".npz", ".zip")):
+    if spec.endswith((".npz", ".zip", ".marl.pt")):
         return str(Path(spec).resolve())
     where, colon, attr = spec.rpartition(":")
     if colon and where and is_file_spec(where):
@@ -77,7 +78,8 @@ def resolve_controller(spec, *, links: int = 2, catalogue_files=()) -> Checked:
     (:mod:`twolink.control.catalogue`: shipped policies, baselines, shipped learned
     agents and the entries of ``catalogue_files`` and of ``$TWOLINK_CATALOGUE``), a policy
     ``.npz`` file, a saved SB3 agent ``.zip`` (labelled by its file's stem; read as data,
-    see :mod:`twolink.control.sb3_agent`), ``module:callable`` or ``file.py:callable``
+    see :mod:`twolink.control.sb3_agent`), a multi-agent save ``.marl.pt``
+    (:mod:`twolink.control.marl_agent`), ``module:callable`` or ``file.py:callable``
     (labelled by the object's ``name`` when it has one, else the callable's name); or a
     controller object itself. One-line ControllerError (a ValueError) for anything else,
     an unknown name with the closest catalogue names."""
@@ -93,6 +95,11 @@ def resolve_controller(spec, *, links: int = 2, catalogue_files=()) -> Checked:
         from twolink.control.sb3_agent import sb3_agent
 
         return checked(sb3_agent(spec), name=Path(spec).stem, links=links)
+    if spec.endswith(".marl.pt"):
+        from twolink.control.marl_agent import SUFFIX, load_marl_agent
+
+        agent = load_marl_agent(spec)
+        return checked(agent, name=Path(spec).name[:-len(SUFFIX)], links=links)
     if ":" in spec:
         obj = _from_spec(spec)
         return checked(obj, name=controller_name(obj, spec.rpartition(":")[2]), links=links)
@@ -101,4 +108,4 @@ def resolve_controller(spec, *, links: int = 2, catalogue_files=()) -> Checked:
         return checked(cat[spec].load(), name=spec, links=links)
     raise ControllerError(f"unknown controller {spec!r}{catalogue.suggest(spec, cat)}; give "
                           f"a name of `twolink controllers`, a policy .npz, an SB3 agent "
-                          f".zip, module:callable or path/to/file.py:callable")
+                          f".zip, a multi-agent .marl.pt, module:callable or path/to/file.py:callable")

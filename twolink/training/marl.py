@@ -1,0 +1,329 @@
+"""Multi-agent deep RL on the arm: IPPO and MAPPO (skrl) on many arms stepped together.
+
+``twolink train --algo ippo|mappo`` runs :func:`train` with a :class:`MarlConfig`. One
+agent per joint (``link1`` .. ``linkN``) on
+:func:`twolink.envs.pettingzoo_batched.batched_parallel_env` (all arms in one MuJoCo call
+per Ts, same-step autoreset): cos/sin angles (``observation='cos_sin'``), normalized
+actions (a float32 [-1, 1] per agent, scaled to +-tau_max), random initial poses at rest,
+episodes of :func:`twolink.arm.parameters.horizon` seconds; ``observe`` (``local``,
+``neighbours``, ``global``: :data:`twolink.envs.core.OBSERVE_OPTIONS`) is what each
+policy sees.
+
+* **IPPO** (skrl's ``IPPO``, de Witt et al. 2020): each agent has its own policy and its
+  own critic on its own observation, and earns the per-link shaped reward
+  (``reward='shaped'``, :func:`twolink.envs.multi_agent.shaped_link_rewards`).
+* **MAPPO** (skrl's ``MAPPO``, Yu et al. 2021): each agent has its own policy on its own
+  observation and its own centralized critic on the global state (the arm's whole
+  cos/sin observation, 3N numbers, :func:`twolink.arm.observations.features`), and every
+  agent earns the team's shaped reward (``reward='shaped_team'``: the arm's
+  :func:`twolink.envs.core.shaped_reward`, the reward PPO trains with), the cooperative
+  setting MAPPO's critic is made for.
+
+One hyperparameter set (:data:`HYPERPARAMETERS`, PPO's of
+:data:`twolink.training.config.HYPERPARAMETERS` where they have a counterpart: 16 arms,
+rollouts of 128 steps, 10 epochs of minibatches of 256, lr 3e-4, gamma 0.98, GAE 0.95,
+clip 0.2, gradient norm 0.5; networks 64x64 tanh). Truncated episodes bootstrap from the
+value of their last observation (``time_limit_bootstrap``, the env's
+``final_observation``). The Gaussian actions are clipped to [-1, 1] for the env only (the
+memory keeps the sampled ones, as SB3's PPO does).
+
+The run's folder holds ``curve.json`` (the PPO curve's schema,
+:data:`twolink.training.run.CURVE_SCHEMA`), ``checkpoint.pt`` (:mod:`.marl_state`,
+rewritten at every evaluation, at the end of an update cycle, from which ``resume``
+continues bit for bit) and the agent ``<algo>_<N>links_<observe>_seed<S>.marl.pt``
+(:mod:`twolink.control.marl_agent`, a controller for evaluate/leaderboard/rollout). The
+evaluation (before the first step, every ``eval_every`` steps and after the last) scores
+the decentralized controller of the agents' deterministic policies (each joint's torque
+from its own agent's mean action on its own observation) with the protocol of PPO's runs:
+two links, the 65-state set for 5 s; N links, 64 random poses at rest (seed 20061122 + N)
+for 8 s.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from twolink.arm.parameters import LINK_RULES, check_links, horizon
+from twolink.artifacts import VERSION as TWOLINK_VERSION
+from twolink.artifacts import write_json
+from twolink.training.config import DEVICES, EVAL_POSES, EVAL_SEED, MAX_ENVS, MAX_STEPS, \
+    MAX_THREADS
+from twolink.validate import choice, whole
+
+#: The multi-agent algorithms (skrl).
+MARL_ALGOS = ("ippo", "mappo")
+#: What each algorithm's agents earn (the env's ``reward``).
+REWARDS = {"ippo": "shaped", "mappo": "shaped_team"}
+#: ``observe``: what each agent's policy sees.
+OBSERVE = ("local", "neighbours", "global")
+#: The skrl this code is written against (``pyproject.toml``'s ``marl`` extra).
+SKRL_VERSION = "2.1.1"
+#: The message of a missing skrl.
+NEEDS_SKRL = ("needs skrl, the marl extra: pip install 'twolink[marl]' (or "
+              "scripts/install-rl-extras.sh VENV)")
+#: One hyperparameter set for both algorithms (see the module docstring).
+HYPERPARAMETERS = dict(n_envs=16, n_steps=128, learning_epochs=10, batch_size=256,
+                       learning_rate=3e-4, gamma=0.98, gae_lambda=0.95, ratio_clip=0.2,
+                       value_clip=0.0, value_loss_scale=0.5, entropy_loss_scale=0.0,
+                       grad_norm_clip=0.5, hidden=[64, 64], activation="Tanh",
+                       log_std_init=0.0)
+#: Environment steps between evaluations by default.
+EVAL_EVERY = 50_000
+#: The env's options (beside links, rule, reward, observe).
+ENV = dict(observation="cos_sin", actions="normalized", x0="random")
+
+
+def skrl_modules():
+    """(skrl, torch), or a RuntimeError naming the extra to install."""
+    try:
+        import skrl
+        import torch
+    except ImportError:
+        raise RuntimeError(f"twolink train --algo ippo|mappo {NEEDS_SKRL}") from None
+    return skrl, torch
+
+
+@dataclasses.dataclass(frozen=True)
+class MarlConfig:
+    """One IPPO or MAPPO run (fields as :class:`twolink.training.config.TrainConfig`'s;
+    ``observe``: what each policy sees; ``n_steps``: the rollout length per arm)."""
+
+    algo: str = "ippo"
+    links: int = 2
+    rule: str = "tapered"
+    observe: str = "neighbours"
+    steps: int = 1_000_000
+    seed: int = 0
+    envs: int | None = None
+    n_steps: int | None = None
+    eval_every: int | None = None
+    device: str = "cpu"
+    threads: int = 1
+
+    #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
+    IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
+                "eval_every", "device", "threads")
+
+    def __post_init__(self):
+        choice(self.algo, "algo", MARL_ALGOS)
+        check_links(self.links)
+        choice(self.rule, "rule", LINK_RULES)
+        choice(self.observe, "observe", OBSERVE)
+        choice(self.device, "device", DEVICES)
+        whole(self.steps, "steps", 1, MAX_STEPS)
+        whole(self.seed, "seed", 0, 2**31 - 1 - MAX_ENVS)
+        whole(self.threads, "threads", 1, MAX_THREADS)
+        if self.envs is not None:
+            whole(self.envs, "envs", 1, MAX_ENVS)
+        if self.n_steps is not None:
+            whole(self.n_steps, "n_steps", 2, 100_000)
+        if self.eval_every is not None:
+            whole(self.eval_every, "eval_every", 1, MAX_STEPS)
+
+    def hyperparameters(self) -> dict:
+        """:data:`HYPERPARAMETERS` with this run's arms and rollout length (the minibatch
+        held to at most one rollout)."""
+        hp = dict(HYPERPARAMETERS, hidden=list(HYPERPARAMETERS["hidden"]))
+        if self.envs is not None:
+            hp["n_envs"] = self.envs
+        if self.n_steps is not None:
+            hp["n_steps"] = self.n_steps
+        hp["batch_size"] = min(hp["batch_size"], hp["n_steps"] * hp["n_envs"])
+        hp["mini_batches"] = max(1, hp["n_steps"] * hp["n_envs"] // hp["batch_size"])
+        return hp
+
+    def unit(self) -> int:
+        """Environment steps between update boundaries: one rollout of all arms."""
+        hp = self.hyperparameters()
+        return hp["n_envs"] * hp["n_steps"]
+
+    def total_steps(self) -> int:
+        return self.unit() * math.ceil(self.steps / self.unit())
+
+    def every(self) -> int:
+        return self.unit() * math.ceil((self.eval_every or EVAL_EVERY) / self.unit())
+
+    def env_options(self) -> dict:
+        """The options of :func:`batched_parallel_env` for this run."""
+        return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
+                    reward=REWARDS[self.algo], observe=self.observe, nthread=1)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d) -> "MarlConfig":
+        if not isinstance(d, dict):
+            raise ValueError("a training config is a dict of its fields")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ValueError(f"unknown multi-agent training option {unknown[0]!r}")
+        return cls(**d)
+
+
+#: Options of ``twolink train`` that multi-agent runs do not take, with why.
+NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
+            "challenge": "challenge levels are for --algo ppo|sac",
+            "history": "observation histories are for --algo ppo|sac"}
+
+
+def config_from_options(given: dict) -> dict:
+    """The :class:`MarlConfig` fields of the command's options ``given``; a one-line
+    ValueError for an option multi-agent runs do not take."""
+    for name, why in NOT_MARL.items():
+        if given.get(name) is not None:
+            raise ValueError(f"--{name} does not apply to --algo ippo|mappo ({why})")
+    names = {f.name for f in dataclasses.fields(MarlConfig)}
+    return {k: v for k, v in given.items() if k in names and v is not None}
+
+
+def run_name(config: MarlConfig) -> str:
+    """``<algo>_<N>links_<observe>_seed<S>``: the default folder and the agent's stem."""
+    return f"{config.algo}_{config.links}links_{config.observe}_seed{config.seed}"
+
+
+def agent_name(config: MarlConfig) -> str:
+    from twolink.control.marl_agent import SUFFIX
+
+    return run_name(config) + SUFFIX
+
+
+def versions() -> dict:
+    skrl, torch = skrl_modules()
+    return {"twolink": TWOLINK_VERSION, "python": platform.python_version(),
+            "skrl": skrl.__version__, "torch": torch.__version__}
+
+
+def evaluation_protocol(config: MarlConfig) -> dict:
+    if config.links == 2:
+        return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
+                "plant": "mujoco", "controller": "decentralized: each joint from its agent"}
+    return {"states": f"twolink.sim.metrics.random_poses({config.links}, {EVAL_POSES}, "
+                      f"{EVAL_SEED} + {config.links})", "horizon_s": horizon(config.links),
+            "plant": "mujoco", "controller": "decentralized: each joint from its agent"}
+
+
+def evaluate_controller(agent, config: MarlConfig):
+    """The :class:`twolink.sim.metrics.Score` of the controller ``agent`` under the
+    evaluation protocol of ``config`` (PPO's: :func:`twolink.training.run.evaluate_policy`)."""
+    from twolink.envs.core import arm
+
+    if config.links == 2:
+        from twolink.sim.evaluation import evaluate
+
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
+    from twolink.sim.metrics import random_poses, score, settle_time, success
+    from twolink.sim.plants import MujocoPlant
+    from twolink.sim.rollout import rollout
+
+    params = arm(links=config.links, rule=config.rule)
+    x0 = random_poses(config.links, EVAL_POSES, EVAL_SEED + config.links)
+    with MujocoPlant(params, nthread=1) as plant:
+        traj = rollout(agent, plant, x0, duration=horizon(config.links))
+    return score(success(traj), settle_time(traj))
+
+
+def train(config, out, *, resume: bool = False, progress=None) -> dict:
+    """Run the IPPO/MAPPO training of ``config`` (a :class:`MarlConfig`) into ``out``, or,
+    ``resume``, continue the run of ``out/checkpoint.pt`` (``config``: None or the options
+    given, a dict or a MarlConfig, which must be the checkpoint's run; ``steps`` may grow
+    it); the final curve record (as :func:`twolink.training.run.train`'s)."""
+    from twolink.training import marl_state
+    from twolink.training.run import CHECKPOINT, CURVE, CURVE_SCHEMA, CURVE_VERSION, _state_of
+
+    skrl_modules()
+    out = Path(out)
+    state = _state_of(out)
+    if state == "finished":
+        raise ValueError(f"{out} holds a finished run (its agent and {CURVE}); train "
+                         f"into another --out")
+    if state == "interrupted" and not resume:
+        raise ValueError(f"{out} holds an interrupted run; --resume continues it, or give "
+                         f"another --out")
+    header = tensors = None
+    if resume:
+        if state == "new":
+            raise ValueError(f"no run in {out} to resume (no {CHECKPOINT})")
+        header, tensors = marl_state.load(out / CHECKPOINT)
+        config = marl_state.check_resume(header, config, out / CHECKPOINT, versions())
+    elif not isinstance(config, MarlConfig):
+        raise ValueError("give a MarlConfig (or resume=True)")
+    total, every = config.total_steps(), config.every()
+    if header is not None and header["steps"] > total:
+        raise ValueError(f"{out / CHECKPOINT} is at {header['steps']:,} steps, past the "
+                         f"{total:,} asked for")
+    learner = marl_state.Learner(config)
+    record = {"schema": CURVE_SCHEMA, "version": CURVE_VERSION, "config": config.as_dict(),
+              "hyperparameters": config.hyperparameters(), "env": config.env_options(),
+              "evaluation": evaluation_protocol(config), "steps_requested": total,
+              "eval_every": every, "versions": versions(),
+              "machine": {"cpus": os.cpu_count(), "torch_threads": config.threads,
+                          "device": config.device}, "curve": [], "done": False}
+    clocks = {"wall_s": 0.0, "cpu_s": 0.0}
+    if header is not None:
+        learner.restore(header["plain"], tensors)
+        record["curve"], clocks = header["curve"], header["clocks"]
+        record["resumed_at"] = header.get("resumed_at", []) + [header["steps"]]
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        _loop(config, learner, out, record, clocks, total, every,
+              progress or (lambda text: None))
+    finally:
+        learner.close()
+    return record
+
+
+def _loop(config, learner, out, record, clocks, total, every, say) -> None:
+    from twolink.training import marl_state
+    from twolink.training.run import CHECKPOINT, CURVE, _point
+
+    def point() -> None:
+        sc = evaluate_controller(learner.controller(), config)
+        record["curve"].append(_point(learner.steps, sc, clocks["wall_s"], clocks["cpu_s"]))
+        plain, tensors = learner.capture()
+        header = {"config": config.as_dict(), "versions": record["versions"],
+                  "steps": learner.steps, "plain": plain, "curve": record["curve"],
+                  "clocks": clocks}
+        if "resumed_at" in record:
+            header["resumed_at"] = record["resumed_at"]
+        marl_state.save(out / CHECKPOINT, header, tensors)
+        write_json(out / CURVE, record)
+        lo, hi = sc.wilson_95
+        p = record["curve"][-1]
+        say(f"train {config.algo} {config.links} links ({config.observe}) seed "
+            f"{config.seed}: {learner.steps:,}/{total:,} steps  {sc.successes}/{sc.n} "
+            f"succeed [{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
+
+    if not record["curve"]:
+        point()
+    while learner.steps < total:
+        chunk = min(every - learner.steps % every, total - learner.steps)
+        wall, cpu = time.perf_counter(), time.process_time()
+        learner.learn(chunk, total)
+        clocks["wall_s"] += time.perf_counter() - wall
+        clocks["cpu_s"] += time.process_time() - cpu
+        point()
+    learner.save_agent(out / agent_name(config))
+    record.update(done=True, steps=learner.steps, agent=agent_name(config),
+                  wall_s=round(clocks["wall_s"], 3), cpu_s=round(clocks["cpu_s"], 3),
+                  steps_per_s=round(learner.steps / clocks["wall_s"], 1)
+                  if clocks["wall_s"] > 0 else None)
+    write_json(out / CURVE, record)
+
+
+def run_algo(out) -> str | None:
+    """The algorithm of the run in the folder ``out`` (from its ``curve.json``), None
+    where there is none to read."""
+    import json
+
+    try:
+        return json.loads((Path(out) / "curve.json").read_text())["config"]["algo"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
