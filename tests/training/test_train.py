@@ -130,8 +130,8 @@ def _err(capsys, argv) -> str:
 
 
 def test_bad_inputs_are_one_line(tmp_path, capsys):
-    assert "--algo mappo (multi-agent, from skrl) comes in a later step" in _err(
-        capsys, ["train", "--algo", "mappo"])
+    assert "--observe is for --algo ippo|mappo" in _err(
+        capsys, ["train", "--algo", "ppo", "--observe", "local"])
     assert "--steps must be a whole number" in _err(capsys, ["train", "--steps", "1.5"])
     assert "links" in _err(capsys, ["train", "--links", "7", "--out", str(tmp_path / "a")])
     assert "n_steps (the rollout length per arm) is PPO's" in _err(

@@ -1,6 +1,7 @@
 """``twolink train``: deep RL on the arm with Stable-Baselines3 (:mod:`twolink.training`).
 
-Trains PPO or SAC on N = 2..6 links, evaluates the deterministic policy on fixed poses
+Trains PPO or SAC (Stable-Baselines3), or IPPO or MAPPO (skrl, one agent per joint,
+:mod:`twolink.training.marl`) on N = 2..6 links, evaluates the deterministic policy on fixed poses
 every --eval-every steps, rewrites the learning curve and a checkpoint after every
 evaluation, and saves the final agent as a controller (``agent.zip``). ``--resume``
 continues an interrupted run exactly as if it had never stopped.
@@ -25,7 +26,7 @@ from twolink.training.config import (
     DEVICES,
     EVAL_EVERY,
     HYPERPARAMETERS,
-    LATER_ALGOS,
+    MARL_ALGOS,
     MAX_STEPS,
     PLANTS,
     TrainConfig,
@@ -53,6 +54,7 @@ def add_parser(sub):
     p = sub.add_parser(
         "train", help=SUMMARIES["train"],
         description="Train a deep-RL agent on the arm with Stable-Baselines3 (PPO or SAC) "
+                    "or skrl (IPPO or MAPPO: one agent per joint, --observe) "
                     "on many arms stepped together: cos/sin observations, normalized "
                     "actions, the shaped reward, random poses at rest. Every --eval-every "
                     "steps the deterministic policy is scored on MuJoCo (two links: the "
@@ -61,9 +63,15 @@ def add_parser(sub):
                     "(DIR/checkpoint.pt) are rewritten; the final agent is DIR/<algo>_<N>links_seed<S>.zip, "
                     "a controller for evaluate, leaderboard, rollout and render. Needs the "
                     "rl extras (scripts/install-rl-extras.sh).")
-    p.add_argument("--algo", default=None, metavar="|".join(ALGOS + LATER_ALGOS),
-                   help=f"the learner (default ppo); {' and '.join(LATER_ALGOS)} "
-                        f"(multi-agent, from skrl) come in a later step")
+    p.add_argument("--algo", default=None, metavar="|".join(ALGOS + MARL_ALGOS),
+                   help="the learner (default ppo); ippo and mappo: one agent per joint "
+                        "(skrl, the marl extra), IPPO with a critic per agent on its own "
+                        "observation and the per-link shaped reward, MAPPO with "
+                        "centralized critics on the whole state and the team's shaped "
+                        "reward; their agent is DIR/<algo>_<N>links_<observe>_seed<S>.marl.pt")
+    p.add_argument("--observe", default=None, metavar="local|neighbours|global",
+                   help="ippo/mappo: what each agent's policy sees (default neighbours: "
+                        "its own and the next joint's angle and speed)")
     p.add_argument("--links", type=int, default=None, metavar="N",
                    help="links of the arm, 2 to 6 (default 2)")
     p.add_argument("--rule", choices=("tapered", "copied"), default=None,
@@ -112,7 +120,13 @@ def add_parser(sub):
 def given_options(args) -> dict:
     """The options given on the command line, checked, by TrainConfig field."""
     if args.algo is not None:
-        check_algo(args.algo)
+        check_algo(args.algo, marl=True)
+    if args.observe is not None:
+        from twolink.training.marl import OBSERVE
+
+        if args.algo not in MARL_ALGOS and not args.resume:
+            raise ValueError("--observe is for --algo ippo|mappo (one agent per joint)")
+        choice(args.observe, "--observe", OBSERVE)
     given = {"algo": args.algo, "links": args.links, "rule": args.rule,
              "steps": _count(args.steps, "--steps"),
              "seed": None if args.seed is None else seed_option(args.seed, high=2**32 - 1),
@@ -122,7 +136,8 @@ def given_options(args) -> dict:
              "device": args.device, "threads": _count(args.threads, "--threads", 1, 256),
              "challenge": None if args.challenge is None else
              choice(args.challenge, "--challenge level", tuple(LEVELS)),
-             "history": _count(args.history, "--history", 1, MAX_HISTORY)}
+             "history": _count(args.history, "--history", 1, MAX_HISTORY),
+             "observe": args.observe}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -130,6 +145,9 @@ def run(args) -> int:
     from twolink.training.run import CURVE, run_name, train
 
     given = given_options(args)
+    if _is_marl(args, given):
+        return _run_marl(args, given)
+    given.pop("observe", None)
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
                                        if k in ("algo", "links", "seed", "challenge", "history")})
@@ -148,4 +166,36 @@ def run(args) -> int:
               f"{record['wall_s']:.0f} s of training ({record['steps_per_s'] or 0:.0f} "
               f"steps/s); final policy {format_rate(last['successes'], last['n'])}; agent "
               f"{out / record['agent']}, curve {out / CURVE}")
+    return 0
+
+
+def _is_marl(args, given) -> bool:
+    """Whether this is an IPPO/MAPPO run: asked for, or resumed from a folder holding one."""
+    if given.get("algo") in MARL_ALGOS:
+        return True
+    if args.resume and args.out is not None and "algo" not in given:
+        from twolink.training.marl import run_algo
+
+        return run_algo(args.out) in MARL_ALGOS
+    return False
+
+
+def _run_marl(args, given) -> int:
+    from twolink.training.marl import CURVE_NAME, MarlConfig, config_from_options, run_name, train
+
+    fields = config_from_options(given)
+    config = None if args.resume else MarlConfig(**fields)
+    out = args.out or output_dir(create=False) / "train" / run_name(config or MarlConfig(
+        **{k: v for k, v in fields.items() if k in ("algo", "links", "observe", "seed")}))
+    record = train(config if config is not None else fields, out, resume=args.resume,
+                   progress=lambda text: print(text, file=sys.stderr, flush=True))
+    last, c = record["curve"][-1], record["config"]
+    if args.json:
+        print(json.dumps(record, indent=1))
+    else:
+        print(f"{c['algo']} on {c['links']} links ({c['observe']}), seed {c['seed']}: "
+              f"{record['steps']:,} steps in {record['wall_s']:.0f} s of training "
+              f"({record['steps_per_s'] or 0:.0f} steps/s); final controller "
+              f"{format_rate(last['successes'], last['n'])}; agent {out / record['agent']}, "
+              f"curve {out / CURVE_NAME}")
     return 0

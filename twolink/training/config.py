@@ -40,8 +40,11 @@ from twolink.validate import choice, whole
 
 #: The algorithms ``twolink train`` runs (Stable-Baselines3).
 ALGOS = ("ppo", "sac")
-#: Multi-agent algorithms named for a later step (skrl); refused for now.
-LATER_ALGOS = ("ippo", "mappo")
+#: The multi-agent algorithms (skrl), run by :mod:`twolink.training.marl`
+#: (:class:`~twolink.training.marl.MarlConfig`), not by :class:`TrainConfig`.
+MARL_ALGOS = ("ippo", "mappo")
+#: The old name of :data:`MARL_ALGOS`.
+LATER_ALGOS = MARL_ALGOS
 #: ``--plant``: what the arms are stepped on while training -> the env's ``plant`` option.
 #: ``mujoco``: MuJoCo, one ``mujoco.rollout`` call per Ts; ``model``: the full model (6)
 #: (N links: the rigid-body chain) integrated by numpy, batched. Evaluation is on MuJoCo.
@@ -90,12 +93,13 @@ def train_stream(seed: int) -> int:
     return int(np.random.SeedSequence([int(seed), TRAIN_STREAM]).generate_state(1)[0])
 
 
-def check_algo(algo) -> str:
-    """``algo`` if ``twolink train`` runs it; the multi-agent ones are one line saying when."""
-    if algo in LATER_ALGOS:
-        raise ValueError(f"--algo {algo} (multi-agent, from skrl) comes in a later step; "
-                         f"choose one of {', '.join(ALGOS)} for now")
-    return choice(algo, "algo", ALGOS)
+def check_algo(algo, *, marl: bool = False) -> str:
+    """``algo`` if ``twolink train`` runs it (``marl``: the multi-agent ones too); else
+    one line."""
+    if algo in MARL_ALGOS and not marl:
+        raise ValueError(f"--algo {algo} (multi-agent, from skrl) is run by "
+                         f"twolink.training.marl.MarlConfig, not TrainConfig")
+    return choice(algo, "algo", ALGOS + (MARL_ALGOS if marl else ()))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -75,6 +75,8 @@ HYPERPARAMETERS = dict(n_envs=16, n_steps=128, learning_epochs=10, batch_size=25
                        log_std_init=0.0)
 #: Environment steps between evaluations by default.
 EVAL_EVERY = 50_000
+#: The run's learning curve (as PPO's, :data:`twolink.training.run.CURVE`).
+CURVE_NAME = "curve.json"
 #: The env's options (beside links, rule, reward, observe).
 ENV = dict(observation="cos_sin", actions="normalized", x0="random")
 
@@ -86,6 +88,9 @@ def skrl_modules():
         import torch
     except ImportError:
         raise RuntimeError(f"twolink train --algo ippo|mappo {NEEDS_SKRL}") from None
+    if not str(skrl.__version__).startswith("2."):
+        raise RuntimeError(f"twolink train --algo ippo|mappo needs skrl 2.x (the marl extra "
+                           f"pins {SKRL_VERSION}); this is skrl {skrl.__version__}")
     return skrl, torch
 
 
