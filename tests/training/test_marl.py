@@ -72,7 +72,7 @@ def test_the_policies_learned_something(runs, tmp_path):
     _, folder = runs["ippo", 2]
     saved = torch.load(folder / "ippo_2links_neighbours_seed5.marl.pt",
                        weights_only=True)["policies"]
-    fresh = marl_state.Learner(MarlConfig(algo="ippo", links=2, seed=5, **SMALL))
+    fresh = marl_state.Learner(MarlConfig(algo="ippo", links=2, seed=5, **SMALL), torch)
     try:
         init = fresh.policy_state()
     finally:
@@ -83,7 +83,8 @@ def test_the_policies_learned_something(runs, tmp_path):
 
 def test_mappo_critics_see_the_whole_state_ippo_critics_their_own(tmp_path):
     for algo, width in (("ippo", None), ("mappo", 9)):
-        learner = marl_state.Learner(MarlConfig(algo=algo, links=3, observe="local", **SMALL))
+        learner = marl_state.Learner(MarlConfig(algo=algo, links=3, observe="local", **SMALL),
+                                     torch)
         try:
             for a in learner.agents:
                 assert learner.models[a]["policy"].net[0].in_features == 3   # cos, sin, speed

@@ -241,11 +241,12 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
     given, a dict or a MarlConfig, which must be the checkpoint's run; ``steps`` may grow
     it); the final curve record (as :func:`twolink.training.run.train`'s)."""
     from twolink.training import marl_state
-    from twolink.training.run import CHECKPOINT, CURVE, CURVE_SCHEMA, CURVE_VERSION, _state_of
+    from twolink.training.run import CHECKPOINT, CURVE, CURVE_SCHEMA, CURVE_VERSION, \
+        folder_state
 
     skrl_modules()
     out = Path(out)
-    state = _state_of(out)
+    state = folder_state(out)
     if state == "finished":
         raise ValueError(f"{out} holds a finished run (its agent and {CURVE}); train "
                          f"into another --out")
@@ -257,14 +258,15 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
         if state == "new":
             raise ValueError(f"no run in {out} to resume (no {CHECKPOINT})")
         header, tensors = marl_state.load(out / CHECKPOINT)
-        config = marl_state.check_resume(header, config, out / CHECKPOINT, versions())
+        config = marl_state.check_resume(header, config, out / CHECKPOINT, versions(),
+                                         MarlConfig)
     elif not isinstance(config, MarlConfig):
         raise ValueError("give a MarlConfig (or resume=True)")
     total, every = config.total_steps(), config.every()
     if header is not None and header["steps"] > total:
         raise ValueError(f"{out / CHECKPOINT} is at {header['steps']:,} steps, past the "
                          f"{total:,} asked for")
-    learner = marl_state.Learner(config)
+    learner = marl_state.Learner(config, skrl_modules()[1])
     record = {"schema": CURVE_SCHEMA, "version": CURVE_VERSION, "config": config.as_dict(),
               "hyperparameters": config.hyperparameters(), "env": config.env_options(),
               "evaluation": evaluation_protocol(config), "steps_requested": total,
@@ -287,11 +289,11 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
 
 def _loop(config, learner, out, record, clocks, total, every, say) -> None:
     from twolink.training import marl_state
-    from twolink.training.run import CHECKPOINT, CURVE, _point
+    from twolink.training.run import CHECKPOINT, CURVE, curve_point
 
     def point() -> None:
         sc = evaluate_controller(learner.controller(), config)
-        record["curve"].append(_point(learner.steps, sc, clocks["wall_s"], clocks["cpu_s"]))
+        record["curve"].append(curve_point(learner.steps, sc, clocks["wall_s"], clocks["cpu_s"]))
         plain, tensors = learner.capture()
         header = {"config": config.as_dict(), "versions": record["versions"],
                   "steps": learner.steps, "plain": plain, "curve": record["curve"],

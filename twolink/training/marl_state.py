@@ -43,6 +43,26 @@ SCHEMA, VERSION = "twolink.train.marl_checkpoint", 1
 MAX_BYTES = 2**30
 
 
+def _tensor(a):
+    import torch
+
+    return torch.from_numpy(np.ascontiguousarray(a).copy())
+
+
+def _array(t) -> np.ndarray:
+    return t.detach().cpu().numpy().copy()
+
+
+def _generator_state(rng) -> dict:
+    return rng.bit_generator.state
+
+
+def _generator(state: dict) -> np.random.Generator:
+    bits = getattr(np.random, state["bit_generator"])()
+    bits.state = state
+    return np.random.Generator(bits)
+
+
 def _models(torch, hidden, activation, log_std_init):
     from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
 
@@ -77,7 +97,7 @@ class Learner:
     """skrl's IPPO/MAPPO agent on the batched env of a :class:`MarlConfig` (see the
     module docstring)."""
 
-    def __init__(self, config):
+    def __init__(self, config, torch):
         from gymnasium import spaces
         from skrl.memories.torch import RandomMemory
         from skrl.multi_agents.torch.base import ExperimentCfg
@@ -87,9 +107,6 @@ class Learner:
         from twolink.arm.parameters import state_names
         from twolink.envs.multi_agent import agent_components
         from twolink.envs.pettingzoo_batched import batched_parallel_env
-        from twolink.training.marl import skrl_modules
-
-        _, torch = skrl_modules()
         if config.device == "cuda" and not torch.cuda.is_available():
             raise RuntimeError("--device cuda: torch sees no CUDA device here; train with "
                                "--device cpu")
@@ -217,8 +234,6 @@ class Learner:
     def capture(self) -> tuple[dict, dict]:
         """(JSON-ready state, tensors) at the end of an update cycle."""
         torch = self.torch
-        from twolink.training.checkpoint import _generator_state, _tensor
-
         tensors = {"models": {a: {k: m.state_dict() for k, m in self.models[a].items()}
                               for a in self.agents},
                    "optimizers": {a: self.agent.optimizers[a].state_dict()
@@ -245,8 +260,6 @@ class Learner:
 
     def restore(self, plain: dict, tensors: dict) -> None:
         """Put the learner (just built for the same config) into the captured state."""
-        from twolink.training.checkpoint import _array, _generator
-
         torch = self.torch
         for a in self.agents:
             for k, m in self.models[a].items():
@@ -325,12 +338,12 @@ def load(path) -> tuple[dict, dict]:
     return header, obj["state"]
 
 
-def check_resume(header: dict, given, path: Path, mine: dict):
+def check_resume(header: dict, given, path: Path, mine: dict, cls):
     """The config of the checkpoint ``header`` with ``given`` applied (a MarlConfig, or a
     dict of the options given): every identity field given must be the checkpoint's,
-    ``steps`` may change; this machine's skrl must be the checkpoint's."""
-    from twolink.training.marl import MarlConfig
-
+    ``steps`` may change; this machine's skrl must be the checkpoint's. ``cls``: the
+    config class (:class:`twolink.training.marl.MarlConfig`)."""
+    MarlConfig = cls
     saved = MarlConfig.from_dict(header.get("config"))
     if isinstance(given, MarlConfig):
         given = given.as_dict()

@@ -322,3 +322,8 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
                   steps_per_s=round(model.num_timesteps / clocks["wall_s"], 1)
                   if clocks["wall_s"] > 0 else None)
     write_json(out / CURVE, record)
+
+
+#: Public names of the curve point and the folder's state, for the multi-agent runs
+#: (:mod:`twolink.training.marl`), which write the same curve into the same folders.
+curve_point, folder_state = _point, _state_of
