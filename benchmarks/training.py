@@ -1,5 +1,5 @@
-"""Deep-RL training cost per environment step: ``twolink train``'s PPO (updates included)
-beside the physics alone, for N = 2 and 6 links.
+"""Deep-RL training cost per environment step: ``twolink train``'s PPO, IPPO and MAPPO
+(updates included) beside the physics alone, for N = 2 and 6 links.
 
 Three figures per N, in CPU microseconds per environment step (one arm, one sample
 period), one process, torch on one thread, MuJoCo on one thread:
@@ -12,7 +12,14 @@ period), one process, torch on one thread, MuJoCo on one thread:
   random normalized actions (physics, reward, observations, autoreset);
 * the physics alone: :class:`twolink.sim.plants.MujocoPlant` stepping the same batch.
 
-Needs the rl extras; without them the section reports nothing and says so.
+* IPPO and MAPPO (skrl, :mod:`twolink.training.marl`): ``Learner.learn`` of the learner
+  ``twolink train --algo ippo|mappo`` builds (its hyperparameters, ``observe=
+  'neighbours'``, the same arms and rollout length as PPO's row), over whole updates after
+  one warm-up update: the N agents' policies and critics (64x64), the batched multi-agent
+  env, and N updates of 10 epochs each.
+
+Needs the rl extras (the IPPO/MAPPO rows the marl extra); without them the section (or
+those rows) reports nothing and says so.
 """
 from __future__ import annotations
 
@@ -66,6 +73,26 @@ def measure(links: int, *, envs: int = 16, n_steps: int = 128, updates: int = 2)
             "plant_us": 1e6 * plant_s / per}
 
 
+def measure_marl(algo: str, links: int, *, envs: int = 16, n_steps: int = 128,
+                 updates: int = 2) -> dict:
+    """CPU seconds per environment step of IPPO or MAPPO training (updates included)."""
+    import torch
+
+    from twolink.training.marl import MarlConfig
+    from twolink.training.marl_state import Learner
+
+    config = MarlConfig(algo=algo, links=links, envs=envs, n_steps=n_steps)
+    unit = config.unit()
+    learner = Learner(config, torch)
+    try:
+        learner.learn(unit, unit * (updates + 1))                  # warm-up update
+        train = _cpu(lambda: learner.learn(unit * updates, unit * (updates + 1)))
+    finally:
+        learner.close()
+    return {"algo": algo, "links": links, "envs": envs, "n_steps": n_steps,
+            "updates": updates, "train_us": 1e6 * train / (unit * updates)}
+
+
 def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
                    updates: int = 2) -> tuple[list[Row], dict]:
     """The rows of :func:`measure` for every N of ``links``."""
@@ -92,4 +119,23 @@ def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
             Row(sec, "training / physics", m["train_us"] / m["plant_us"], "x"),
         ]
         summary[n] = m
+        rows += _marl_rows(n, envs, n_steps, updates, m["plant_us"], summary)
     return rows, summary
+
+
+def _marl_rows(n, envs, n_steps, updates, plant_us, summary) -> list[Row]:
+    try:
+        import skrl  # noqa: F401
+    except ImportError:
+        summary["marl"] = "skipped: needs the marl extra (scripts/install-rl-extras.sh)"
+        return []
+    rows = []
+    for algo in ("ippo", "mappo"):
+        m = measure_marl(algo, n, envs=envs, n_steps=n_steps, updates=updates)
+        sec = f"{SECTION}: {algo.upper()}, {n} links, {envs} arms"
+        rows += [Row(sec, "training, updates included: CPU per env step", m["train_us"],
+                     "us", f"{updates} update{'s' if updates > 1 else ''} of {envs} x "
+                           f"{n_steps} steps, {n} agents x 10 epochs each"),
+                 Row(sec, "training / physics", m["train_us"] / plant_us, "x")]
+        summary[f"{algo}_{n}"] = m
+    return rows
