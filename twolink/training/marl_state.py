@@ -16,8 +16,8 @@ is bit for bit an uninterrupted one (on the CPU, the same torch and skrl, the sa
 threads):
 
 * per agent the policy's and value's ``state_dict`` and the Adam optimizer's;
-* skrl's rollout counter; torch's generator (Gaussian actions, minibatch permutations),
-  numpy's and Python's global ones;
+* skrl's rollout counter; torch's generator (Gaussian actions, minibatch permutations;
+  CUDA's too on ``--device cuda``), numpy's and Python's global ones;
 * the env: every arm's state, clock, last sample outside the band and generator, the last
   actions, and the observations the next step acts on.
 
@@ -239,6 +239,8 @@ class Learner:
                    "optimizers": {a: self.agent.optimizers[a].state_dict()
                                   for a in self.agents},
                    "torch_rng": torch.get_rng_state()}
+        if self.config.device == "cuda":
+            tensors["cuda_rng"] = torch.cuda.get_rng_state_all()
         np_state = np.random.get_state(legacy=False)
         tensors["numpy_key"] = _tensor(np_state["state"]["key"].astype(np.int64))
         py = random.getstate()
@@ -286,6 +288,8 @@ class Learner:
                              "has_gauss": plain["numpy"]["has_gauss"],
                              "gauss": plain["numpy"]["gauss"]})
         torch.set_rng_state(tensors["torch_rng"])
+        if "cuda_rng" in tensors:
+            torch.cuda.set_rng_state_all(tensors["cuda_rng"])
 
     def close(self) -> None:
         self.env.close()
