@@ -112,6 +112,7 @@ def test_evaluate_scores_the_saved_agent(runs, capsys):
     assert main(["evaluate", str(agent), "--links", "3", "--poses", "4"]) == 0
     out = capsys.readouterr().out
     assert "mappo_3links_neighbours_seed5 on 3 links" in out and "/4 =" in out
+    assert "drives an arm of 3 links" in _err(capsys, ["evaluate", str(agent)])
 
 
 @pytest.mark.parametrize("algo", ["ippo", "mappo"])

@@ -99,6 +99,9 @@ def resolve_controller(spec, *, links: int = 2, catalogue_files=()) -> Checked:
         from twolink.control.marl_agent import SUFFIX, load_marl_agent
 
         agent = load_marl_agent(spec)
+        if agent.links != links:
+            raise ControllerError(f"{spec} drives an arm of {agent.links} links, not "
+                                  f"{links} (give --links {agent.links})")
         return checked(agent, name=Path(spec).name[:-len(SUFFIX)], links=links)
     if ":" in spec:
         obj = _from_spec(spec)

@@ -106,6 +106,9 @@ class MarlController:
     def __call__(self, x) -> np.ndarray:
         torch = _torch()
         x = np.asarray(x, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != 2 * self.links:
+            raise ControllerError(f"{self.name} drives an arm of {self.links} links; it got "
+                                  f"states of shape {x.shape} (give --links {self.links})")
         a = np.empty((len(x), self.links))
         with torch.no_grad():
             for i, net in enumerate(self.nets):
