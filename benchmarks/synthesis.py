@@ -35,7 +35,7 @@ from benchmarks.common import (
     total_ram_bytes,
 )
 from twolink.arm.parameters import DELTA, GAMMA, TABLE_I
-from twolink.control import synthesis as core
+from twolink.synthesis import synthesize as core
 from twolink.fqi.factored import (
     default_threads,
     factored_q_iteration,
