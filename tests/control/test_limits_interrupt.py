@@ -16,7 +16,10 @@ def test_ctrl_c_stops_limits_at_once_and_writes_nothing(tmp_path, workers):
     proc = subprocess.Popen(
         [sys.executable, "-m", "twolink.cli", "limits", "--evaluation-set", "--model", "full",
          "--no-mujoco", "-o", str(out), *workers],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        # a terminal's Ctrl-C reaches a foreground command; a pytest-xdist worker runs with
+        # SIGINT ignored, which its children would inherit, so give the child the default
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         first = proc.stderr.readline()                  # its first progress line
         assert first.startswith("limits: solving 65 states"), first
