@@ -94,8 +94,11 @@ def test_the_training_benchmark_rows():
 
     rows, summary = training.bench_training(links=(2,), envs=2, n_steps=8, updates=1)
     names = [r.name for r in rows]
-    assert names == ["training, updates included: CPU per env step",
-                     "vector env alone: CPU per env step", "physics alone: CPU per env step",
-                     "training / physics"]
+    assert names[:4] == ["training, updates included: CPU per env step",
+                         "vector env alone: CPU per env step",
+                         "physics alone: CPU per env step", "training / physics"]
+    marl = [k for k in summary if isinstance(k, str)]      # IPPO/MAPPO rows where skrl is
+    assert len(names) == 4 + 2 * len(marl)
+    assert all(summary[k]["train_us"] > 0 for k in marl)
     assert all(np.isfinite(r.value) and r.value > 0 for r in rows)
     assert summary[2]["train_us"] == rows[0].value

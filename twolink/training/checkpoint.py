@@ -40,22 +40,25 @@ SCHEMA, VERSION = "twolink.train.checkpoint", 1
 MAX_BYTES = 8 * 2**30
 
 
-def _tensor(a):
+def to_tensor(a):
+    """A torch tensor holding a copy of the numpy array ``a``."""
     import torch
 
     return torch.from_numpy(np.ascontiguousarray(a).copy())
 
 
-def _array(t) -> np.ndarray:
+def to_array(t) -> np.ndarray:
+    """A numpy copy of the torch tensor ``t``."""
     return t.detach().cpu().numpy().copy()
 
 
-def _generator_state(rng) -> dict:
+def generator_state(rng) -> dict:
     """The JSON-ready state of a numpy ``Generator``."""
     return rng.bit_generator.state
 
 
-def _generator(state: dict) -> np.random.Generator:
+def generator_from_state(state: dict) -> np.random.Generator:
+    """A numpy ``Generator`` in the state :func:`generator_state` returned."""
     bits = getattr(np.random, state["bit_generator"])()
     bits.state = state
     return np.random.Generator(bits)
@@ -76,18 +79,18 @@ def capture(model, env) -> tuple[dict, dict]:
                "torch_rng": torch.get_rng_state()}
     started = model._last_obs is not None        # before the first step: not yet reset
     if started:
-        tensors.update(last_obs=_tensor(model._last_obs),
-                       last_episode_starts=_tensor(model._last_episode_starts),
-                       arms={"x": _tensor(arms.x), "k": _tensor(arms.k),
-                             "last_out": _tensor(arms.last_out)})
+        tensors.update(last_obs=to_tensor(model._last_obs),
+                       last_episode_starts=to_tensor(model._last_episode_starts),
+                       arms={"x": to_tensor(arms.x), "k": to_tensor(arms.k),
+                             "last_out": to_tensor(arms.last_out)})
     if get_device(model.device).type == "cuda":
         tensors["cuda_rng"] = torch.cuda.get_rng_state_all()
     np_state = np.random.get_state(legacy=False)
-    tensors["numpy_key"] = _tensor(np_state["state"]["key"].astype(np.int64))
+    tensors["numpy_key"] = to_tensor(np_state["state"]["key"].astype(np.int64))
     buffer = getattr(model, "replay_buffer", None)
     if buffer is not None:
         end = buffer.buffer_size if buffer.full else buffer.pos
-        tensors["replay"] = {k: _tensor(getattr(buffer, k)[:end]) for k in
+        tensors["replay"] = {k: to_tensor(getattr(buffer, k)[:end]) for k in
                              ("observations", "next_observations", "actions", "rewards",
                               "dones", "timeouts")}
     py = random.getstate()
@@ -98,8 +101,8 @@ def capture(model, env) -> tuple[dict, dict]:
                        "has_gauss": int(np_state["has_gauss"]),
                        "gauss": float(np_state["gauss"])},
              "python_random": [py[0], list(py[1]), py[2]],
-             "action_space": _generator_state(model.action_space.np_random),
-             "arm_generators": [_generator_state(r) for r in arms.rngs] if started else []}
+             "action_space": generator_state(model.action_space.np_random),
+             "arm_generators": [generator_state(r) for r in arms.rngs] if started else []}
     if buffer is not None:
         plain["replay"] = {"pos": int(buffer.pos), "full": bool(buffer.full)}
     return plain, tensors
@@ -123,18 +126,18 @@ def restore(model, env, plain: dict, tensors: dict) -> None:
     buffer = getattr(model, "replay_buffer", None)
     if buffer is not None:
         for k, t in tensors["replay"].items():
-            getattr(buffer, k)[:len(t)] = _array(t)
+            getattr(buffer, k)[:len(t)] = to_array(t)
         buffer.pos, buffer.full = plain["replay"]["pos"], plain["replay"]["full"]
     if plain["started"]:
-        model._last_obs = _array(tensors["last_obs"])
-        model._last_episode_starts = _array(tensors["last_episode_starts"])
+        model._last_obs = to_array(tensors["last_obs"])
+        model._last_episode_starts = to_array(tensors["last_episode_starts"])
         model._last_original_obs = None
         arms = env._live()
-        arms.x[:] = _array(tensors["arms"]["x"])
-        arms.k[:] = _array(tensors["arms"]["k"])
-        arms.last_out[:] = _array(tensors["arms"]["last_out"])
+        arms.x[:] = to_array(tensors["arms"]["x"])
+        arms.k[:] = to_array(tensors["arms"]["k"])
+        arms.last_out[:] = to_array(tensors["arms"]["last_out"])
         for i, state in enumerate(plain["arm_generators"]):
-            arms.rngs[i] = _generator(state)
+            arms.rngs[i] = generator_from_state(state)
             arms.sensors.set_generator(i, arms.rngs[i])
         env._reset_seeds()
         env._started, env._actions = True, None
@@ -142,7 +145,7 @@ def restore(model, env, plain: dict, tensors: dict) -> None:
     version, key, gauss = plain["python_random"]
     random.setstate((version, tuple(key), gauss))
     np.random.set_state({"bit_generator": "MT19937",
-                         "state": {"key": _array(tensors["numpy_key"]).astype(np.uint32),
+                         "state": {"key": to_array(tensors["numpy_key"]).astype(np.uint32),
                                    "pos": plain["numpy"]["pos"]},
                          "has_gauss": plain["numpy"]["has_gauss"],
                          "gauss": plain["numpy"]["gauss"]})

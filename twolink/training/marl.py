@@ -47,8 +47,6 @@ import platform
 import time
 from pathlib import Path
 
-import numpy as np
-
 from twolink.arm.parameters import LINK_RULES, check_links, horizon
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import write_json

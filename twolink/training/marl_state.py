@@ -36,31 +36,17 @@ from pathlib import Path
 import numpy as np
 
 from twolink.artifacts import atomic_path
+from twolink.training.checkpoint import (
+    generator_from_state,
+    generator_state,
+    to_array,
+    to_tensor,
+)
 
 #: Schema and version of the checkpoint header.
 SCHEMA, VERSION = "twolink.train.marl_checkpoint", 1
 #: Largest checkpoint read.
 MAX_BYTES = 2**30
-
-
-def _tensor(a):
-    import torch
-
-    return torch.from_numpy(np.ascontiguousarray(a).copy())
-
-
-def _array(t) -> np.ndarray:
-    return t.detach().cpu().numpy().copy()
-
-
-def _generator_state(rng) -> dict:
-    return rng.bit_generator.state
-
-
-def _generator(state: dict) -> np.random.Generator:
-    bits = getattr(np.random, state["bit_generator"])()
-    bits.state = state
-    return np.random.Generator(bits)
 
 
 def _models(torch, hidden, activation, log_std_init):
@@ -242,7 +228,7 @@ class Learner:
         if self.config.device == "cuda":
             tensors["cuda_rng"] = torch.cuda.get_rng_state_all()
         np_state = np.random.get_state(legacy=False)
-        tensors["numpy_key"] = _tensor(np_state["state"]["key"].astype(np.int64))
+        tensors["numpy_key"] = to_tensor(np_state["state"]["key"].astype(np.int64))
         py = random.getstate()
         started = self.obs is not None
         plain = {"started": started, "steps": int(self.steps),
@@ -253,11 +239,11 @@ class Learner:
                  "python_random": [py[0], list(py[1]), py[2]]}
         if started:
             arms = self.env._live()
-            tensors["arms"] = {"x": _tensor(arms.x), "k": _tensor(arms.k),
-                               "last_out": _tensor(arms.last_out),
-                               "last": _tensor(self.env._last)}
-            tensors["obs"] = {a: _tensor(o) for a, o in self.obs.items()}
-            plain["arm_generators"] = [_generator_state(r) for r in arms.rngs]
+            tensors["arms"] = {"x": to_tensor(arms.x), "k": to_tensor(arms.k),
+                               "last_out": to_tensor(arms.last_out),
+                               "last": to_tensor(self.env._last)}
+            tensors["obs"] = {a: to_tensor(o) for a, o in self.obs.items()}
+            plain["arm_generators"] = [generator_state(r) for r in arms.rngs]
         return plain, tensors
 
     def restore(self, plain: dict, tensors: dict) -> None:
@@ -271,19 +257,19 @@ class Learner:
         self.steps = plain["steps"]
         if plain["started"]:
             arms = self.env._live()
-            arms.x[:] = _array(tensors["arms"]["x"])
-            arms.k[:] = _array(tensors["arms"]["k"])
-            arms.last_out[:] = _array(tensors["arms"]["last_out"])
-            self.env._last = _array(tensors["arms"]["last"])
+            arms.x[:] = to_array(tensors["arms"]["x"])
+            arms.k[:] = to_array(tensors["arms"]["k"])
+            arms.last_out[:] = to_array(tensors["arms"]["last_out"])
+            self.env._last = to_array(tensors["arms"]["last"])
             for i, state in enumerate(plain["arm_generators"]):
-                arms.rngs[i] = _generator(state)
+                arms.rngs[i] = generator_from_state(state)
                 arms.sensors.set_generator(i, arms.rngs[i])
             self.env._started = True
-            self.obs = {a: _array(t).astype(np.float64) for a, t in tensors["obs"].items()}
+            self.obs = {a: to_array(t).astype(np.float64) for a, t in tensors["obs"].items()}
         version, key, gauss = plain["python_random"]
         random.setstate((version, tuple(key), gauss))
         np.random.set_state({"bit_generator": "MT19937",
-                             "state": {"key": _array(tensors["numpy_key"]).astype(np.uint32),
+                             "state": {"key": to_array(tensors["numpy_key"]).astype(np.uint32),
                                        "pos": plain["numpy"]["pos"]},
                              "has_gauss": plain["numpy"]["has_gauss"],
                              "gauss": plain["numpy"]["gauss"]})
