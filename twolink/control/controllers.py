@@ -19,7 +19,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from twolink.control.entry_points import import_module, is_file_spec
+from twolink.control.entry_points import import_entry_point, is_file_spec
 from twolink.policy.fuzzy_policy import load_policy
 from twolink.sim.controller import Checked, ControllerError, checked, controller_name
 
@@ -48,28 +48,20 @@ def absolute_spec(spec):
 
 
 def _from_spec(spec: str):
-    where, _, attr = spec.rpartition(":")
-    if not where or not attr:
-        raise ControllerError(f"controller {spec!r}: give module:callable or "
-                              f"path/to/file.py:callable")
-    module = import_module(where)
-    obj = module
-    for part in attr.split("."):
-        try:
-            obj = getattr(obj, part)
-        except AttributeError:
-            raise ControllerError(f"controller {spec!r}: {where} has no attribute "
-                                  f"{attr!r}") from None
+    """The controller ``module:callable`` or ``file.py:callable`` names: the callable, or
+    an instance of the class named (made with no arguments, its prints sent to stderr)."""
+    obj = import_entry_point(spec, "controller")
     if isinstance(obj, type):
+        attr = spec.rpartition(":")[2]
         try:
             with contextlib.redirect_stdout(sys.stderr):
                 obj = obj()
         except (Exception, SystemExit) as exc:
             raise ControllerError(f"controller {spec!r}: {attr}() raised "
                                   f"{type(exc).__name__}: {exc}") from None
-    if not callable(obj):
-        raise ControllerError(f"controller {spec!r} is not callable "
-                              f"({type(obj).__name__})")
+        if not callable(obj):
+            raise ControllerError(f"controller {spec!r} is not callable "
+                                  f"({type(obj).__name__})")
     return obj
 
 

@@ -49,20 +49,21 @@ def import_module(where: str):
                               f"{type(exc).__name__}: {exc}") from None
 
 
-def import_entry_point(spec: str):
+def import_entry_point(spec: str, what: str = "entry point"):
     """The object ``module:callable`` or ``path/file.py:callable`` names (imported, not
-    called); a one-line ControllerError when it does not import or is not callable."""
+    called); a one-line ControllerError, its spec called ``what``, when it does not import
+    or is not callable."""
     where, _, attr = spec.rpartition(":")
     if not where or not attr:
-        raise ControllerError(f"entry point {spec!r}: give module:callable or "
+        raise ControllerError(f"{what} {spec!r}: give module:callable or "
                               f"path/to/file.py:callable")
     obj = import_module(where)
     for part in attr.split("."):
         try:
             obj = getattr(obj, part)
         except AttributeError:
-            raise ControllerError(f"entry point {spec!r}: {where} has no attribute "
+            raise ControllerError(f"{what} {spec!r}: {where} has no attribute "
                                   f"{attr!r}") from None
     if not callable(obj):
-        raise ControllerError(f"entry point {spec!r} is not callable ({type(obj).__name__})")
+        raise ControllerError(f"{what} {spec!r} is not callable ({type(obj).__name__})")
     return obj
