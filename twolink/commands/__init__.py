@@ -10,7 +10,7 @@ SUMMARIES = {
     "render": "render videos of the arm offscreen (EGL), MP4 or GIF",
     "mismatch": "model mismatch, its closure and robustness sweeps",
     "learn": "online fuzzy Q-learning on the MuJoCo arm (many arms, one theta)",
-    "train": "deep RL (PPO, SAC) on N links; exact resume; the agent is a controller",
+    "train": "deep RL (PPO, SAC; IPPO, MAPPO) on N links; exact resume; the agent is a controller",
     "identify": "identify P1, P2, P3, b1, b2 from a logged MuJoCo experiment",
     "controllers": "list the controller catalogue: every named controller, by tag",
     "evaluate": "score one controller (yours too) under a challenge level on MuJoCo",
