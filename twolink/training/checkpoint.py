@@ -154,26 +154,29 @@ def restore(model, env, plain: dict, tensors: dict) -> None:
         torch.cuda.set_rng_state_all(tensors["cuda_rng"])
 
 
-def save(path, header: dict, tensors: dict) -> Path:
-    """Write the checkpoint atomically (a reader never sees half a file)."""
+def save(path, header: dict, tensors: dict, *, schema: str = SCHEMA,
+         version: int = VERSION) -> Path:
+    """Write the checkpoint atomically (a reader never sees half a file): ``header`` as
+    JSON text, tagged ``schema`` and ``version``, beside the ``tensors``."""
     import torch
 
-    text = json.dumps(dict(header, schema=SCHEMA, version=VERSION))
+    text = json.dumps(dict(header, schema=schema, version=version))
     with atomic_path(path) as tmp:
         torch.save({"header": text, "state": tensors}, tmp)
     return Path(path)
 
 
-def load(path) -> tuple[dict, dict]:
-    """(header, tensors) of the checkpoint at ``path``, read with
-    ``torch.load(weights_only=True)``; a one-line ValueError when it is missing, too
-    large, truncated or foreign, or of another schema or version."""
+def read(path, *, max_bytes: int = MAX_BYTES) -> tuple[dict, dict]:
+    """(header, tensors) of a file :func:`save` wrote, read with
+    ``torch.load(weights_only=True)`` (nothing unpickled), its schema not yet checked; a
+    one-line ValueError when it is missing, larger than ``max_bytes``, truncated or
+    foreign."""
     import torch
 
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"no checkpoint {path} to resume from")
-    if path.stat().st_size > MAX_BYTES:
+    if path.stat().st_size > max_bytes:
         raise ValueError(f"{path} is {path.stat().st_size:,} bytes, more than a checkpoint "
                          f"holds")
     try:
@@ -192,9 +195,18 @@ def load(path) -> tuple[dict, dict]:
             header = json.loads(obj["header"])
         except ValueError:
             header = None
-    if not isinstance(header, dict) or header.get("schema") != SCHEMA:
+    if not isinstance(header, dict):
+        raise ValueError(f"{path} is not a twolink training checkpoint")
+    return header, obj["state"]
+
+
+def load(path) -> tuple[dict, dict]:
+    """(header, tensors) of the single-agent checkpoint at ``path`` (:func:`read`); a
+    one-line ValueError for another schema or version too."""
+    header, state = read(path)
+    if header.get("schema") != SCHEMA:
         raise ValueError(f"{path} is not a twolink training checkpoint")
     if header.get("version") != VERSION:
         raise ValueError(f"{path} is a training checkpoint of version "
                          f"{header.get('version')!r}; this twolink reads version {VERSION}")
-    return header, obj["state"]
+    return header, state

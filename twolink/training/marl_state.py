@@ -27,15 +27,12 @@ missing, truncated or foreign file, or one of a Stable-Baselines3 run, is one li
 """
 from __future__ import annotations
 
-import io
-import json
 import random
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from twolink.artifacts import atomic_path
+from twolink.training import checkpoint
 from twolink.training.checkpoint import (
     generator_from_state,
     generator_state,
@@ -282,40 +279,16 @@ class Learner:
 
 
 def save(path, header: dict, tensors: dict) -> Path:
-    """Write the checkpoint atomically."""
-    import torch
-
-    text = json.dumps(dict(header, schema=SCHEMA, version=VERSION))
-    with atomic_path(path) as tmp:
-        torch.save({"header": text, "state": tensors}, tmp)
-    return Path(path)
+    """Write the checkpoint atomically (:func:`twolink.training.checkpoint.save`, this
+    module's schema)."""
+    return checkpoint.save(path, header, tensors, schema=SCHEMA, version=VERSION)
 
 
 def load(path) -> tuple[dict, dict]:
-    """(header, tensors) of the checkpoint at ``path`` (``torch.load(weights_only=True)``);
-    a one-line ValueError when it is missing, too large, truncated, foreign or a
-    Stable-Baselines3 run's."""
-    import torch
-
-    from twolink.training import checkpoint
-
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no checkpoint {path} to resume from")
-    if path.stat().st_size > MAX_BYTES:
-        raise ValueError(f"{path} is {path.stat().st_size:,} bytes, more than a "
-                         f"multi-agent checkpoint holds")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            obj = torch.load(io.BytesIO(path.read_bytes()), weights_only=True,
-                             map_location="cpu")
-        header = json.loads(obj["header"])
-        assert isinstance(header, dict) and isinstance(obj["state"], dict)
-    except Exception as exc:
-        why = " ".join(str(exc).split())[:100]
-        raise ValueError(f"{path} is not a readable twolink training checkpoint (truncated "
-                         f"or foreign: {type(exc).__name__}: {why})") from None
+    """(header, tensors) of the checkpoint at ``path``
+    (:func:`twolink.training.checkpoint.read`, nothing unpickled); a one-line ValueError
+    when it is missing, too large, truncated, foreign or a Stable-Baselines3 run's."""
+    header, state = checkpoint.read(path, max_bytes=MAX_BYTES)
     if header.get("schema") == checkpoint.SCHEMA:
         algo = (header.get("config") or {}).get("algo")
         raise ValueError(f"{path} is a checkpoint of a {algo} run (Stable-Baselines3), not "
@@ -325,7 +298,7 @@ def load(path) -> tuple[dict, dict]:
     if header.get("version") != VERSION:
         raise ValueError(f"{path} is a multi-agent checkpoint of version "
                          f"{header.get('version')!r}; this twolink reads version {VERSION}")
-    return header, obj["state"]
+    return header, state
 
 
 def check_resume(header: dict, given, path: Path, mine: dict, cls):
