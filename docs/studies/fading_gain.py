@@ -8,8 +8,8 @@ has its torque lowered by ``1 / fade_samples`` per sample down to ``floor`` unti
 reading leaves ``exit_deg`` / ``exit_speed``) and measures it as the tuning table does
 (``docs/studies/fuzzy_design.py``: 48 poses nominal, the settle / T* of the 64-state
 tuning grid, 32 poses on 8 plants under ``medium`` without compensation and ``hard`` with
-it; all from the tuning seeds, never the leaderboard's). The question is the one the
-issue asked: does a gain that fades once the arm has settled make a fast design robust
+it; all from the tuning seeds, never the leaderboard's). The question it answers: does
+a gain that fades once the arm has settled make a fast design robust
 (the targets of the recommended designs: ``medium`` plain >= 99 % and ``hard``
 compensated >= 95 % centralized, >= 97 % and >= 90 % decentralized) without slowing it
 (settle / T* <= 1.25 centralized, 1.6 decentralized)? :func:`verdict` answers it per
