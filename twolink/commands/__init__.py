@@ -16,5 +16,6 @@ SUMMARIES = {
     "evaluate": "score one controller (yours too) under a challenge level on MuJoCo",
     "leaderboard": "every controller under every challenge level, against the time-optimal limit",
     "scaling": "Table II extended to N links: memory, time and success of both schemes",
+    "learners": "Table II for today's learners: PPO, IPPO, MAPPO on N links (resumable study)",
     "limits": "the time-optimal limit T*(x) of the arm (CasADi/IPOPT; shipped table)",
 }

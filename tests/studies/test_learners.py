@@ -1,0 +1,141 @@
+"""The learners' study: its plan, its report's numbers, its command's errors, and the
+smoke run end to end (a few thousand steps; learning quality is not judged)."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from twolink.studies.learners import plan as P
+from twolink.studies.learners import report
+
+
+def test_plan_is_seed_major_small_arms_first_and_ids_unique():
+    runs = P.plan()
+    assert len(runs) == len(P.ARMS) * len(P.LEARNERS) * len(P.SEEDS)
+    assert len({r.id for r in runs}) == len(runs)
+    seeds = [r.seed for r in runs]
+    assert seeds == sorted(seeds)                        # seed 0 whole first
+    first = runs[:len(P.ARMS) * len(P.LEARNERS)]
+    assert [r.links for r in first] == sorted(r.links for r in first)
+    assert runs[0].id == "ppo_2t_seed0" and runs[0].steps == P.STEPS[2]
+    assert P.plan(arms=((4, "copied"),), learners=(("ippo", "local"),), seeds=(2,),
+                  steps=4096)[0].train_args() == [
+        "--algo", "ippo", "--links", "4", "--rule", "copied", "--steps", "4096",
+        "--seed", "2", "--eval-every", "4096", "--observe", "local"]
+
+
+def test_fresh_poses_seed_is_used_by_nothing_else():
+    from twolink.control.links_pd import TUNING_SEED
+    from twolink.training.config import EVALUATION_SEEDS
+
+    fresh = {P.FRESH_SEED + n for n in range(2, 7)}
+    other = {P.TABLE_SEED + n for n in range(2, 7)} | {TUNING_SEED + n for n in range(2, 7)}
+    other |= set(EVALUATION_SEEDS) | set(range(500, 600))
+    assert not fresh & other
+
+
+@pytest.mark.parametrize("text, message", [
+    ("7", "links"), ("2c", "no copied rule"), ("x", "unknown arm")])
+def test_bad_arm_is_one_line(text, message):
+    with pytest.raises(ValueError, match=message):
+        P.parse_arm(text)
+
+
+def test_arms_and_learners_parse():
+    assert P.parse_arm("4c") == (4, "copied") and P.parse_arm("6") == (6, "tapered")
+    assert P.parse_learner("mappo-neighbours") == ("mappo", "neighbours")
+    with pytest.raises(ValueError, match="unknown learner 'sac'.*ippo-local"):
+        P.parse_learner("sac")
+
+
+def _record(links, algo, observe, seed, rate, curve_rates, n=10):
+    k = int(round(rate * n))
+    steps = [0, 100, 200]
+    return {"id": f"{algo}_{links}_{seed}", "run": {"links": links, "rule": "tapered",
+            "algo": algo, "observe": observe, "seed": seed},
+            "curve": [{"steps": s, "rate": r} for s, r in zip(steps, curve_rates)],
+            "steps": 200, "wall_s": 10.0, "cpu_s": 8.0, "peak_rss_bytes": 2**20 * 300,
+            "parameters": 1234,
+            "fresh": {"successes": k, "n": n, "rate": k / n, "median_settle": 3.0},
+            "table": {"successes": k, "n": n, "rate": k / n, "median_settle": 3.0}}
+
+
+def test_rows_pool_seeds_iqm_and_steps_to_the_ceiling():
+    data = {"runs": [_record(3, "ippo", "local", s, r, c) for s, r, c in [
+        (0, 0.5, [0, 0.4, 0.5]), (1, 0.8, [0, 0.9, 0.8]), (2, 1.0, [0, 1.0, 1.0])]]}
+    (row,) = report.rows(data, {(3, "tapered"): 1.0})
+    assert row["fresh"]["successes"] == 23 and row["fresh"]["n"] == 30
+    assert row["fresh"]["iqm"] == pytest.approx((0.5 + 0.8 + 1.0) / 3)
+    lo, hi = row["fresh"]["iqm_95"]
+    assert 0.5 <= lo < row["fresh"]["iqm"] < hi <= 1.0
+    assert row["steps_to_90pct_ceiling"] == [None, 100, 100]
+    assert row["cpu_us_per_step"] == pytest.approx(8.0 / 200 * 1e6)
+    assert "| 3 | tapered | IPPO (local) | 3 | 23/30 = 76.7 %" in report.table([row])
+
+
+def test_iqm_trims_the_outer_quarters():
+    point, lo, hi = report.iqm([0.0, 0.5, 0.6, 1.0])
+    assert point == pytest.approx(0.55)
+    assert report.iqm([0.3]) == (0.3, 0.3, 0.3)
+
+
+def test_figure_draws_a_panel_per_arm(tmp_path):
+    data = {"runs": [_record(2, "ppo", "global", 0, 1.0, [0, 1, 1]),
+                     _record(3, "ippo", "local", 0, 0.5, [0, 0.2, 0.5])]}
+    path = report.figure(data, tmp_path / "c.png", {(3, "tapered"): 1.0})
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(path)
+    assert img.shape[1] > img.shape[0] and np.std(img) > 0
+
+
+def _cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "twolink.cli", "learners", *args],
+                          capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--arms", "9"], "links must be"),
+    (["--learners", "dqn"], "unknown learner 'dqn'"),
+    (["--steps", "0"], "--steps must be a whole number"),
+    (["--smoke", "--arms", "3"], "--smoke is its own plan"),
+    (["--address", "x:1"], "--address is the ray executor's"),
+    (["-o", "study.csv"], "is a .json file"),
+])
+def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, args, message):
+    r = _cli(*args, cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not list(tmp_path.rglob("*.json"))
+
+
+def test_list_names_every_run_and_its_state(tmp_path):
+    r = _cli("--list", "--arms", "3c", "--learners", "ppo", "mappo-local", "--seeds", "1",
+             cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert [ln.split()[0] for ln in lines] == ["ppo_3c_seed1", "mappo-local_3c_seed1"]
+    assert all(ln.endswith("new") for ln in lines)
+
+
+def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("skrl")
+    r = _cli("--smoke", "--json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    rows = json.loads(r.stdout)
+    assert [(x["links"], x["algo"]) for x in rows] == [(2, "ppo"), (2, "ippo"), (3, "ppo"),
+                                                        (3, "ippo")]
+    for x in rows:
+        assert x["fresh"]["n"] == P.SMOKE["poses"] and x["steps"] == P.SMOKE["steps"]
+        assert x["parameters"] > 1000 and x["cpu_us_per_step"] > 0
+    data = json.loads((tmp_path / "twolink-results/learners-smoke/learners.json").read_text())
+    assert data["schema"] == P.SCHEMA and len(data["runs"]) == 4
+    assert data["runs"][0]["fresh"]["poses_seed"] in {P.FRESH_SEED + 2, P.FRESH_SEED + 3}
+    again = _cli("--smoke", cwd=tmp_path)
+    assert again.returncode == 0 and "4 of 4 runs" in again.stderr
+    assert "training" not in again.stderr

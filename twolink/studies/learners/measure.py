@@ -1,0 +1,193 @@
+"""Running the learners' study: each run a ``twolink train`` process, resumed where it
+stopped, its final agent scored, its record merged into the study's JSON at once.
+
+:func:`run_one` trains one :class:`~.plan.Run` in its own process (``python -m twolink
+train ... -o WORK/<id>``; ``--resume`` when the folder holds an interrupted run, so an
+interruption loses at most one evaluation period), reads the child's peak resident
+memory from the kernel (``os.wait4``), then scores the final agent with ``twolink
+evaluate AGENT --links N --rule R --poses K --seed S --json`` on the scaling table's poses
+and on fresh ones (:data:`~.plan.FRESH_SEED`) and counts the parameters the agent file
+holds (read with ``torch.load(weights_only=True)``). :func:`study` runs a plan, ``workers``
+runs at a time on this machine (``executor="local"``) or as tasks on a Ray cluster
+(``executor="ray"``), skipping every run the JSON already holds, and rewrites the JSON
+(atomically) after each finished run: a finished run is never lost, and the study
+continues with the same command.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+from twolink.artifacts import provenance, read_runs, write_json
+from twolink.studies.learners.plan import FRESH_SEED, POSES, SCHEMA, TABLE_SEED, VERSION, Run
+
+#: Where a run stops being one: executors of :func:`study`.
+EXECUTORS = ("local", "ray")
+#: The fields a run's record keeps from its curve.json.
+CURVE_FIELDS = ("steps", "successes", "n", "rate", "median_settle", "wall_s", "cpu_s")
+
+
+def _state(folder: Path) -> str:
+    """``new``, ``interrupted`` (a checkpoint, no final agent) or ``finished``."""
+    try:
+        record = json.loads((folder / "curve.json").read_text())
+        if record.get("done") and (folder / record["agent"]).is_file():
+            return "finished"
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return "interrupted" if (folder / "checkpoint.pt").is_file() else "new"
+
+
+def _child(cmd: list, log, prefix: str) -> tuple:
+    """Run ``cmd``; its stderr lines go to ``log`` with ``prefix``; (stdout text, return
+    code, peak resident memory of the child in bytes)."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env)
+    import threading
+
+    out = []
+    reader = threading.Thread(target=lambda: out.append(proc.stdout.read()), daemon=True)
+    reader.start()
+    for line in proc.stderr:
+        if line.strip():
+            log(f"{prefix}{line.rstrip()}")
+    reader.join()
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return "".join(out), proc.returncode, usage.ru_maxrss * 1024
+
+
+def _twolink(*args) -> list:
+    return [sys.executable, "-m", "twolink.cli", *map(str, args)]
+
+
+def parameter_count(path: Path) -> int:
+    """The numbers the agent file holds (policy and value networks as saved): an SB3
+    zip's ``policy.pth`` or a ``.marl.pt`` save, read with ``weights_only=True``."""
+    import torch
+
+    if path.suffix == ".zip":
+        with zipfile.ZipFile(path) as z:
+            tree = torch.load(io.BytesIO(z.read("policy.pth")), weights_only=True,
+                              map_location="cpu")
+    else:
+        tree = torch.load(path, weights_only=True, map_location="cpu")
+
+    def count(node) -> int:
+        if isinstance(node, torch.Tensor):
+            return int(node.numel())
+        if isinstance(node, dict):
+            return sum(count(v) for v in node.values())
+        if isinstance(node, (list, tuple)):
+            return sum(count(v) for v in node)
+        return 0
+
+    return count(tree)
+
+
+def _score(agent: Path, run: Run, poses: int, seed: int, log) -> dict:
+    rule = ["--rule", run.rule] if run.links > 2 else []     # two links: Table I's arm
+    text, code, _ = _child(_twolink("evaluate", agent, "--links", run.links, *rule,
+                                    "--poses", poses, "--seed", seed, "--json"),
+                           log, f"  {run.id} evaluate: ")
+    if code != 0:
+        raise RuntimeError(f"scoring {agent} failed (exit {code})")
+    r = json.loads(text)
+    return {k: r[k] for k in ("poses_seed", "successes", "n", "rate", "wilson_95",
+                              "median_settle")}
+
+
+def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
+    """Train ``run`` into ``work/<id>`` (resuming an interrupted run, reusing a finished
+    one) and score its final agent; the run's record for the study's JSON."""
+    folder = Path(work) / run.id
+    state = _state(folder)
+    peak = None
+    if state != "finished":
+        cmd = _twolink("train", *run.train_args(), "-o", folder)
+        if state == "interrupted":
+            cmd.append("--resume")
+        log(f"{run.id}: {'resuming' if state == 'interrupted' else 'training'} "
+            f"({run.steps:,} steps)")
+        _, code, peak = _child(cmd, log, "  ")
+        if code != 0:
+            raise RuntimeError(f"run {run.id} failed (twolink train exit {code}); its "
+                               f"folder {folder} keeps the last checkpoint")
+    record = json.loads((folder / "curve.json").read_text())
+    agent = folder / record["agent"]
+    return {"id": run.id, "run": run.as_dict(),
+            "curve": [{k: p.get(k) for k in CURVE_FIELDS} for p in record["curve"]],
+            "steps": record["steps"], "wall_s": record["wall_s"], "cpu_s": record["cpu_s"],
+            "steps_per_s": record["steps_per_s"], "peak_rss_bytes": peak,
+            "parameters": parameter_count(agent),
+            "hyperparameters": record.get("hyperparameters"),
+            "versions": record.get("versions"),
+            "table": _score(agent, run, poses, TABLE_SEED, log),
+            "fresh": _score(agent, run, poses, FRESH_SEED, log)}
+
+
+
+
+def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="local",
+          address=None, log=print) -> dict:
+    """Run the ``runs`` the study's JSON at ``path`` does not hold yet, ``workers`` at a
+    time, writing each record into it as it finishes; the study's data."""
+    if executor not in EXECUTORS:
+        raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
+    data = read_runs(path, SCHEMA, VERSION)
+    done = {r["id"] for r in data["runs"]}
+    todo = [r for r in runs if r.id not in done]
+    log(f"learners study: {len(runs) - len(todo)} of {len(runs)} runs in {path} already, "
+        f"{len(todo)} to run ({workers} at a time, {executor})")
+    started = time.perf_counter()
+
+    def keep(record) -> None:
+        data.setdefault("runs", []).append(record)
+        data["runs"].sort(key=lambda r: r["id"])
+        data.update(schema=SCHEMA, version=VERSION, provenance=provenance(), poses=poses,
+                    table_seed=TABLE_SEED, fresh_seed=FRESH_SEED)
+        write_json(path, data)
+        f = record["fresh"]
+        log(f"{record['id']}: {f['successes']}/{f['n']} fresh poses, {record['steps']:,} "
+            f"steps in {record['wall_s']:.0f} s ({len(data['runs'])} runs in {path}, "
+            f"{time.perf_counter() - started:.0f} s)")
+
+    failed = []
+
+    def outcome(run, get) -> None:
+        try:
+            keep(get())
+        except (RuntimeError, OSError, ValueError) as exc:
+            failed.append(run.id)
+            log(f"{run.id}: {exc}")
+
+    if executor == "ray":
+        from twolink.sim.cells import ray_session
+
+        with ray_session(address, workers) as ray:
+            remote = ray.remote(num_cpus=1)(run_one)
+            pending = {remote.remote(r, str(work), poses=poses): r for r in todo}
+            while pending:
+                (ready,), _ = ray.wait(list(pending), num_returns=1)
+                outcome(pending.pop(ready), lambda: ray.get(ready))
+    elif workers <= 1:
+        for r in todo:
+            outcome(r, lambda: run_one(r, work, poses=poses, log=log))
+    else:
+        from concurrent.futures import ThreadPoolExecutor, as_completed
+
+        with ThreadPoolExecutor(workers) as pool:
+            futures = {pool.submit(run_one, r, work, poses=poses, log=log): r for r in todo}
+            for f in as_completed(futures):
+                outcome(futures[f], f.result)
+    if failed:
+        raise RuntimeError(f"{len(failed)} run(s) failed ({', '.join(failed)}); the "
+                           f"{len(data['runs'])} finished are in {path}; rerun to retry")
+    return data
