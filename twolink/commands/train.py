@@ -17,6 +17,7 @@ from twolink.commands import SUMMARIES
 from twolink.commands._options import seed_option
 from twolink.resources import output_dir
 from twolink.control.history import MAX_HISTORY
+from twolink.control.residual import BASES
 from twolink.sim.challenges import LEVELS
 from twolink.validate import choice
 from twolink.training.config import (
@@ -104,6 +105,11 @@ def add_parser(sub):
     p.add_argument("--history", default=None, metavar="K",
                    help=f"observe the last K observations and K-1 actions, 1 to "
                         f"{MAX_HISTORY} (default 1: the present observation only)")
+    p.add_argument("--base", default=None, metavar="|".join(BASES),
+                   help="ppo/sac: none (default), or pd: the action is a residual over "
+                        "the tuned per-joint PD (3 to 6 links), torque = clip(PD + "
+                        "tau_max a, +-tau_max), so an untrained agent starts as the PD; "
+                        "the agent records it and is run the same way as a controller")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -137,7 +143,8 @@ def given_options(args) -> dict:
              "challenge": None if args.challenge is None else
              choice(args.challenge, "--challenge level", tuple(LEVELS)),
              "history": _count(args.history, "--history", 1, MAX_HISTORY),
-             "observe": args.observe}
+             "observe": args.observe,
+             "base": None if args.base is None else choice(args.base, "--base", BASES)}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -150,7 +157,8 @@ def run(args) -> int:
     given.pop("observe", None)
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
-                                       if k in ("algo", "links", "seed", "challenge", "history")})
+                                       if k in ("algo", "links", "seed", "challenge", "history",
+                                                "base")})
     out = args.out or output_dir(create=False) / "train" / run_name(default)
     record = train(config if config is not None else given, out, resume=args.resume,
                    progress=lambda text: print(text, file=sys.stderr, flush=True))
@@ -160,7 +168,8 @@ def run(args) -> int:
     else:
         c = record["config"]
         level = (f" under {c['challenge']}" if c.get("challenge") else "") + (
-            f", history {c['history']}" if c.get("history", 1) > 1 else "")
+            f", history {c['history']}" if c.get("history", 1) > 1 else "") + (
+            f", residual over base {c['base']}" if c.get("base", "none") != "none" else "")
         print(f"{c['algo']} on {c['links']} links{level}, seed "
               f"{record['config']['seed']}: {record['steps']:,} steps in "
               f"{record['wall_s']:.0f} s of training ({record['steps_per_s'] or 0:.0f} "

@@ -29,17 +29,15 @@ observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'
 numbers, or ``'state'``, 2N, told apart by the saved observation space's size; with a
 ``history`` K > 1 in ``twolink.json`` the last K of them and the last K - 1 actions of
 each row, :mod:`twolink.control.history`, reset by ``reset(n)``), the policy's
-deterministic action, clipped to [-1, 1] and scaled to +-tau_max. N is the size
-of the saved action space (2 to 6); an agent of N > 2 links names its arm's link rule in
-the optional member ``twolink.json`` (:mod:`twolink.control.agent_meta`, ``{"schema":
-"twolink.agent", "version": 1, "links": N, "rule": "tapered"|"copied"}``, which
-``twolink train`` writes), whose ``links`` must agree with the spaces; tau_max is then
-that of :func:`twolink.arm.parameters.chain` (Table I's for two links). SB3 is imported
-only when an agent is built: without it, one line saying the rl extras are needed.
-
-Its ``meta`` holds the algorithm, seed, environment steps trained and the file; no
-``"model"``: the agent names no model a compensator could predict with, so the
-leaderboard gives it plain rows only.
+deterministic action, clipped to [-1, 1] and scaled to +-tau_max (added to its base
+controller's torques and clipped when ``twolink.json`` names a ``base``,
+:mod:`twolink.control.residual`). N is the size of the saved action space (2 to 6); an
+agent of N > 2 links names its arm's link rule in the optional member ``twolink.json``
+(:mod:`twolink.control.agent_meta`), whose ``links`` must agree with the spaces; tau_max
+is then that of :func:`twolink.arm.parameters.chain` (Table I's for two links). SB3 is
+imported only when an agent is built: without it, one line saying the rl extras are
+needed. Its ``meta`` holds the algorithm, seed, steps trained, base and file; no
+``"model"`` (nothing for a compensator to predict with: plain leaderboard rows only).
 """
 from __future__ import annotations
 
@@ -58,6 +56,7 @@ from twolink.arm.observations import features
 from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, chain
 from twolink.control.agent_meta import AGENT_MEMBER, agent_arm, agent_observation
 from twolink.control.history import ObservationHistory
+from twolink.control.residual import agent_base, residual_torques
 from twolink.sim.controller import ControllerError
 
 #: Attributes only each algorithm's save holds (in its ``data`` JSON).
@@ -459,29 +458,31 @@ class SB3Agent:
             raise ControllerError(f"controller {path.name} {NEEDS_RL}") from None
         self.policy = load_policy(path, data, self.algo, members["policy.pth"])
         self.tau_max = np.asarray(params.tau_max, dtype=float)
+        self.base_name, self.base = agent_base(path, members.get(AGENT_MEMBER), params)
         self.name = name or path.stem
         self.path = path
         self.meta = {"algo": self.algo, "seed": data.get("seed"),
                      "steps": data.get("num_timesteps"), "observation": self.observation,
                      "links": self.links, "rule": self.rule, "history": self.history,
-                     "file": str(path), "stable_baselines3": sb3.__version__}
+                     "base": self.base_name, "file": str(path), "stable_baselines3": sb3.__version__}
 
     def __call__(self, x) -> np.ndarray:
         """Torques (..., N) of states x (..., 2N): the clipped deterministic action scaled
-        to +-tau_max."""
+        to +-tau_max (plus the base's torques, clipped)."""
         x = np.asarray(x, dtype=float)
         if x.shape[-1:] != (2 * self.links,):
             raise ValueError(f"a {self.links}-link agent maps states (..., {2 * self.links}) "
                              f"to torques, got states of shape {x.shape}")
-        if self.history == 1:
-            return model_torques(self.policy, x, self.observation, self.tau_max)
+        if self.history == 1:       # the action (tau_max 1) over the base, scaled
+            return residual_torques(self.base, x, model_torques(
+                self.policy, x, self.observation, 1.0), self.tau_max)
         obs = features(x, self.observation).reshape(x.size // x.shape[-1], -1)
         if self._buffer is None or self._buffer.rows != len(obs):
             self.reset(len(obs))
         action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         self._buffer.act(a)
-        return (a * self.tau_max).reshape(x.shape[:-1] + (self.links,))
+        return residual_torques(self.base, x, a.reshape(x.shape[:-1] + (-1,)), self.tau_max)
 
     def reset(self, n: int) -> None:
         """Start ``n`` rows afresh: with a history K > 1, its buffers of zeros."""

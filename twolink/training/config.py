@@ -19,7 +19,10 @@ training seed draws an evaluation plant. The evaluation seeds themselves
 (:data:`EVALUATION_SEEDS`: the leaderboard's and ``twolink evaluate``'s 2026 and the
 curve's :data:`EVAL_SEED`) are refused as training seeds under a challenge, so no run is
 ever named after the plants it is scored on. ``history`` K > 1 hands the agent the last
-K observations and K - 1 actions (:mod:`twolink.envs.history`).
+K observations and K - 1 actions (:mod:`twolink.envs.history`). ``base`` ``'pd'`` makes
+the agent's action a residual over the tuned per-joint PD (3 to 6 links, no challenge):
+torque = clip(PD(x) + tau_max a, +-tau_max) (:mod:`twolink.control.residual`,
+:class:`twolink.envs.residual.ResidualVecEnv`), so an agent of zero action is the PD.
 
 Training stops, evaluates and checkpoints at update boundaries only: every
 :meth:`TrainConfig.unit` environment steps (PPO: one rollout of ``n_steps`` per arm;
@@ -35,6 +38,7 @@ import numpy as np
 
 from twolink.arm.parameters import LINK_RULES, check_links
 from twolink.control.history import check_history
+from twolink.control.residual import BASES, check_base
 from twolink.sim.challenges import LEVELS
 from twolink.validate import choice, whole
 
@@ -122,6 +126,7 @@ class TrainConfig:
     threads: int = 1
     challenge: str | None = None
     history: int = 1
+    base: str = "none"
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -142,6 +147,8 @@ class TrainConfig:
         if self.eval_every is not None:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
         check_history(self.history)
+        choice(self.base, "base", BASES)
+        check_base(self.base, self.links)
         if self.challenge is not None:
             choice(self.challenge, "challenge level", tuple(LEVELS))
             if self.links != 2:
@@ -194,7 +201,7 @@ class TrainConfig:
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
-                "device", "threads", "challenge", "history")
+                "device", "threads", "challenge", "history", "base")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

@@ -174,7 +174,8 @@ class MarlConfig:
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "challenge": "challenge levels are for --algo ppo|sac",
-            "history": "observation histories are for --algo ppo|sac"}
+            "history": "observation histories are for --algo ppo|sac",
+            "base": "a residual over a base controller is for --algo ppo|sac"}
 
 
 def config_from_options(given: dict) -> dict:

@@ -26,7 +26,10 @@ challenge level the evaluation is the same level's: the 65 states on the
 seed=EVAL_SEED)``: neither the training stream nor the leaderboard's seed 2026). With an
 observation history (``history`` K > 1) the arms are wrapped in
 :class:`twolink.envs.history.HistoryVecEnv` and the agent's ``twolink.json`` records K
-and the observation layout.
+and the observation layout. With ``base='pd'`` the arms are wrapped in
+:class:`twolink.envs.residual.ResidualVecEnv` (the action a residual over the tuned
+per-joint PD), the curve scores the same residual controller, and the agent's
+``twolink.json`` records the base and its gains (:mod:`twolink.control.residual`).
 """
 from __future__ import annotations
 
@@ -44,6 +47,7 @@ from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import atomic_path, write_json
 from twolink.control.agent_meta import AGENT_MEMBER, agent_record
 from twolink.control.history import ObservationHistory, history_layout
+from twolink.control.residual import base_controller, base_gains, residual_torques
 from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
@@ -85,6 +89,10 @@ def build(config: TrainConfig):
     hp = config.hyperparameters()
     n_envs, net = hp.pop("n_envs"), hp.pop("net_arch")
     env = TwoLinkSB3VecEnv(n_envs, **config.env_options())
+    if config.base != "none":
+        from twolink.envs.residual import ResidualVecEnv
+
+        env = ResidualVecEnv(env, base_controller(config.base, arm_of(config)))
     if config.history > 1:
         from twolink.envs.history import HistoryVecEnv
 
@@ -97,21 +105,34 @@ def build(config: TrainConfig):
     return model, env
 
 
+def arm_of(config: TrainConfig):
+    """The arm parameters of ``config``'s run."""
+    return arm(links=config.links, rule=None if config.links == 2 else config.rule)
+
+
 class PolicyController:
     """An SB3 policy in memory under the controller protocol: states (n, 2N) -> torques
-    (n, N), the clipped deterministic action scaled to +-tau_max."""
+    (n, N), the clipped deterministic action scaled to +-tau_max, added to ``base``'s
+    torques when given (:func:`twolink.control.residual.residual_torques`)."""
 
-    def __init__(self, policy, params, name: str = "sb3", history: int = 1):
+    def __init__(self, policy, params, name: str = "sb3", history: int = 1, base=None):
         self.policy, self.tau_max, self.links = policy, params.tau_max, params.links
-        self.name, self.history, self._buffer = name, history, None
+        self.name, self.history, self._buffer, self.base = name, history, None, base
 
     def reset(self, n: int) -> None:
         if self.history > 1:
             self._buffer = ObservationHistory(n, 3 * self.links, self.links, self.history)
 
     def __call__(self, x):
+        if self.base is not None:
+            unit = model_torques(self.policy, x, "cos_sin", 1.0) if self.history == 1 \
+                else self._history_action(x)
+            return residual_torques(self.base, x, unit, self.tau_max)
         if self.history == 1:
             return model_torques(self.policy, x, "cos_sin", self.tau_max)
+        return self._history_action(x) * np.asarray(self.tau_max, dtype=float)
+
+    def _history_action(self, x):
         from twolink.arm.observations import features
 
         if self._buffer is None or self._buffer.rows != len(x):
@@ -120,7 +141,7 @@ class PolicyController:
                                         deterministic=True)
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         self._buffer.act(a)
-        return a * np.asarray(self.tau_max, dtype=float)
+        return a
 
 
 def evaluation_protocol(config: TrainConfig) -> dict:
@@ -140,8 +161,9 @@ def evaluation_protocol(config: TrainConfig) -> dict:
 def evaluate_policy(policy, config: TrainConfig):
     """The :class:`twolink.sim.metrics.Score` of the deterministic ``policy`` under the
     evaluation protocol of ``config`` (see the module docstring)."""
-    params = arm(links=config.links, rule=None if config.links == 2 else config.rule)
-    agent = PolicyController(policy, params, history=config.history)
+    params = arm_of(config)
+    agent = PolicyController(policy, params, history=config.history,
+                             base=base_controller(config.base, params))
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
@@ -168,12 +190,21 @@ def save_agent(model, path, config: TrainConfig) -> Path:
                           steps=int(model.num_timesteps), plant=config.plant,
                           challenge=config.challenge, history=config.history,
                           observation_layout=history_layout(config.history,
-                                                            3 * config.links, config.links))
+                                                            3 * config.links, config.links),
+                          **_base_record(config))
     with atomic_path(path) as tmp:
         model.save(tmp)
         with zipfile.ZipFile(tmp, "a", zipfile.ZIP_DEFLATED) as z:
             z.writestr(AGENT_MEMBER, json.dumps(record))
     return Path(path)
+
+
+def _base_record(config: TrainConfig) -> dict:
+    """The agent's ``base`` fields: none for ``'none'`` (an older loader reads the agent
+    as before), else the base and the gains it was trained over."""
+    if config.base == "none":
+        return {}
+    return {"base": config.base, "base_gains": base_gains(config.base, arm_of(config))}
 
 
 def agent_name(config: TrainConfig) -> str:
@@ -182,11 +213,12 @@ def agent_name(config: TrainConfig) -> str:
 
 
 def run_name(config: TrainConfig) -> str:
-    """``<algo>_<N>links[_<level>][_h<K>]_seed<S>``: the run's default folder and its
-    agent's stem."""
+    """``<algo>_<N>links[_<level>][_h<K>][_<base>]_seed<S>``: the run's default folder
+    and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
-    return f"{config.algo}_{config.links}links{level}{memory}_seed{config.seed}"
+    base = f"_{config.base}" if config.base != "none" else ""
+    return f"{config.algo}_{config.links}links{level}{memory}{base}_seed{config.seed}"
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
@@ -302,6 +334,7 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
         p = record["curve"][-1]
         under = "" if config.challenge is None else f" under {config.challenge}"
         memory = "" if config.history == 1 else f" history {config.history}"
+        memory += "" if config.base == "none" else f" over base {config.base}"
         say(f"train {config.algo} {config.links} links{under}{memory} seed {config.seed}: "
             f"{model.num_timesteps:,}/{total:,} steps  {sc.successes}/{sc.n} succeed "
             f"[{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
