@@ -106,7 +106,8 @@ def add_parser(sub):
                    help=f"observe the last K observations and K-1 actions, 1 to "
                         f"{MAX_HISTORY} (default 1: the present observation only)")
     p.add_argument("--base", default=None, metavar="|".join(BASES),
-                   help="ppo/sac: none (default), or pd: the action is a residual over "
+                   help="none (default), or pd: the action (each agent's, for ippo/mappo) "
+                        "is a residual over "
                         "the tuned per-joint PD (3 to 6 links), torque = clip(PD + "
                         "tau_max a, +-tau_max), so an untrained agent starts as the PD; "
                         "the agent records it and is run the same way as a controller")
@@ -195,14 +196,16 @@ def _run_marl(args, given) -> int:
     fields = config_from_options(given)
     config = None if args.resume else MarlConfig(**fields)
     out = args.out or output_dir(create=False) / "train" / run_name(config or MarlConfig(
-        **{k: v for k, v in fields.items() if k in ("algo", "links", "observe", "seed")}))
+        **{k: v for k, v in fields.items() if k in ("algo", "links", "observe", "seed",
+                                                    "base")}))
     record = train(config if config is not None else fields, out, resume=args.resume,
                    progress=lambda text: print(text, file=sys.stderr, flush=True))
     last, c = record["curve"][-1], record["config"]
     if args.json:
         print(json.dumps(record, indent=1))
     else:
-        print(f"{c['algo']} on {c['links']} links ({c['observe']}), seed {c['seed']}: "
+        base = f", residual over base {c['base']}" if c.get("base", "none") != "none" else ""
+        print(f"{c['algo']} on {c['links']} links ({c['observe']}){base}, seed {c['seed']}: "
               f"{record['steps']:,} steps in {record['wall_s']:.0f} s of training "
               f"({record['steps_per_s'] or 0:.0f} steps/s); final controller "
               f"{format_rate(last['successes'], last['n'])}; agent {out / record['agent']}, "

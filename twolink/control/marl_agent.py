@@ -13,7 +13,9 @@ environment layer to rebuild each agent's observation.
 :class:`MarlController` is a controller of :mod:`twolink.sim.controller`: states (n, 2N)
 -> torques (n, N), joint I's torque being agent ``linkI``'s deterministic action (the
 mean of its Gaussian policy) on its own observation of the state, clipped to [-1, 1] and
-scaled by the arm's tau_max (``actions='normalized'``). Nothing is shared between the
+scaled by the arm's tau_max (``actions='normalized'``); with a ``base`` in the header
+(``"pd"`` and its ``base_gains``, :mod:`twolink.control.residual`) that action is a
+residual over joint I's own PD: clip(PD_I + tau_max_I a_I, +-tau_max_I). Nothing is shared between the
 agents at run time: the controller is decentralized whatever critic trained it.
 
 :func:`load_marl_agent` checks everything before building (size cap :data:`MAX_BYTES`,
@@ -33,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS, TABLE_I, chain
+from twolink.control.residual import base_of, residual_torques
 from twolink.sim.controller import ControllerError
 
 #: File suffix ``resolve_controller`` reads as a multi-agent save.
@@ -91,10 +94,11 @@ def agent_observation(x: np.ndarray, columns, angles) -> np.ndarray:
 class MarlController:
     """The decentralized controller of N agents' policies (see the module docstring).
     ``nets``: N ``torch.nn`` modules observation -> mean action; ``columns``/``angles``:
-    per agent the state columns it reads and the angle flags; ``tau_max``: (N,)."""
+    per agent the state columns it reads and the angle flags; ``tau_max``: (N,);
+    ``base``: None, or the base controller (states -> torques) the actions add to."""
 
     def __init__(self, nets, columns, angles, tau_max, *, name: str = "marl",
-                 meta: dict | None = None):
+                 meta: dict | None = None, base=None):
         self.nets = list(nets)
         self.columns = [tuple(int(c) for c in cols) for cols in columns]
         self.angles = [tuple(bool(a) for a in flags) for flags in angles]
@@ -102,6 +106,7 @@ class MarlController:
         self.links = len(self.nets)
         self.name = name
         self.meta = dict(meta or {})
+        self.base = base
 
     def __call__(self, x) -> np.ndarray:
         torch = _torch()
@@ -115,7 +120,7 @@ class MarlController:
                 o = agent_observation(x, self.columns[i], self.angles[i])
                 out = net(torch.as_tensor(o, dtype=torch.float32))
                 a[:, i] = out.reshape(-1).double().numpy()
-        return np.clip(a, -1.0, 1.0) * self.tau_max
+        return residual_torques(self.base, x, a, self.tau_max)
 
 
 def arm_tau_max(links: int, rule: str | None) -> np.ndarray:
@@ -228,10 +233,13 @@ def load_marl_agent(path) -> MarlController:
             raise _bad(path, f"weights of {agent} hold NaN or infinite values")
         net.eval()
         nets.append(net)
+    base_name, base = base_of(path, header, TABLE_I if links == 2 else chain(links, rule),
+                              "header")
     steps = header.get("steps")
-    meta = {"algo": header["algo"], "links": links, "rule": rule,
+    meta = {"algo": header["algo"], "links": links, "rule": rule, "base": base_name,
             "observe": header.get("observe"), "seed": header.get("seed"),
             "steps": steps if isinstance(steps, int) and not math.isnan(steps) else None,
             "file": str(path)}
     name = Path(path).name[:-len(SUFFIX)] if str(path).endswith(SUFFIX) else Path(path).stem
-    return MarlController(nets, cols, angles, arm_tau_max(links, rule), name=name, meta=meta)
+    return MarlController(nets, cols, angles, arm_tau_max(links, rule), name=name, meta=meta,
+                          base=base)

@@ -9,7 +9,8 @@ alone, tau = tau_max a) and ``'pd'``, the per-joint saturated PD of
 6 links): joint i's base sees only its own angle and speed, so a residual agent over it
 stays decentralized-compatible.
 
-An agent records its base in its ``twolink.json`` (:mod:`twolink.control.agent_meta`):
+An agent records its base in its ``twolink.json`` (:mod:`twolink.control.agent_meta`; a
+multi-agent save in its header, :mod:`twolink.control.marl_agent`):
 ``"base": "pd"`` with ``"base_gains": {"sat_deg": ..., "zeta": ...}``, the gains it was
 trained over, so a later retuning of ``TUNED`` never changes a saved agent.
 :func:`agent_base` reads them back (no ``base``: ``'none'``); an unknown base or
@@ -83,10 +84,17 @@ def agent_base(path, extra: bytes | None, params):
     bytes ``extra`` (none, or no ``base`` field: ``'none'``); one ControllerError line
     for a base this version does not know or gains that are not two positive numbers."""
     meta = json.loads(extra) if extra is not None else {}
-    base = meta.get("base", "none") if isinstance(meta, dict) else "none"
+    return base_of(path, meta if isinstance(meta, dict) else {}, params)
+
+
+def base_of(path, meta: dict, params, where: str = "twolink.json"):
+    """(base name, base controller or None) of the record ``meta`` of a saved agent (its
+    ``twolink.json``, or a multi-agent save's header: ``where``), checked as
+    :func:`agent_base` says."""
+    base = meta.get("base", "none")
     if base not in BASES:
         shown = " ".join(str(base).split())[:30]
-        raise ControllerError(f"{path}: its twolink.json names the base controller "
+        raise ControllerError(f"{path}: its {where} names the base controller "
                               f"{shown!r}, which this version does not know (it knows "
                               f"{', '.join(BASES)})")
     if base == "none":
@@ -96,7 +104,7 @@ def agent_base(path, extra: bytes | None, params):
         isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
         and v > 0 for v in gains.values())
     if not ok or params.links < 3:
-        raise ControllerError(f"{path}: its twolink.json gives base pd without gains "
+        raise ControllerError(f"{path}: its {where} gives base pd without gains "
                               f"{{sat_deg, zeta}} (two positive numbers) for its "
                               f"{params.links} links")
     return base, base_controller(base, params, gains)

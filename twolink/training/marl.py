@@ -50,6 +50,7 @@ from pathlib import Path
 from twolink.arm.parameters import LINK_RULES, check_links, horizon
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import write_json
+from twolink.control.residual import BASES, check_base
 from twolink.training.config import DEVICES, EVAL_POSES, EVAL_SEED, MAX_ENVS, MAX_STEPS, \
     MAX_THREADS
 from twolink.validate import choice, whole
@@ -108,10 +109,11 @@ class MarlConfig:
     eval_every: int | None = None
     device: str = "cpu"
     threads: int = 1
+    base: str = "none"
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
-                "eval_every", "device", "threads")
+                "eval_every", "device", "threads", "base")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -128,6 +130,8 @@ class MarlConfig:
             whole(self.n_steps, "n_steps", 2, 100_000)
         if self.eval_every is not None:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
+        choice(self.base, "base", BASES)
+        check_base(self.base, self.links)
 
     def hyperparameters(self) -> dict:
         """:data:`HYPERPARAMETERS` with this run's arms and rollout length (the minibatch
@@ -174,8 +178,7 @@ class MarlConfig:
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "challenge": "challenge levels are for --algo ppo|sac",
-            "history": "observation histories are for --algo ppo|sac",
-            "base": "a residual over a base controller is for --algo ppo|sac"}
+            "history": "observation histories are for --algo ppo|sac"}
 
 
 def config_from_options(given: dict) -> dict:
@@ -189,8 +192,10 @@ def config_from_options(given: dict) -> dict:
 
 
 def run_name(config: MarlConfig) -> str:
-    """``<algo>_<N>links_<observe>_seed<S>``: the default folder and the agent's stem."""
-    return f"{config.algo}_{config.links}links_{config.observe}_seed{config.seed}"
+    """``<algo>_<N>links_<observe>[_<base>]_seed<S>``: the default folder and the agent's
+    stem."""
+    base = f"_{config.base}" if config.base != "none" else ""
+    return f"{config.algo}_{config.links}links_{config.observe}{base}_seed{config.seed}"
 
 
 def agent_name(config: MarlConfig) -> str:
@@ -303,7 +308,8 @@ def _loop(config, learner, out, record, clocks, total, every, say) -> None:
         write_json(out / CURVE, record)
         lo, hi = sc.wilson_95
         p = record["curve"][-1]
-        say(f"train {config.algo} {config.links} links ({config.observe}) seed "
+        base = "" if config.base == "none" else f" over base {config.base}"
+        say(f"train {config.algo} {config.links} links ({config.observe}){base} seed "
             f"{config.seed}: {learner.steps:,}/{total:,} steps  {sc.successes}/{sc.n} "
             f"succeed [{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
 

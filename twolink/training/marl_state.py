@@ -5,7 +5,9 @@ one ``RandomMemory`` of one rollout per agent), the agents' policy and value net
 (skrl ``Model`` s: a Gaussian policy whose mean is
 :func:`twolink.control.marl_agent.policy_net` with a state-independent log std; a value
 network of the same hidden sizes) and the batched env, and steps them itself: act,
-clip the actions to [-1, 1], step the env, record the transition (bootstrapping a
+clip the actions to [-1, 1] (with a base, ``MarlConfig(base='pd')``, turn them into
+clip(PD_i + tau_max_i a_i, +-tau_max_i) per joint, :mod:`twolink.control.residual`,
+scaled back to the env's normalized actions), step the env, record the transition (bootstrapping a
 truncated episode from the env's ``final_observation``), ``post_interaction`` (which
 updates after every ``n_steps`` vector steps).
 
@@ -32,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from twolink.arm.parameters import chain
+from twolink.control.residual import residual_torques
 from twolink.training import checkpoint
 from twolink.training.checkpoint import (
     generator_from_state,
@@ -137,6 +141,14 @@ class Learner:
         self.agent.init()
         self.agent.enable_training_mode(True)
         self.models = models
+        from twolink.control.marl_agent import arm_tau_max
+        from twolink.control.residual import base_controller, base_gains
+
+        rule = config.rule if config.links > 2 else None
+        params = chain(config.links, rule) if config.links > 2 else None
+        self.tau_max = arm_tau_max(config.links, rule)
+        self.base = None if config.base == "none" else base_controller(config.base, params)
+        self.gains = None if self.base is None else base_gains(config.base, params)
         self.steps = 0
         self.obs = None                                   # before the first reset
 
@@ -157,12 +169,18 @@ class Learner:
         for _ in range(steps // n):
             t, tt = self.steps // n, total // n
             obs = {a: self._tensor(self.obs[a]) for a in self.agents}
-            s = self._state(self.env.state())
+            x = self.env.state()
+            s = self._state(x)
             states = {a: s for a in self.agents}
             with torch.no_grad():
                 actions, _ = self.agent.act(obs, states, timestep=t, timesteps=tt)
             sent = {a: np.clip(actions[a].cpu().numpy().astype(np.float64), -1.0, 1.0)
                     for a in self.agents}
+            if self.base is not None:         # joint i: its PD plus agent i's residual
+                u = residual_torques(self.base, x, np.concatenate(
+                    [sent[a].reshape(n, 1) for a in self.agents], 1), self.tau_max)
+                sent = {a: (u[:, i] / self.tau_max[i]).reshape(sent[a].shape)
+                        for i, a in enumerate(self.agents)}
             nxt, rewards, terms, truncs, infos = self.env.step(sent)
             final = {a: self._tensor(infos[a]["final_observation"]) for a in self.agents}
             s2 = self._state(infos[self.agents[0]]["final_state"])
@@ -191,7 +209,8 @@ class Learner:
                 "reward": c.env_options()["reward"], "hidden": list(self.hp["hidden"]),
                 "activation": self.hp["activation"], "agents": list(self.agents),
                 "columns": self.columns, "angles": self.angles, "seed": c.seed,
-                "steps": int(self.steps)}
+                "steps": int(self.steps),
+                **({} if self.base is None else {"base": c.base, "base_gains": self.gains})}
 
     def controller(self):
         """The decentralized controller of the policies as they are now."""
@@ -206,7 +225,8 @@ class Learner:
         c = self.config
         return MarlController(nets, self.columns, self.angles,
                               arm_tau_max(c.links, c.rule if c.links > 2 else None),
-                              name=f"{c.algo}_seed{c.seed}", meta={"algo": c.algo})
+                              name=f"{c.algo}_seed{c.seed}", meta={"algo": c.algo},
+                              base=self.base)
 
     def save_agent(self, path) -> Path:
         from twolink.control.marl_agent import save_marl_agent
