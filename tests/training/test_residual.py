@@ -33,9 +33,9 @@ STATES = np.concatenate([random_poses(6, 16, 3)[:, :6],
                          np.random.default_rng(4).normal(0, 2, (16, 6))], 1)
 
 
-def _zero_agent(path, base="pd"):
+def _zero_agent(path, base="pd", history=1):
     """A 6-link PPO agent whose deterministic action is exactly 0, saved at ``path``."""
-    config = TrainConfig(links=6, base=base, envs=2, n_steps=8, steps=16)
+    config = TrainConfig(links=6, base=base, envs=2, n_steps=8, steps=16, history=history)
     model, env = build(config)
     with torch.no_grad():
         model.policy.action_net.weight.zero_()
@@ -45,18 +45,22 @@ def _zero_agent(path, base="pd"):
     return model, config
 
 
-def test_zero_action_is_the_tuned_pd(tmp_path):
-    model, _ = _zero_agent(tmp_path / "a.zip")
+@pytest.mark.parametrize("history", [1, 3])
+def test_zero_action_is_the_tuned_pd(tmp_path, history):
+    model, _ = _zero_agent(tmp_path / "a.zip", history=history)
     pd = tuned(ARM)
     want = pd(STATES)
     assert np.abs(want).max() > 0.1 and np.any(np.abs(want) < pd.tau_max)  # saturated or not
     agent = SB3Agent(tmp_path / "a.zip")
     assert agent.meta["base"] == "pd"
     assert np.array_equal(agent(STATES), want)
-    mine = PolicyController(model.policy, ARM, base=base_controller("pd", ARM))
+    assert agent.history == history
+    mine = PolicyController(model.policy, ARM, history=history,
+                            base=base_controller("pd", ARM))
     assert np.array_equal(mine(STATES), want)
     # without the base the same zero policy is zero torque
-    assert np.array_equal(PolicyController(model.policy, ARM)(STATES), np.zeros((16, 6)))
+    assert np.array_equal(PolicyController(model.policy, ARM, history=history)(STATES),
+                          np.zeros((16, 6)))
 
 
 def test_the_env_drives_the_arms_with_the_pd_at_zero_action():

@@ -215,7 +215,7 @@ def _space(data: dict, key: str, path) -> tuple:
     space = data.get(key)
     shape = space.get("_shape") if isinstance(space, dict) else None
     if not (isinstance(shape, list) and len(shape) == 1 and isinstance(shape[0], int)
-            and not isinstance(shape[0], bool) and 1 <= shape[0] <= 64):
+            and not isinstance(shape[0], bool) and 1 <= shape[0] <= 512):
         raise ControllerError(f"{path}: its data's {key} is no readable one-dimensional Box "
                               f"(shape {_line(shape, 40)})")
     low = _numbers(space.get("low"), path, f"{key} low")
