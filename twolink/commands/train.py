@@ -111,6 +111,10 @@ def add_parser(sub):
                         "the tuned per-joint PD (3 to 6 links), torque = clip(PD + "
                         "tau_max a, +-tau_max), so an untrained agent starts as the PD; "
                         "the agent records it and is run the same way as a controller")
+    p.add_argument("--action-rate", default=None, metavar="C",
+                   help="ppo/sac: subtract C times the mean squared change of the normalized "
+                        "action from every reward while training (0 to 100; default 0: off), "
+                        "against torques that chatter under delays and noise")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -145,8 +149,19 @@ def given_options(args) -> dict:
              choice(args.challenge, "--challenge level", tuple(LEVELS)),
              "history": _count(args.history, "--history", 1, MAX_HISTORY),
              "observe": args.observe,
-             "base": None if args.base is None else choice(args.base, "--base", BASES)}
+             "base": None if args.base is None else choice(args.base, "--base", BASES),
+             "action_rate": None if args.action_rate is None else _rate(args.action_rate)}
     return {k: v for k, v in given.items() if v is not None}
+
+
+def _rate(text) -> float:
+    from twolink.training.action_rate import MAX_ACTION_RATE, check_action_rate
+
+    try:
+        return check_action_rate(float(text))
+    except ValueError:
+        raise ValueError(f"--action-rate must be a number from 0 to {MAX_ACTION_RATE:g}, "
+                         f"got {text!r}") from None
 
 
 def run(args) -> int:

@@ -39,6 +39,7 @@ import numpy as np
 from twolink.arm.parameters import LINK_RULES, check_links
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
+from twolink.training.action_rate import check_action_rate
 from twolink.sim.challenges import LEVELS
 from twolink.validate import choice, whole
 
@@ -127,6 +128,7 @@ class TrainConfig:
     challenge: str | None = None
     history: int = 1
     base: str = "none"
+    action_rate: float = 0.0
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -149,6 +151,7 @@ class TrainConfig:
         check_history(self.history)
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
+        object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
         if self.challenge is not None:
             choice(self.challenge, "challenge level", tuple(LEVELS))
             if self.links != 2:
@@ -201,7 +204,7 @@ class TrainConfig:
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
-                "device", "threads", "challenge", "history", "base")
+                "device", "threads", "challenge", "history", "base", "action_rate")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

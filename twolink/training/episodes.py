@@ -5,7 +5,7 @@ Beside what :mod:`twolink.training.checkpoint` keeps (states, clocks, generators
 arm under a challenge level is in the middle of an episode on its own drawn plant, with
 torques in flight (the actuation delay), readings in flight (the observation delay),
 and readings repeated or stuck (the faults); an agent with an observation history has
-its last K observations and K - 1 actions. :func:`capture` takes all of these as
+its last K observations and K - 1 actions; an action-rate penalty, its last actions. :func:`capture` takes all of these as
 numbers and tensors (read back with ``torch.load(weights_only=True)``, nothing
 unpickled) and :func:`restore` puts them back into a freshly built environment.
 """
@@ -53,7 +53,19 @@ def capture(env) -> dict:
     history = getattr(env, "history", None)
     if history is not None:
         out["history"] = {k: _tensor(v) for k, v in history.state().items()}
+    rate = _action_rate(env)
+    if rate is not None:
+        out["action_rate"] = {k: _tensor(v) for k, v in rate.action_rate_state().items()}
     return out
+
+
+def _action_rate(env):
+    """The :mod:`twolink.training.action_rate` wrapper among ``env``'s wrappers, or None."""
+    while env is not None:
+        if hasattr(type(env), "action_rate_state"):
+            return env
+        env = getattr(env, "venv", None)
+    return None
 
 
 def restore(env, state: dict) -> None:
@@ -77,3 +89,6 @@ def restore(env, state: dict) -> None:
         delay._samples = np.broadcast_to(delay.samples, (len(buffer),))
     if "history" in state:
         env.history.set_state({k: _array(v) for k, v in state["history"].items()})
+    if "action_rate" in state:
+        _action_rate(env).set_action_rate_state(
+            {k: _array(v) for k, v in state["action_rate"].items()})

@@ -178,7 +178,8 @@ class MarlConfig:
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "challenge": "challenge levels are for --algo ppo|sac",
-            "history": "observation histories are for --algo ppo|sac"}
+            "history": "observation histories are for --algo ppo|sac",
+            "action_rate": "the action-rate penalty is for --algo ppo|sac"}
 
 
 def config_from_options(given: dict) -> dict:
@@ -186,7 +187,8 @@ def config_from_options(given: dict) -> dict:
     ValueError for an option multi-agent runs do not take."""
     for name, why in NOT_MARL.items():
         if given.get(name) is not None:
-            raise ValueError(f"--{name} does not apply to --algo ippo|mappo ({why})")
+            raise ValueError(f"--{name.replace('_', '-')} does not apply to --algo "
+                             f"ippo|mappo ({why})")
     names = {f.name for f in dataclasses.fields(MarlConfig)}
     return {k: v for k, v in given.items() if k in names and v is not None}
 

@@ -93,6 +93,10 @@ def build(config: TrainConfig):
         from twolink.envs.residual import ResidualVecEnv
 
         env = ResidualVecEnv(env, base_controller(config.base, arm_of(config)))
+    if config.action_rate > 0:
+        from twolink.training import action_rate
+
+        env = action_rate.wrap(env, config.action_rate)
     if config.history > 1:
         from twolink.envs.history import HistoryVecEnv
 
@@ -213,12 +217,14 @@ def agent_name(config: TrainConfig) -> str:
 
 
 def run_name(config: TrainConfig) -> str:
-    """``<algo>_<N>links[_<level>][_h<K>][_<base>]_seed<S>``: the run's default folder
-    and its agent's stem."""
+    """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>]_seed<S>``: the run's default
+    folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
-    return f"{config.algo}_{config.links}links{level}{memory}{base}_seed{config.seed}"
+    rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
+    return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}"
+            f"_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
@@ -321,7 +327,8 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
         record["curve"].append(_point(model.num_timesteps, sc, clocks["wall_s"],
                                       clocks["cpu_s"]))
         plain, tensors = checkpoint.capture(model, episodes.base(env))
-        if plain["started"] and (config.challenge is not None or config.history > 1):
+        if plain["started"] and (config.challenge is not None or config.history > 1
+                                 or config.action_rate > 0):
             tensors["episodes"] = episodes.capture(env)
         header = {"config": config.as_dict(), "versions": record["versions"],
                   "steps": int(model.num_timesteps), "plain": plain,
