@@ -162,6 +162,7 @@ SCHEMAS = {
     "renders/tie_sensitivity/tie_sensitivity.json": ("twolink.tie_sensitivity", 1),
     "renders/grid_study/grid_study.json": ("twolink.grid_study", 1),
     "renders/identification/identification.json": ("twolink.identification_study", 1),
+    "renders/learners/learners.json": ("twolink.learners", 1),
     "renders/links_reach/reach.json": ("twolink.links_reach", 1),
     "renders/links_reach/own_motor.json": ("twolink.links_own_motor", 1),
     "renders/fuzzy_design/near_gain.json": ("twolink.near_gain", 1),

@@ -9,6 +9,7 @@ from .results_finer_grids import finer_grids_page
 from .results_identification import identification_page
 from .results_fading import fading_gain_block
 from .results_leaderboard import fuzzy_designs_page, leaderboard_page
+from .results_learners import learners_page
 from .results_learning import learning_page
 from .results_mismatch import mismatch_page
 from .results_performance import performance_page
@@ -24,6 +25,8 @@ RESULTS = (
      mismatch_page),
     ("results/learning.md", "Learning", "renders/learning/learning.json", learning_page),
     ("results/scaling.md", "Scaling", "renders/scaling/scaling.json", scaling_page),
+    ("results/learners.md", "Learners on N links", "renders/learners/learners.json",
+     learners_page),
     ("results/performance.md", "Performance", "benchmarks/results.json", performance_page),
     ("results/leaderboard.md", "Leaderboard", "renders/leaderboard/leaderboard.json",
      leaderboard_page),

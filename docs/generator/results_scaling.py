@@ -321,7 +321,10 @@ def scaling_page(report: dict) -> str:
     block = ("## Targets\n\nWhat the table should show (the targets live in "
              "`docs/generate.py`, which judges this report's data against them):\n\n"
              + "\n".join(lines or ["- none of the targeted rows was measured"]) + "\n\n")
-    block = _scaling_findings(report) + _reach_block(report) + _own_motor_block(report) + block
+    from .results_learners import learners_block
+
+    block = (_scaling_findings(report) + _reach_block(report) + learners_block()
+             + _own_motor_block(report) + block)
     at = text.find("\nMachine: ")
     text = text + "\n" + block if at < 0 else text[:at + 1] + block + text[at + 1:]
     return "".join([

@@ -98,7 +98,7 @@ def _log(text: str) -> None:
 
 
 def run(args) -> int:
-    from twolink.artifacts import read_runs
+    from twolink.artifacts import read_runs, staged_files
     from twolink.studies.learners import measure, report
 
     runs = _plan(args)                                       # every check before any work
@@ -120,12 +120,19 @@ def run(args) -> int:
             print(f"{r.id:32s} {r.steps:>10,} steps  {state}")
         return 0
     out.parent.mkdir(parents=True, exist_ok=True)
-    data = measure.study(runs, out, work, poses=poses, workers=args.workers,
-                         executor=args.executor, address=args.address, log=_log)
     ceiling = _ceiling()
-    rows = report.rows(data, ceiling)
-    (out.parent / TABLE).write_text(report.table(rows) + "\n")
-    report.figure(data, out.parent / FIGURE, ceiling)
+
+    def present(data) -> list:                   # the table and figure beside the JSON
+        rows = report.rows(data, ceiling)
+        with staged_files([out.parent / TABLE, out.parent / FIGURE]) as (table, figure):
+            table.write_text(report.table(rows) + "\n")
+            report.figure(data, figure, ceiling)
+        return rows
+
+    data = measure.study(runs, out, work, poses=poses, workers=args.workers,
+                         executor=args.executor, address=args.address, log=_log,
+                         after=present)
+    rows = present(data)
     if args.json:
         print(json.dumps(rows, indent=2))
     else:

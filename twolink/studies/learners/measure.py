@@ -136,9 +136,10 @@ def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
 
 
 def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="local",
-          address=None, log=print) -> dict:
+          address=None, log=print, after=None) -> dict:
     """Run the ``runs`` the study's JSON at ``path`` does not hold yet, ``workers`` at a
-    time, writing each record into it as it finishes; the study's data."""
+    time, writing each record into it as it finishes (then ``after(data)``, e.g. the
+    table and figure beside it); the study's data."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     data = read_runs(path, SCHEMA, VERSION)
@@ -154,6 +155,8 @@ def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="l
         data.update(schema=SCHEMA, version=VERSION, provenance=provenance(), poses=poses,
                     table_seed=TABLE_SEED, fresh_seed=FRESH_SEED)
         write_json(path, data)
+        if after is not None:
+            after(data)
         f = record["fresh"]
         log(f"{record['id']}: {f['successes']}/{f['n']} fresh poses, {record['steps']:,} "
             f"steps in {record['wall_s']:.0f} s ({len(data['runs'])} runs in {path}, "

@@ -1,0 +1,126 @@
+"""docs/results/learners.md, from ``renders/learners/learners.json`` (``twolink
+learners``, :mod:`twolink.studies.learners`): what of the plan has run, the table of
+:func:`twolink.studies.learners.report.rows` against the reach study's ceiling, the
+targets judged from the data, the learning curves; and :func:`learners_block`, the
+learners' best rows on the scaling page.
+"""
+from __future__ import annotations
+
+from .common import SCHEMAS, _load, _stamp
+
+#: The study's data and its figure (written by ``twolink learners`` beside the JSON).
+DATA = "renders/learners/learners.json"
+FIGURE = "../renders/learners/learners.png"
+#: Targets: (what, arm, decentralized only, success share on the fresh poses).
+TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses",
+            (6, "tapered"), True, 0.90),
+           ("copied N = 4, 8 s: a decentralized learner >= 90 % on fresh poses",
+            (4, "copied"), True, 0.90))
+#: Training cost target at N = 6: CPU microseconds per environment step.
+COST_TARGET_US = 150.0
+#: How the committed study is continued.
+CONTINUE = "twolink learners -o renders/learners/learners.json"
+
+
+def _ceiling() -> dict:
+    from twolink.studies.learners.report import ceilings
+
+    from .results_scaling import REACH
+
+    return ceilings(_load(REACH, SCHEMAS[REACH]))
+
+
+def _targets(rows: list) -> list:
+    from twolink.viz.formatting import format_rate
+
+    out = []
+    for what, arm, decentral, share in TARGETS:
+        cands = [r for r in rows if (r["links"], r["rule"]) == arm
+                 and (not decentral or r["algo"] != "ppo")]
+        if not cands:
+            out.append(f"- not yet run: {what}")
+            continue
+        best = max(cands, key=lambda r: r["fresh"]["successes"] / r["fresh"]["n"])
+        f = best["fresh"]
+        met = f["successes"] / f["n"] >= share
+        out.append(f"- {'met' if met else '**missed**'}: {what}: best {best['learner']} "
+                   f"{format_rate(f['successes'], f['n'])} over {len(best['seeds'])} seed(s)")
+    six = [r for r in rows if r["links"] == 6]
+    if six:
+        cheapest = min(six, key=lambda r: r["cpu_us_per_step"])
+        met = cheapest["cpu_us_per_step"] <= COST_TARGET_US
+        out.append(f"- {'met' if met else '**missed**'}: training cost at N = 6 <= "
+                   f"{COST_TARGET_US:.0f} µs CPU per environment step (updates and the "
+                   f"curve's evaluations included): cheapest {cheapest['learner']} "
+                   f"{cheapest['cpu_us_per_step']:.0f} µs")
+    else:
+        out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
+                   "per environment step")
+    return out
+
+
+def learners_page(data: dict) -> str:
+    from twolink.studies.learners.plan import ARMS, LEARNERS, SEEDS
+    from twolink.studies.learners.report import rows, table
+
+    ceiling = _ceiling()
+    rs = rows(data, ceiling)
+    done = len(data["runs"])
+    planned = len(ARMS) * len(LEARNERS) * len(SEEDS)
+    seeds = sorted({r["run"]["seed"] for r in data["runs"]})
+    return "".join([
+        _stamp(DATA), "# Today's learners on N links\n\n",
+        "Table II for deep RL: centralized PPO (Stable-Baselines3) and IPPO / MAPPO (skrl) "
+        "with the `local` (own joint only) and `neighbours` (one hop) observation models, "
+        "trained by `twolink train` with one hyperparameter set per algorithm on the "
+        "MuJoCo arm (cos/sin angles, normalized actions, the shaped reward, random poses "
+        "at rest), scored as their final agents (never one picked by its curve) on 256 "
+        "poses of the scaling table (the reach study's poses) and on 256 fresh poses "
+        f"(seed {data['fresh_seed']} + N, read by nothing else) at 8 s (two links: 5 s).\n\n",
+        f"**{done} of the plan's {planned} runs** are in `{DATA}` (seeds "
+        f"{', '.join(map(str, seeds)) or 'none'}). The study resumes: `{CONTINUE}` "
+        "runs what is missing, a run at a time, rewriting the file after each (`--seeds "
+        "0` is the one-seed version, `--list` shows each run's state).\n\n",
+        "Columns: successes pooled over seeds with the Wilson 95 % interval; the "
+        "interquartile mean of the seeds' rates with a 95 % percentile bootstrap interval "
+        "(rliable's protocol); the ceiling is the reach study's reachable share of the "
+        "table's poses (— where it was not run); steps to 90 % of it per seed, on the "
+        "curve's 64 poses; CPU per environment step includes the updates and the "
+        "curve's evaluations; peak memory is the training process's resident set.\n\n",
+        table(rs) if rs else "No run has finished yet.", "\n\n",
+        "## Targets\n\n", "\n".join(_targets(rs)), "\n\n",
+        "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",
+        "Thin lines: one seed each, success of the deterministic policy on the curve's 64 "
+        "poses of the scaling table; dashed: the ceiling.\n"])
+
+
+def learners_block() -> str:
+    """The scaling page's section on the learners: the best learned row per arm beside
+    the ceiling (empty until the study has runs)."""
+    from twolink.studies.learners.report import rows
+    from twolink.viz.formatting import format_rate
+
+    data = _load(DATA, SCHEMAS[DATA])
+    if not data or not data["runs"]:
+        return ""
+    ceiling = _ceiling()
+    rs = rows(data, ceiling)
+    out = ["## Today's learners\n\n",
+           "The best final agent per arm of `twolink learners` on the same poses "
+           "(details, fresh poses and learning curves: [Learners](learners.md)).\n\n",
+           "| N | links | best centralized (PPO) | best decentralized (IPPO / MAPPO) | "
+           "ceiling |\n|---|---|---|---|---|\n"]
+    for arm in sorted({(r["links"], r["rule"]) for r in rs},
+                      key=lambda a: (a[0], a[1] != "tapered")):
+        def best(central):
+            c = [r for r in rs if (r["links"], r["rule"]) == arm
+                 and (r["algo"] == "ppo") == central]
+            if not c:
+                return "—"
+            b = max(c, key=lambda r: r["table"]["successes"] / r["table"]["n"])
+            t = b["table"]
+            return f"{b['learner']}: {format_rate(t['successes'], t['n'])}"
+        top = ceiling.get(arm)
+        out.append(f"| {arm[0]} | {arm[1]} | {best(True)} | {best(False)} | "
+                   f"{'—' if top is None else f'{100 * top:.0f} %'} |\n")
+    return "".join(out) + "\n"
