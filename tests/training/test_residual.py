@@ -151,3 +151,33 @@ def test_unknown_base_and_misplaced_base_are_one_line(tmp_path, capsys):
     with zipfile.ZipFile(tmp_path / "plain.zip") as z:
         assert "base" not in json.loads(z.read("twolink.json"))
     assert np.array_equal(SB3Agent(tmp_path / "plain.zip")(STATES), np.zeros((16, 6)))
+
+
+def test_a_residual_run_resumes_bit_for_bit_and_only_as_itself(tmp_path, capsys):
+    import io
+
+    from twolink.training.run import train
+
+    common = dict(links=6, base="pd", envs=2, n_steps=16, eval_every=32)
+    whole = train(TrainConfig(steps=96, **common), tmp_path / "whole")
+    seen = []
+
+    def stop(line):                                  # interrupted after its 2nd point
+        seen.append(line)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        train(TrainConfig(steps=96, **common), tmp_path / "part", progress=stop)
+    assert main(["train", "--resume", "--base", "none", "--out", str(tmp_path / "part")]) == 2
+    assert "with base 'pd', not 'none'" in capsys.readouterr().err
+    resumed = train({"steps": 96}, tmp_path / "part", resume=True)
+    strip = lambda c: [(p["steps"], p["successes"]) for p in c]  # noqa: E731
+    assert strip(resumed["curve"]) == strip(whole["curve"])
+
+    def weights(folder):
+        with zipfile.ZipFile(folder / "ppo_6links_pd_seed0.zip") as z:
+            return torch.load(io.BytesIO(z.read("policy.pth")), weights_only=True)
+
+    a, b = weights(tmp_path / "whole"), weights(tmp_path / "part")
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
