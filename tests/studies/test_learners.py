@@ -15,17 +15,21 @@ from twolink.studies.learners import report
 
 def test_plan_is_seed_major_small_arms_first_and_ids_unique():
     runs = P.plan()
-    assert len(runs) == len(P.ARMS) * len(P.LEARNERS) * len(P.SEEDS)
+    over_pd = sum(b == "pd" for _, _, b in P.LEARNERS)         # not on the two-link arm
+    assert len(runs) == (len(P.ARMS) * len(P.LEARNERS) - over_pd) * len(P.SEEDS)
+    assert not [r for r in runs if r.links == 2 and r.base == "pd"]
     assert len({r.id for r in runs}) == len(runs)
     seeds = [r.seed for r in runs]
     assert seeds == sorted(seeds)                        # seed 0 whole first
-    first = runs[:len(P.ARMS) * len(P.LEARNERS)]
+    first = runs[:len(runs) // len(P.SEEDS)]
     assert [r.links for r in first] == sorted(r.links for r in first)
     assert runs[0].id == "ppo_2t_seed0" and runs[0].steps == P.STEPS[2]
-    assert P.plan(arms=((4, "copied"),), learners=(("ippo", "local"),), seeds=(2,),
-                  steps=4096)[0].train_args() == [
+    (run,) = P.plan(arms=((4, "copied"),), learners=(("ippo", "local", "pd"),), seeds=(2,),
+                    steps=4096)
+    assert run.id == "ippo-local-pd_4c_seed2"
+    assert run.train_args() == [
         "--algo", "ippo", "--links", "4", "--rule", "copied", "--steps", "4096",
-        "--seed", "2", "--eval-every", "4096", "--observe", "local"]
+        "--seed", "2", "--eval-every", "4096", "--observe", "local", "--base", "pd"]
 
 
 def test_fresh_poses_seed_is_used_by_nothing_else():
@@ -47,7 +51,8 @@ def test_bad_arm_is_one_line(text, message):
 
 def test_arms_and_learners_parse():
     assert P.parse_arm("4c") == (4, "copied") and P.parse_arm("6") == (6, "tapered")
-    assert P.parse_learner("mappo-neighbours") == ("mappo", "neighbours")
+    assert P.parse_learner("mappo-neighbours") == ("mappo", "neighbours", "none")
+    assert P.parse_learner("ippo-local-pd") == ("ippo", "local", "pd")
     with pytest.raises(ValueError, match="unknown learner 'sac'.*ippo-local"):
         P.parse_learner("sac")
 
@@ -114,11 +119,11 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, args, message):
 
 
 def test_list_names_every_run_and_its_state(tmp_path):
-    r = _cli("--list", "--arms", "3c", "--learners", "ppo", "mappo-local", "--seeds", "1",
+    r = _cli("--list", "--arms", "3c", "--learners", "ppo", "mappo-local-pd", "--seeds", "1",
              cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
-    assert [ln.split()[0] for ln in lines] == ["ppo_3c_seed1", "mappo-local_3c_seed1"]
+    assert [ln.split()[0] for ln in lines] == ["ppo_3c_seed1", "mappo-local-pd_3c_seed1"]
     assert all(ln.endswith("new") for ln in lines)
 
 
@@ -128,14 +133,15 @@ def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
     r = _cli("--smoke", "--json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     rows = json.loads(r.stdout)
-    assert [(x["links"], x["algo"]) for x in rows] == [(2, "ppo"), (2, "ippo"), (3, "ppo"),
-                                                        (3, "ippo")]
+    assert [(x["links"], x["algo"], x["base"]) for x in rows] == [
+        (2, "ppo", "none"), (2, "ippo", "none"), (3, "ppo", "none"), (3, "ippo", "none"),
+        (3, "ippo", "pd")]
     for x in rows:
         assert x["fresh"]["n"] == P.SMOKE["poses"] and x["steps"] == P.SMOKE["steps"]
         assert x["parameters"] > 1000 and x["cpu_us_per_step"] > 0
     data = json.loads((tmp_path / "twolink-results/learners-smoke/learners.json").read_text())
-    assert data["schema"] == P.SCHEMA and len(data["runs"]) == 4
+    assert data["schema"] == P.SCHEMA and len(data["runs"]) == 5
     assert data["runs"][0]["fresh"]["poses_seed"] in {P.FRESH_SEED + 2, P.FRESH_SEED + 3}
     again = _cli("--smoke", cwd=tmp_path)
-    assert again.returncode == 0 and "4 of 4 runs" in again.stderr
+    assert again.returncode == 0 and "5 of 5 runs" in again.stderr
     assert "training" not in again.stderr

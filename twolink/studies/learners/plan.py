@@ -34,9 +34,14 @@ SCHEMA, VERSION = "twolink.learners", 1
 #: The arms: (links, rule).
 ARMS = ((2, "tapered"), (3, "tapered"), (4, "tapered"), (5, "tapered"), (6, "tapered"),
         (3, "copied"), (4, "copied"))
-#: The learners: (algo, observe); PPO is centralized and observes the whole arm.
-LEARNERS = (("ppo", "global"), ("ippo", "local"), ("ippo", "neighbours"),
-            ("mappo", "local"), ("mappo", "neighbours"))
+#: The learners: (algo, observe, base); PPO is centralized and observes the whole arm;
+#: base ``pd``: the action is a residual over the tuned per-joint PD (``twolink train
+#: --base pd``, 3 to 6 links; each joint's PD reads only its own joint, so IPPO/MAPPO over
+#: it stay decentralized).
+LEARNERS = (("ppo", "global", "none"), ("ippo", "local", "none"),
+            ("ippo", "neighbours", "none"), ("mappo", "local", "none"),
+            ("mappo", "neighbours", "none"), ("ppo", "global", "pd"),
+            ("ippo", "local", "pd"), ("mappo", "local", "pd"))
 #: Seeds of the learners and their arms.
 SEEDS = (0, 1, 2)
 #: Environment steps of a run, by links.
@@ -52,8 +57,9 @@ TABLE_SEED = 20061122
 #: leaderboard's 2026).
 FRESH_SEED = 4_180_000
 #: The smoke plan CI runs: two arms, one step budget of a few updates, few poses.
-SMOKE = dict(arms=((2, "tapered"), (3, "tapered")), learners=(("ppo", "global"),
-             ("ippo", "local")), seeds=(0,), steps=4096, poses=8)
+SMOKE = dict(arms=((2, "tapered"), (3, "tapered")), learners=(("ppo", "global", "none"),
+             ("ippo", "local", "none"), ("ippo", "local", "pd")), seeds=(0,), steps=4096,
+             poses=8)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,17 +73,22 @@ class Run:
     seed: int
     steps: int
     eval_every: int
+    base: str = "none"
+
+    @property
+    def learner(self) -> str:
+        """The learner's name: ``ppo``, ``ippo-local``, ... (``-pd`` over the PD)."""
+        return learner_id(self.algo, self.observe, self.base)
 
     @property
     def id(self) -> str:
         """The run's name: learner, arm, seed (its folder and its key in the JSON)."""
-        who = "ppo" if self.algo == "ppo" else f"{self.algo}-{self.observe}"
-        return f"{who}_{self.links}{self.rule[0]}_seed{self.seed}"
+        return f"{self.learner}_{self.links}{self.rule[0]}_seed{self.seed}"
 
     @property
     def row(self) -> tuple:
         """The row of the study's table the run belongs to (seeds pooled)."""
-        return (self.links, self.rule, self.algo, self.observe)
+        return (self.links, self.rule, self.algo, self.observe, self.base)
 
     def train_args(self) -> list:
         """The ``twolink train`` options of the run."""
@@ -86,6 +97,8 @@ class Run:
                 "--eval-every", str(self.eval_every)]
         if self.algo != "ppo":
             args += ["--observe", self.observe]
+        if self.base != "none":
+            args += ["--base", self.base]
         return args
 
     def as_dict(self) -> dict:
@@ -98,9 +111,10 @@ def plan(*, arms=ARMS, learners=LEARNERS, seeds=SEEDS, steps=None) -> list:
     for links, rule in arms:
         whole(links, "links", MIN_LINKS, MAX_LINKS)
         choice(rule, "rule", LINK_RULES)
-    for algo, observe in learners:
+    for algo, observe, base in learners:
         choice(algo, "algo", ("ppo", "ippo", "mappo"))
         choice(observe, "observe", ("global",) if algo == "ppo" else OBSERVE)
+        choice(base, "base", ("none", "pd"))
     for s in seeds:
         whole(s, "seed", 0, 2**31 - 1)
     if steps is not None:
@@ -108,18 +122,26 @@ def plan(*, arms=ARMS, learners=LEARNERS, seeds=SEEDS, steps=None) -> list:
     runs = []
     for seed in seeds:
         for links, rule in sorted(arms, key=lambda a: (a[0], a[1] != "tapered")):
-            for algo, observe in learners:
+            for algo, observe, base in learners:
+                if base == "pd" and links == 2:        # the PD is tuned for 3 to 6 links
+                    continue
                 n = steps or STEPS[links]
                 runs.append(Run(algo, observe, links, rule, seed, n,
-                                steps or EVAL_EVERY[links]))
+                                steps or EVAL_EVERY[links], base))
     return runs
 
 
+def learner_id(algo: str, observe: str, base: str = "none") -> str:
+    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``...: a learner's name."""
+    who = "ppo" if algo == "ppo" else f"{algo}-{observe}"
+    return who + ("" if base == "none" else f"-{base}")
+
+
 def parse_learner(text: str) -> tuple:
-    """``ppo``, ``ippo-local``, ``mappo-neighbours``... -> (algo, observe); one line
-    naming the choices otherwise."""
-    names = {("ppo" if a == "ppo" else f"{a}-{o}"): (a, o) for a, o in LEARNERS}
-    names.update({f"{a}-global": (a, "global") for a in ("ippo", "mappo")})
+    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``... -> (algo, observe, base); one
+    line naming the choices otherwise."""
+    names = {learner_id(a, o, b): (a, o, b) for a in ("ppo", "ippo", "mappo")
+             for o in (("global",) if a == "ppo" else OBSERVE) for b in ("none", "pd")}
     if text not in names:
         raise ValueError(f"unknown learner {text!r}; choose one of {', '.join(names)}")
     return names[text]

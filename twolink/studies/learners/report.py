@@ -27,8 +27,10 @@ OF_CEILING = 0.9
 RESAMPLES, BOOT_SEED = 2000, 0
 
 
-def learner_name(algo: str, observe: str) -> str:
-    return "PPO (centralized)" if algo == "ppo" else f"{algo.upper()} ({observe})"
+def learner_name(algo: str, observe: str, base: str = "none") -> str:
+    """How the table names a learner: ``PPO (centralized)``, ``IPPO (local) + PD``..."""
+    name = "PPO (centralized)" if algo == "ppo" else f"{algo.upper()} ({observe})"
+    return name + (" + PD" if base == "pd" else "")
 
 
 def ceilings(reach: dict | None) -> dict:
@@ -69,10 +71,12 @@ def rows(data: dict, ceiling: dict | None = None) -> list:
     groups = defaultdict(list)
     for r in data.get("runs", []):
         run = r["run"]
-        groups[(run["links"], run["rule"], run["algo"], run["observe"])].append(r)
+        groups[(run["links"], run["rule"], run["algo"], run["observe"],
+                run.get("base", "none"))].append(r)
     out = []
-    for (links, rule, algo, observe), runs in sorted(groups.items(), key=lambda kv: (
-            kv[0][0], kv[0][1] != "tapered", kv[0][2] != "ppo", kv[0][2], kv[0][3])):
+    for (links, rule, algo, observe, base), runs in sorted(groups.items(), key=lambda kv: (
+            kv[0][0], kv[0][1] != "tapered", kv[0][4] != "none", kv[0][2] != "ppo",
+            kv[0][2], kv[0][3])):
         runs.sort(key=lambda r: r["run"]["seed"])
         top = ceiling.get((links, rule), 1.0)
         fresh_k = sum(r["fresh"]["successes"] for r in runs)
@@ -83,8 +87,8 @@ def rows(data: dict, ceiling: dict | None = None) -> list:
         settles = [r["fresh"]["median_settle"] for r in runs
                    if r["fresh"]["median_settle"] is not None]
         out.append({
-            "links": links, "rule": rule, "algo": algo, "observe": observe,
-            "learner": learner_name(algo, observe), "seeds": [r["run"]["seed"] for r in runs],
+            "links": links, "rule": rule, "algo": algo, "observe": observe, "base": base,
+            "learner": learner_name(algo, observe, base), "seeds": [r["run"]["seed"] for r in runs],
             "steps": max(r["steps"] for r in runs),
             "fresh": {"successes": fresh_k, "n": fresh_n,
                       "wilson_95": list(wilson_interval(fresh_k, fresh_n)),
@@ -153,7 +157,8 @@ def figure(data: dict, path, ceiling: dict | None = None):
         by = defaultdict(list)
         for r in data["runs"]:
             if (r["run"]["links"], r["run"]["rule"]) == (links, rule):
-                by[(r["run"]["algo"], r["run"]["observe"])].append(r)
+                by[(r["run"]["algo"], r["run"]["observe"],
+                    r["run"].get("base", "none"))].append(r)
         for key, runs in sorted(by.items()):
             name = learner_name(*key)
             colour = colours.setdefault(name, f"C{len(colours)}")
