@@ -93,7 +93,7 @@ def test_a_run_with_the_penalty_resumes_bit_for_bit(tmp_path):
     (["--action-rate", "-1"], "--action-rate must be a number from 0 to 100, got '-1'"),
     (["--action-rate", "nan"], "--action-rate must be a number from 0 to 100"),
     (["--action-rate", "lots"], "--action-rate must be a number from 0 to 100"),
-    (["--algo", "ippo", "--action-rate", "1"], "--action-rate does not apply to --algo ippo"),
+    (["--algo", "ippo", "--action-rate", "101"], "--action-rate must be a number from 0 to 100"),
 ])
 def test_bad_values_are_one_line_exit_2_nothing_written(tmp_path, capsys, argv, message):
     out = tmp_path / "run"

@@ -143,8 +143,6 @@ def test_bad_inputs_are_one_line(runs, tmp_path, capsys):
         capsys, ["train", "--algo", "ippo", "--observe", "east"])
     assert "--plant does not apply to --algo ippo|mappo" in _err(
         capsys, ["train", "--algo", "mappo", "--plant", "model"])
-    assert "--history does not apply" in _err(
-        capsys, ["train", "--algo", "ippo", "--history", "2"])
     assert "links" in _err(capsys, ["train", "--algo", "ippo", "--links", "7",
                                     "-o", str(tmp_path / "x")])
     # a checkpoint of another algo or arm

@@ -104,7 +104,8 @@ def add_parser(sub):
                         "(the evaluation seeds) are refused")
     p.add_argument("--history", default=None, metavar="K",
                    help=f"observe the last K observations and K-1 actions, 1 to "
-                        f"{MAX_HISTORY} (default 1: the present observation only)")
+                        f"{MAX_HISTORY} (default 1: the present observation only; ippo/mappo: "
+                        f"each agent its own observations and actions)")
     p.add_argument("--base", default=None, metavar="|".join(BASES),
                    help="none (default), or pd: the action (each agent's, for ippo/mappo) "
                         "is a residual over "
@@ -112,9 +113,10 @@ def add_parser(sub):
                         "tau_max a, +-tau_max), so an untrained agent starts as the PD; "
                         "the agent records it and is run the same way as a controller")
     p.add_argument("--action-rate", default=None, metavar="C",
-                   help="ppo/sac: subtract C times the mean squared change of the normalized "
+                   help="subtract C times the mean squared change of the normalized "
                         "action from every reward while training (0 to 100; default 0: off), "
-                        "against torques that chatter under delays and noise")
+                        "against torques that chatter under delays and noise (ippo: each "
+                        "agent's own change; mappo: the team reward, the mean over agents)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -212,14 +214,17 @@ def _run_marl(args, given) -> int:
     config = None if args.resume else MarlConfig(**fields)
     out = args.out or output_dir(create=False) / "train" / run_name(config or MarlConfig(
         **{k: v for k, v in fields.items() if k in ("algo", "links", "observe", "seed",
-                                                    "base")}))
+                                                    "base", "challenge", "history",
+                                                    "action_rate")}))
     record = train(config if config is not None else fields, out, resume=args.resume,
                    progress=lambda text: print(text, file=sys.stderr, flush=True))
     last, c = record["curve"][-1], record["config"]
     if args.json:
         print(json.dumps(record, indent=1))
     else:
-        base = f", residual over base {c['base']}" if c.get("base", "none") != "none" else ""
+        base = (f" under {c['challenge']}" if c.get("challenge") else "") + (
+            f", history {c['history']}" if c.get("history", 1) > 1 else "") + (
+            f", residual over base {c['base']}" if c.get("base", "none") != "none" else "")
         print(f"{c['algo']} on {c['links']} links ({c['observe']}){base}, seed {c['seed']}: "
               f"{record['steps']:,} steps in {record['wall_s']:.0f} s of training "
               f"({record['steps_per_s'] or 0:.0f} steps/s); final controller "

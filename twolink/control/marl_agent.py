@@ -16,10 +16,19 @@ mean of its Gaussian policy) on its own observation of the state, clipped to [-1
 scaled by the arm's tau_max (``actions='normalized'``); with a ``base`` in the header
 (``"pd"`` and its ``base_gains``, :mod:`twolink.control.residual`) that action is a
 residual over joint I's own PD: clip(PD_I + tau_max_I a_I, +-tau_max_I). Nothing is shared between the
-agents at run time: the controller is decentralized whatever critic trained it.
+agents at run time: the controller is decentralized whatever critic trained it. With a
+``history`` K > 1 in the header (``twolink train --history K``), agent I's policy sees
+the last K of its own observations and its own K - 1 last actions
+(:mod:`twolink.training.marl_history`, the layout of :mod:`twolink.control.history`,
+recorded per agent as ``observation_layouts``): the controller keeps one
+:class:`~twolink.control.history.ObservationHistory` per agent, started afresh (zeros) by
+``reset(n)``, which a rollout calls first, so it is stateful across calls within an
+episode, as :class:`twolink.control.sb3_agent.SB3Agent` is. The header also records the
+``challenge`` level and ``action_rate`` the agents trained under (None and 0 if absent).
 
 :func:`load_marl_agent` checks everything before building (size cap :data:`MAX_BYTES`,
-schema and version, links and rule, columns in range, the tensors' names and shapes
+schema and version, links and rule, columns in range, the history length and each
+agent's recorded observation layout against its columns, the tensors' names and shapes
 against the header's sizes, finite weights); a truncated, foreign or inconsistent file
 is one :class:`ControllerError` line. torch is imported only here; without it, one line
 naming the extra to install.
@@ -35,6 +44,8 @@ from pathlib import Path
 import numpy as np
 
 from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS, TABLE_I, chain
+from twolink.control.history import MAX_HISTORY, ObservationHistory, history_layout, \
+    history_size
 from twolink.control.residual import base_of, residual_torques
 from twolink.sim.controller import ControllerError
 
@@ -95,10 +106,11 @@ class MarlController:
     """The decentralized controller of N agents' policies (see the module docstring).
     ``nets``: N ``torch.nn`` modules observation -> mean action; ``columns``/``angles``:
     per agent the state columns it reads and the angle flags; ``tau_max``: (N,);
-    ``base``: None, or the base controller (states -> torques) the actions add to."""
+    ``base``: None, or the base controller (states -> torques) the actions add to;
+    ``history``: K, each agent's history length (1: its present observation)."""
 
     def __init__(self, nets, columns, angles, tau_max, *, name: str = "marl",
-                 meta: dict | None = None, base=None):
+                 meta: dict | None = None, base=None, history: int = 1):
         self.nets = list(nets)
         self.columns = [tuple(int(c) for c in cols) for cols in columns]
         self.angles = [tuple(bool(a) for a in flags) for flags in angles]
@@ -107,6 +119,14 @@ class MarlController:
         self.name = name
         self.meta = dict(meta or {})
         self.base = base
+        self.history = int(history)
+        self._buffers = None
+
+    def reset(self, n: int) -> None:
+        """Start ``n`` rows afresh: with a history K > 1, every agent's buffers of zeros."""
+        if self.history > 1:
+            self._buffers = [ObservationHistory(int(n), obs_dim(a), 1, self.history)
+                             for a in self.angles]
 
     def __call__(self, x) -> np.ndarray:
         torch = _torch()
@@ -115,11 +135,17 @@ class MarlController:
             raise ControllerError(f"{self.name} drives an arm of {self.links} links; it got "
                                   f"states of shape {x.shape} (give --links {self.links})")
         a = np.empty((len(x), self.links))
+        if self.history > 1 and (self._buffers is None or self._buffers[0].rows != len(x)):
+            self.reset(len(x))
         with torch.no_grad():
             for i, net in enumerate(self.nets):
                 o = agent_observation(x, self.columns[i], self.angles[i])
+                if self.history > 1:
+                    o = self._buffers[i].observe(o)
                 out = net(torch.as_tensor(o, dtype=torch.float32))
                 a[:, i] = out.reshape(-1).double().numpy()
+                if self.history > 1:
+                    self._buffers[i].act(np.clip(a[:, i:i + 1], -1.0, 1.0))
         return residual_torques(self.base, x, a, self.tau_max)
 
 
@@ -209,20 +235,33 @@ def _check_header(path, h: dict) -> tuple:
                 and all(not f or v < links for v, f in zip(c, a))):
             raise _bad(path, f"agent columns {c!r} / angles {a!r} out of the {links}-link "
                              f"state")
-    return links, rule if links > 2 else None, hidden, cols, angles
+    k = h.get("history", 1)
+    if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= MAX_HISTORY:
+        raise _bad(path, f"history {k!r} (a whole number of samples from 1 to {MAX_HISTORY})")
+    layouts = h.get("observation_layouts")
+    if layouts is not None:
+        want = [history_layout(k, obs_dim(a), 1) for a in angles]
+        if not isinstance(layouts, list) or len(layouts) != links:
+            raise _bad(path, "observation_layouts must list one layout per agent")
+        for agent, got, w in zip(h["agents"], layouts, want):
+            if got != w:
+                raise _bad(path, f"{agent}'s observation layout {json.dumps(got)[:80]} is not "
+                                 f"that of history {k} over its {w['observation_size']} "
+                                 f"observed numbers ({w['size']} numbers)")
+    return links, rule if links > 2 else None, hidden, cols, angles, k
 
 
 def load_marl_agent(path) -> MarlController:
     """The controller of the multi-agent save at ``path`` (see the module docstring)."""
     torch = _torch()
     header, policies = read_marl_file(path)
-    links, rule, hidden, cols, angles = _check_header(path, header)
+    links, rule, hidden, cols, angles, k = _check_header(path, header)
     nets = []
     for i, agent in enumerate(header["agents"]):
         sd = policies.get(agent)
         if not isinstance(sd, dict) or not all(isinstance(v, torch.Tensor) for v in sd.values()):
             raise _bad(path, f"no weights of {agent}")
-        net = policy_net(obs_dim(angles[i]), hidden, header["activation"])
+        net = policy_net(history_size(k, obs_dim(angles[i]), 1), hidden, header["activation"])
         try:
             net.load_state_dict(sd, strict=True)
         except RuntimeError as exc:
@@ -238,8 +277,10 @@ def load_marl_agent(path) -> MarlController:
     steps = header.get("steps")
     meta = {"algo": header["algo"], "links": links, "rule": rule, "base": base_name,
             "observe": header.get("observe"), "seed": header.get("seed"),
+            "history": k, "challenge": header.get("challenge"),
+            "action_rate": header.get("action_rate", 0.0),
             "steps": steps if isinstance(steps, int) and not math.isnan(steps) else None,
             "file": str(path)}
     name = Path(path).name[:-len(SUFFIX)] if str(path).endswith(SUFFIX) else Path(path).stem
     return MarlController(nets, cols, angles, arm_tau_max(links, rule), name=name, meta=meta,
-                          base=base)
+                          base=base, history=k)

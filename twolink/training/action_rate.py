@@ -10,7 +10,9 @@ state. :class:`ActionRateVecEnv` subtracts from each arm's reward
 
 the mean squared change of the normalized action (each a_i in [-1, 1]) since the last
 step of the same episode (zero before its first action), the "action rate" penalty of
-legged-locomotion RL. :func:`wrap` applies it; ``c`` is ``twolink train --action-rate C`` (0: off, the default).
+legged-locomotion RL. :func:`wrap` applies it; a multi-agent run applies
+:func:`agent_penalties` (each agent its own term; MAPPO's team reward the arm's). ``c``
+is ``twolink train --action-rate C`` (0: off, the default).
 The evaluation metric is untouched: only the reward the learner trains on changes. The
 last actions are part of a checkpoint (``action_rate_state``), so a resumed run
 continues exactly.
@@ -35,6 +37,17 @@ def penalty(actions, last, c: float) -> np.ndarray:
     ``last`` (n, N)."""
     a = np.clip(np.asarray(actions, dtype=float), -1.0, 1.0)
     return c * np.mean((a - last) ** 2, axis=-1)
+
+
+def agent_penalties(actions, last, c: float, team: bool = False) -> np.ndarray:
+    """The penalties (n, N) of the agents of a multi-agent run (one agent per joint, its
+    clipped normalized action a column of ``actions`` (n, N), ``last`` (n, N) the actions
+    before): agent i's own ``c (a_i - last_i)^2``, or, ``team`` (one reward shared by the
+    agents, MAPPO's), every agent the arm's :func:`penalty`."""
+    a = np.clip(np.asarray(actions, dtype=float), -1.0, 1.0)
+    if team:
+        return np.repeat(penalty(a, last, c)[:, None], a.shape[-1], axis=-1)
+    return c * (a - last) ** 2
 
 
 def wrap(venv, c: float):

@@ -37,6 +37,21 @@ the decentralized controller of the agents' deterministic policies (each joint's
 from its own agent's mean action on its own observation) with the protocol of PPO's runs:
 two links, the 65-state set for 5 s; N links, 64 random poses at rest (seed 20061122 + N)
 for 8 s.
+
+Two-link runs may train under a challenge level (``challenge``, as PPO's
+:class:`twolink.training.config.TrainConfig`): every episode of every arm on a plant drawn
+anew from the level with its noise, delays and faults, arm i drawing from
+``train_stream(seed) + i`` (:func:`twolink.training.config.train_stream`, never an
+evaluation plant; the evaluation seeds are refused as training seeds), and the curve is
+scored under the same level on the 65 states and the
+:data:`~twolink.training.config.EVAL_PLANTS` plants of seed
+:data:`~twolink.training.config.EVAL_SEED`, PPO's protocol, so the curves compare.
+``history`` K > 1: each agent's policy (and IPPO's critic) sees the last K of its own
+observations and its own K - 1 last actions (:mod:`twolink.training.marl_history`).
+``action_rate`` c > 0: a training-only penalty against torque chatter
+(:func:`twolink.training.action_rate.agent_penalties`): IPPO's agent i earns its reward
+less c (a_i,k - a_i,k-1)^2, MAPPO's team reward is lessened by c times the mean of those
+over the agents (PPO's penalty of the arm).
 """
 from __future__ import annotations
 
@@ -50,9 +65,12 @@ from pathlib import Path
 from twolink.arm.parameters import LINK_RULES, check_links, horizon
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import write_json
+from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
-from twolink.training.config import DEVICES, EVAL_POSES, EVAL_SEED, MAX_ENVS, MAX_STEPS, \
-    MAX_THREADS
+from twolink.sim.challenges import LEVELS
+from twolink.training.action_rate import check_action_rate
+from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
+    EVALUATION_SEEDS, LEADERBOARD_SEED, MAX_ENVS, MAX_STEPS, MAX_THREADS, train_stream
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -96,7 +114,8 @@ def skrl_modules():
 @dataclasses.dataclass(frozen=True)
 class MarlConfig:
     """One IPPO or MAPPO run (fields as :class:`twolink.training.config.TrainConfig`'s;
-    ``observe``: what each policy sees; ``n_steps``: the rollout length per arm)."""
+    ``observe``: what each policy sees; ``n_steps``: the rollout length per arm;
+    ``challenge``, ``history``, ``action_rate``: see the module docstring)."""
 
     algo: str = "ippo"
     links: int = 2
@@ -110,10 +129,14 @@ class MarlConfig:
     device: str = "cpu"
     threads: int = 1
     base: str = "none"
+    challenge: str | None = None
+    history: int = 1
+    action_rate: float = 0.0
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
-                "eval_every", "device", "threads", "base")
+                "eval_every", "device", "threads", "base", "challenge", "history",
+                "action_rate")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -132,6 +155,22 @@ class MarlConfig:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
+        check_history(self.history)
+        object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
+        if self.challenge is not None:
+            choice(self.challenge, "challenge level", tuple(LEVELS))
+            if self.links != 2:
+                raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
+                                 f"this run has {self.links} links")
+            if self.seed in EVALUATION_SEEDS:
+                raise ValueError(f"seed {self.seed} is an evaluation seed (the leaderboard's "
+                                 f"and evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
+                                 f"training seeds must differ from the evaluation seeds")
+
+    def arm_seed(self) -> int:
+        """The seed of the arms' first reset (arm i: this + i): ``seed``, or under a
+        challenge :func:`twolink.training.config.train_stream` of it."""
+        return self.seed if self.challenge is None else train_stream(self.seed)
 
     def hyperparameters(self) -> dict:
         """:data:`HYPERPARAMETERS` with this run's arms and rollout length (the minibatch
@@ -159,7 +198,8 @@ class MarlConfig:
     def env_options(self) -> dict:
         """The options of :func:`batched_parallel_env` for this run."""
         return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
-                    reward=REWARDS[self.algo], observe=self.observe, nthread=1)
+                    reward=REWARDS[self.algo], observe=self.observe, nthread=1,
+                    challenge=self.challenge)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -176,10 +216,7 @@ class MarlConfig:
 
 
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
-NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
-            "challenge": "challenge levels are for --algo ppo|sac",
-            "history": "observation histories are for --algo ppo|sac",
-            "action_rate": "the action-rate penalty is for --algo ppo|sac"}
+NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only"}
 
 
 def config_from_options(given: dict) -> dict:
@@ -194,10 +231,15 @@ def config_from_options(given: dict) -> dict:
 
 
 def run_name(config: MarlConfig) -> str:
-    """``<algo>_<N>links_<observe>[_<base>]_seed<S>``: the default folder and the agent's
-    stem."""
+    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>]_seed<S>`` (PPO's
+    :func:`twolink.training.run.run_name` with the observation model): the default folder
+    and the agent's stem."""
+    level = f"_{config.challenge}" if config.challenge is not None else ""
+    memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
-    return f"{config.algo}_{config.links}links_{config.observe}{base}_seed{config.seed}"
+    rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
+    return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
+            f"_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:
@@ -213,6 +255,12 @@ def versions() -> dict:
 
 
 def evaluation_protocol(config: MarlConfig) -> dict:
+    """What an evaluation of ``config``'s controller runs (recorded in the curve; PPO's
+    :func:`twolink.training.run.evaluation_protocol` with the controller named)."""
+    if config.challenge is not None:
+        return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
+                "plant": "mujoco", "challenge": config.challenge, "plants": EVAL_PLANTS,
+                "seed": EVAL_SEED, "controller": "decentralized: each joint from its agent"}
     if config.links == 2:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco", "controller": "decentralized: each joint from its agent"}
@@ -229,7 +277,10 @@ def evaluate_controller(agent, config: MarlConfig):
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
-        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
+        level = {} if config.challenge is None else dict(
+            challenge=config.challenge, seed=EVAL_SEED, count=EVAL_PLANTS)
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1,
+                        **level).score
     from twolink.sim.metrics import random_poses, score, settle_time, success
     from twolink.sim.plants import MujocoPlant
     from twolink.sim.rollout import rollout
@@ -310,7 +361,9 @@ def _loop(config, learner, out, record, clocks, total, every, say) -> None:
         write_json(out / CURVE, record)
         lo, hi = sc.wilson_95
         p = record["curve"][-1]
-        base = "" if config.base == "none" else f" over base {config.base}"
+        base = "" if config.challenge is None else f" under {config.challenge}"
+        base += "" if config.history == 1 else f" history {config.history}"
+        base += "" if config.base == "none" else f" over base {config.base}"
         say(f"train {config.algo} {config.links} links ({config.observe}){base} seed "
             f"{config.seed}: {learner.steps:,}/{total:,} steps  {sc.successes}/{sc.n} "
             f"succeed [{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")

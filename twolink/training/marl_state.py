@@ -9,7 +9,11 @@ clip the actions to [-1, 1] (with a base, ``MarlConfig(base='pd')``, turn them i
 clip(PD_i + tau_max_i a_i, +-tau_max_i) per joint, :mod:`twolink.control.residual`,
 scaled back to the env's normalized actions), step the env, record the transition (bootstrapping a
 truncated episode from the env's ``final_observation``), ``post_interaction`` (which
-updates after every ``n_steps`` vector steps).
+updates after every ``n_steps`` vector steps). With a ``history`` K > 1 each agent acts
+on its own history (:class:`twolink.training.marl_history.AgentHistories`); with an
+``action_rate`` c > 0 the rewards recorded carry the penalty of
+:func:`twolink.training.action_rate.agent_penalties`; under a ``challenge`` the arms
+start from :meth:`MarlConfig.arm_seed` (the training stream).
 
 Checkpoints are taken at the end of an update cycle only: skrl's memory has then been
 consumed by the update and the next cycle overwrites every row of it before it is read,
@@ -21,7 +25,10 @@ threads):
 * skrl's rollout counter; torch's generator (Gaussian actions, minibatch permutations;
   CUDA's too on ``--device cuda``), numpy's and Python's global ones;
 * the env: every arm's state, clock, last sample outside the band and generator, the last
-  actions, and the observations the next step acts on.
+  actions, and the observations the next step acts on; under a challenge, each arm's
+  drawn plant, torques and readings in flight and faults
+  (:func:`twolink.training.episodes.capture`); the agents' histories (K > 1) and last
+  actions (an action-rate penalty).
 
 The file is one ``torch.save`` of ``{"header": <JSON>, "state": <tensors and plain
 containers>}`` of schema :data:`SCHEMA`, read with ``torch.load(weights_only=True)``; a
@@ -36,7 +43,9 @@ import numpy as np
 
 from twolink.arm.parameters import chain
 from twolink.control.residual import residual_torques
-from twolink.training import checkpoint
+from twolink.training import checkpoint, episodes
+from twolink.training.action_rate import agent_penalties
+from twolink.training.marl_history import AgentHistories
 from twolink.training.checkpoint import (
     generator_from_state,
     generator_state,
@@ -110,8 +119,11 @@ class Learner:
         self.columns = [[names.index(c) for c in comp] for comp in parts]
         self.angles = [[c.startswith("theta") for c in comp] for comp in parts]
         n, device = hp["n_envs"], config.device
-        obs_spaces = {a: spaces.Box(-np.inf, np.inf, self.env.observation_space(a).shape,
-                                    np.float32) for a in self.agents}
+        self.histories = AgentHistories(self.agents, n, {
+            a: self.env.observation_space(a).shape[0] for a in self.agents}, config.history)
+        self.last = np.zeros((n, config.links))           # the action-rate penalty's
+        obs_spaces = {a: spaces.Box(-np.inf, np.inf, (self.histories.size(a),), np.float32)
+                      for a in self.agents}
         state = spaces.Box(-np.inf, np.inf, (3 * config.links,), np.float32)
         act = {a: spaces.Box(-1.0, 1.0, (1,), np.float32) for a in self.agents}
         Policy, Value = _models(torch, hp["hidden"], hp["activation"], hp["log_std_init"])
@@ -164,8 +176,9 @@ class Learner:
     def learn(self, steps: int, total: int) -> None:
         """Step ``steps`` environment steps (whole update cycles) of a run of ``total``."""
         torch, n = self.torch, self.hp["n_envs"]
+        c, team = self.config.action_rate, self.config.algo == "mappo"
         if self.obs is None:
-            self.obs, _ = self.env.reset(seed=self.config.seed)
+            self.obs = self.histories.start(self.env.reset(seed=self.config.arm_seed())[0])
         for _ in range(steps // n):
             t, tt = self.steps // n, total // n
             obs = {a: self._tensor(self.obs[a]) for a in self.agents}
@@ -176,13 +189,23 @@ class Learner:
                 actions, _ = self.agent.act(obs, states, timestep=t, timesteps=tt)
             sent = {a: np.clip(actions[a].cpu().numpy().astype(np.float64), -1.0, 1.0)
                     for a in self.agents}
+            self.histories.act(sent)
+            own = np.concatenate([sent[a].reshape(n, 1) for a in self.agents], 1)
+            fine = agent_penalties(own, self.last, c, team) if c > 0 else None
             if self.base is not None:         # joint i: its PD plus agent i's residual
                 u = residual_torques(self.base, x, np.concatenate(
                     [sent[a].reshape(n, 1) for a in self.agents], 1), self.tau_max)
                 sent = {a: (u[:, i] / self.tau_max[i]).reshape(sent[a].shape)
                         for i, a in enumerate(self.agents)}
             nxt, rewards, terms, truncs, infos = self.env.step(sent)
-            final = {a: self._tensor(infos[a]["final_observation"]) for a in self.agents}
+            ended = truncs[self.agents[0]]
+            nxt, final = self.histories.step(
+                nxt, {a: infos[a]["final_observation"] for a in self.agents}, ended)
+            final = {a: self._tensor(final[a]) for a in self.agents}
+            if fine is not None:
+                rewards = {a: rewards[a] - fine[:, i] for i, a in enumerate(self.agents)}
+                self.last = own
+                self.last[ended] = 0.0                     # a new episode begins
             s2 = self._state(infos[self.agents[0]]["final_state"])
             b = lambda v: torch.as_tensor(v, device=self.config.device).reshape(n, 1)  # noqa
             self.agent.record_transition(
@@ -209,7 +232,9 @@ class Learner:
                 "reward": c.env_options()["reward"], "hidden": list(self.hp["hidden"]),
                 "activation": self.hp["activation"], "agents": list(self.agents),
                 "columns": self.columns, "angles": self.angles, "seed": c.seed,
-                "steps": int(self.steps),
+                "steps": int(self.steps), "challenge": c.challenge, "history": c.history,
+                "observation_layouts": [self.histories.layout(a) for a in self.agents],
+                "action_rate": c.action_rate,
                 **({} if self.base is None else {"base": c.base, "base_gains": self.gains})}
 
     def controller(self):
@@ -218,15 +243,14 @@ class Learner:
 
         nets = []
         for i, a in enumerate(self.agents):
-            net = policy_net(sum(2 if f else 1 for f in self.angles[i]), self.hp["hidden"],
-                             self.hp["activation"])
+            net = policy_net(self.histories.size(a), self.hp["hidden"], self.hp["activation"])
             net.load_state_dict(self.models[a]["policy"].net.state_dict())
             nets.append(net.eval())
         c = self.config
         return MarlController(nets, self.columns, self.angles,
                               arm_tau_max(c.links, c.rule if c.links > 2 else None),
                               name=f"{c.algo}_seed{c.seed}", meta={"algo": c.algo},
-                              base=self.base)
+                              base=self.base, history=c.history)
 
     def save_agent(self, path) -> Path:
         from twolink.control.marl_agent import save_marl_agent
@@ -261,6 +285,13 @@ class Learner:
                                "last": to_tensor(self.env._last)}
             tensors["obs"] = {a: to_tensor(o) for a, o in self.obs.items()}
             plain["arm_generators"] = [generator_state(r) for r in arms.rngs]
+            if self.config.challenge is not None:
+                tensors["episodes"] = episodes.capture(self.env)
+            if self.config.history > 1:
+                tensors["histories"] = {a: {k: to_tensor(v) for k, v in h.items()}
+                                        for a, h in self.histories.state().items()}
+            if self.config.action_rate > 0:
+                tensors["last_actions"] = to_tensor(self.last)
         return plain, tensors
 
     def restore(self, plain: dict, tensors: dict) -> None:
@@ -283,6 +314,14 @@ class Learner:
                 arms.sensors.set_generator(i, arms.rngs[i])
             self.env._started = True
             self.obs = {a: to_array(t).astype(np.float64) for a, t in tensors["obs"].items()}
+            if "episodes" in tensors:
+                episodes.restore(self.env, tensors["episodes"])
+            if "histories" in tensors:
+                self.histories.set_state({a: {k: to_array(v) for k, v in h.items()}
+                                          for a, h in tensors["histories"].items()})
+            if "last_actions" in tensors:
+                self.last = to_array(tensors["last_actions"]).astype(float).reshape(
+                    self.last.shape)
         version, key, gauss = plain["python_random"]
         random.setstate((version, tuple(key), gauss))
         np.random.set_state({"bit_generator": "MT19937",
