@@ -90,7 +90,8 @@ def test_pd_entries_carry_the_tuned_gains():
     (["pd_3link_tapered", "--links", "4"], "controls an arm of 3 links; give --links 3"),
     (["lqr", "--links", "3"], "controls an arm of 2 links"),
     (["pd", "--links", "2", "--rule", "copied"], "--rule makes links beyond the second"),
-    (["pd", "--poses", "8"], "--poses need --links N"),
+    (["pd", "--poses", "8"], "--poses needs --links N"),
+    (["pd", "--poses", "8", "--plant", "model"], "--poses, --plant need --links N"),
     (["pd_9link_tapered", "--links", "3"], "unknown controller 'pd_9link_tapered'"),
 ])
 def test_bad_input_is_one_line_exit_2(argv, words, capsys):
@@ -99,6 +100,29 @@ def test_bad_input_is_one_line_exit_2(argv, words, capsys):
     assert captured.out == ""
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and words in lines[0], lines
+
+
+def test_plant_model_scores_the_same_poses_on_the_rigid_body_model(capsys):
+    """--plant model runs the poses on the model (6): the same draw, another plant, so a
+    controller's two scores differ only by the plant (here the trajectories' settle
+    times differ, the draw and count do not)."""
+    mj = _json(capsys, "pd_3link_tapered", "--links", "3", "--poses", "6")
+    model = _json(capsys, "pd_3link_tapered", "--links", "3", "--poses", "6", "--plant", "model")
+    assert (mj["plant"], model["plant"]) == ("mujoco", "model")
+    assert (model["poses_seed"], model["n"]) == (mj["poses_seed"], 6)
+    from twolink.arm.parameters import horizon
+    from twolink.control.controllers import resolve_controller
+    from twolink.envs.core import arm
+    from twolink.sim.plants import ModelPlant
+    from twolink.sim.pose_scoring import poses_for
+    from twolink.sim.rollout import rollout
+    from twolink.sim.metrics import success
+
+    params = arm(links=3, rule="tapered")
+    with ModelPlant("full", params) as plant:
+        traj = rollout(resolve_controller("pd_3link_tapered", links=3), plant,
+                       poses_for(3, 6, 20061122), duration=horizon(3))
+    assert int(success(traj).sum()) == model["successes"]
 
 
 def test_two_links_on_the_protocol_and_the_two_link_evaluate_unchanged(capsys):

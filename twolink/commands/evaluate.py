@@ -38,7 +38,10 @@ DEFAULT_POSES = 64
 POSE_SEED = 20061122
 #: Options of the two-link evaluation that ``--links`` does not take, and vice versa.
 TWO_LINK_OPTIONS = ("challenge", "compensate", "plants", "states", "worst_case")
-LINKS_OPTIONS = ("rule", "poses")
+LINKS_OPTIONS = ("rule", "poses", "plant")
+#: ``--plant`` (with --links): what the poses run on -> :func:`twolink.sim.plants.make_plant`'s
+#: name; the spelling of ``twolink train --plant``.
+EVAL_PLANTS = {"mujoco": "mujoco", "model": "full"}
 
 
 def add_parser(sub):
@@ -82,12 +85,16 @@ def add_parser(sub):
     p.add_argument("--poses", type=int, default=None, metavar="K",
                    help=f"random poses at rest with --links (1 to {MAX_POSES}; default "
                         f"{DEFAULT_POSES})")
+    p.add_argument("--plant", default=None, choices=tuple(EVAL_PLANTS),
+                   help="with --links: run the poses on MuJoCo (default) or on the "
+                        "rigid-body model (6) that `twolink train --plant model` trains "
+                        "on; the two scores of one agent are its transfer gap")
     return p
 
 
 def links_result(controller: str, *, links: int, rule: str | None = None,
                  poses: int = DEFAULT_POSES, seed: int = POSE_SEED,
-                 timeout: float | None = None) -> dict:
+                 timeout: float | None = None, plant: str = "mujoco") -> dict:
     """The JSON of ``twolink evaluate --links N``: ``controller`` (a catalogue name,
     policy file, ``module:callable`` or ``file.py:callable`` for N links) scored by
     :func:`twolink.sim.pose_scoring.score_on_poses`, the scaling table's scorer, on
@@ -95,7 +102,10 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
     (:func:`twolink.arm.parameters.horizon`). ``rule`` defaults to the catalogue entry's
     (``pd_3link_copied`` runs on the copied arm), else ``'tapered'``. A ValueError (one line) for links outside
     the arm's range, an unknown rule, a rule with two links, poses outside 1 ..
-    :data:`MAX_POSES` or a seed outside 0 .. 2**63 - 1 - N."""
+    :data:`MAX_POSES` or a seed outside 0 .. 2**63 - 1 - N. ``plant``: ``mujoco`` (the
+    MJCF arm, default) or ``model`` (the rigid-body model (6) that ``twolink train --plant
+    model`` trains on), :data:`EVAL_PLANTS`; the gap between the two is a model-trained
+    agent's transfer gap."""
     from twolink.arm.parameters import check_links, horizon
     from twolink.control.controllers import resolve_controller
     from twolink.envs.core import arm
@@ -117,6 +127,8 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
         raise ValueError(f"--seed must be a whole number from 0 to {2**63 - 1 - n} (poses "
                          f"are drawn from seed + N), got {seed}")
     timeout = check_timeout(timeout, "--timeout")
+    if plant not in EVAL_PLANTS:
+        raise ValueError(f"--plant must be one of {', '.join(EVAL_PLANTS)}, got {plant!r}")
     from twolink.control.catalogue import catalogue
     entry = catalogue().get(controller)   # a catalogue entry says which arm it is for
     if entry is not None and entry.links != n:
@@ -135,8 +147,9 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
                          f"(got --links {n})")
     c = checked(c, name=c.name, links=n, timeout=timeout)
     end = horizon(n)
-    drawn, scores = score_on_poses(c, params, poses=int(poses), seed=seed, durations=(end,))
-    return {"controller": c.name, "links": n, "rule": rule_of(params),
+    drawn, scores = score_on_poses(c, params, poses=int(poses), seed=seed, durations=(end,),
+                                   plant=EVAL_PLANTS[plant])
+    return {"controller": c.name, "links": n, "rule": rule_of(params), "plant": plant,
             "protocol": "random poses at rest (twolink.sim.pose_scoring)",
             "poses": int(poses), "seed": seed, "poses_seed": drawn, "horizon": end,
             **scores[end].as_dict()}
@@ -218,12 +231,14 @@ def run_links(args) -> int:
     r = links_result(args.controller, links=args.links, rule=args.rule,
                      poses=DEFAULT_POSES if args.poses is None else args.poses,
                      seed=POSE_SEED if args.seed is None else args.seed,
-                     timeout=args.timeout)
+                     timeout=args.timeout,
+                     plant="mujoco" if args.plant is None else args.plant)
     if args.json:
         print(json.dumps(r, indent=2))
         return 0
     settle = "never" if r["median_settle"] is None else f"{r['median_settle']:.2f} s"
     arm = "two links" if r["links"] == 2 else f"{r['links']} links, {r['rule']}"
+    arm += "" if r["plant"] == "mujoco" else ", on the model (6)"
     print(f"{r['controller']} on {arm} ({r['poses']} random poses at rest, seed "
           f"{r['seed']} + {r['links']}, {r['horizon']:g} s): "
           f"{format_rate(r['successes'], r['n'])}; median settle {settle}")
@@ -235,8 +250,9 @@ def run(args) -> int:
 
     if args.links is not None:
         return run_links(args)
-    if _given(args, LINKS_OPTIONS):
-        raise ValueError(f"{', '.join(_given(args, LINKS_OPTIONS))} need --links N (the "
+    given = _given(args, LINKS_OPTIONS)
+    if given:
+        raise ValueError(f"{', '.join(given)} need{'s' if len(given) == 1 else ''} --links N (the "
                          f"scaling table's protocol); without it evaluate scores the two-link "
                          f"arm on the 65 states")
     r = result(args.controller,

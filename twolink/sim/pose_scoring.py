@@ -38,12 +38,14 @@ def truncated(traj: Trajectory, duration: float) -> Trajectory:
                                r_links=traj.r_links[..., :k, :])
 
 
-def score_poses(policy, params, x0, durations) -> dict:
-    """``{duration: Score}``: ``policy`` run on the MuJoCo arm ``params`` from the states
-    ``x0`` (B, 2N) for the longest of ``durations`` (seconds) and scored at each
-    (successes, 95 % Wilson interval, median settle time: :func:`twolink.sim.metrics.score`)."""
+def score_poses(policy, params, x0, durations, plant: str = "mujoco") -> dict:
+    """``{duration: Score}``: ``policy`` run on the arm ``params`` from the states ``x0``
+    (B, 2N) for the longest of ``durations`` (seconds) and scored at each (successes, 95 %
+    Wilson interval, median settle time: :func:`twolink.sim.metrics.score`). ``plant``:
+    ``mujoco`` (the MJCF arm) or ``full`` (the rigid-body model (6), for N links
+    :func:`twolink.arm.dynamics.chain_acceleration`), :func:`make_plant`'s names."""
     durations = tuple(durations)
-    with make_plant("mujoco", params) as plant:
+    with make_plant(plant, params) as plant:
         traj = rollout(policy, plant, x0, duration=max(durations))
     out = {}
     for h in durations:
@@ -60,15 +62,16 @@ def poses_for(links: int, poses: int, seed: int):
 
 
 def score_on_poses(policy, params, *, poses: int, seed: int,
-                   durations=None) -> tuple[int, dict]:
+                   durations=None, plant: str = "mujoco") -> tuple[int, dict]:
     """The scaling table's evaluation of ``policy`` on the arm ``params``: ``poses``
     random poses at rest of :func:`poses_for` (seed + N), scored at every horizon of
-    ``durations`` (default :func:`horizons`). Returns (the seed the poses were drawn
-    from, ``{duration: Score}``)."""
+    ``durations`` (default :func:`horizons`) on ``plant`` (:func:`score_poses`). Returns
+    (the seed the poses were drawn from, ``{duration: Score}``)."""
     links = params.links
     x0 = poses_for(links, poses, seed)
     return seed + links, score_poses(policy, params, x0,
-                                     horizons(links) if durations is None else durations)
+                                     horizons(links) if durations is None else durations,
+                                     plant=plant)
 
 
 __all__ = ["Score", "horizons", "poses_for", "score_on_poses", "score_poses", "truncated"]
