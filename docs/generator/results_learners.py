@@ -59,14 +59,41 @@ def _targets(rows: list) -> list:
     return out
 
 
+def _transfer(rows: list) -> str:
+    """The transfer gap per arm: PPO trained on the model (6) scored on the model and on
+    MuJoCo, beside PPO trained on MuJoCo scored on both, on the same fresh poses."""
+    from twolink.viz.formatting import format_rate
+
+    def cell(r, key):
+        m = r.get(key) if r else None
+        return "—" if not m else format_rate(m["successes"], m["n"])
+
+    out = ["PPO (centralized) trained on the rigid-body model (6) (`twolink train --plant "
+           "model`) and on MuJoCo, each final agent scored on the same fresh poses on both "
+           "plants; the paper's policies' gap between model and MuJoCo is on the "
+           "[mismatch page](mismatch.md).", "",
+           "| N | links | trained on | on the model (6) | on MuJoCo |", "|---|---|---|---|---|"]
+    arms = sorted({(r["links"], r["rule"]) for r in rows if r["plant"] == "model"},
+                  key=lambda a: (a[0], a[1] != "tapered"))
+    for arm in arms:
+        for plant in ("model", "mujoco"):
+            r = next((r for r in rows if (r["links"], r["rule"]) == arm and r["algo"] == "ppo"
+                      and r["base"] == "none" and r["plant"] == plant), None)
+            if r is not None:
+                out.append(f"| {arm[0]} | {arm[1]} | {'the model (6)' if plant == 'model' else 'MuJoCo'} "
+                           f"({len(r['seeds'])} seed(s)) | {cell(r, 'fresh_model')} | "
+                           f"{cell(r, 'fresh')} |")
+    return "\n".join(out) if arms else "Not yet run: no learner trained on the model."
+
+
 def learners_page(data: dict) -> str:
-    from twolink.studies.learners.plan import ARMS, LEARNERS, SEEDS
+    from twolink.studies.learners.plan import plan
     from twolink.studies.learners.report import rows, table
 
     ceiling = _ceiling()
     rs = rows(data, ceiling)
     done = len(data["runs"])
-    planned = len(ARMS) * len(LEARNERS) * len(SEEDS)
+    planned = len(plan())
     seeds = sorted({r["run"]["seed"] for r in data["runs"]})
     return "".join([
         _stamp(DATA), "# Today's learners on N links\n\n",
@@ -89,6 +116,7 @@ def learners_page(data: dict) -> str:
         "curve's evaluations; peak memory is the training process's resident set.\n\n",
         table(rs) if rs else "No run has finished yet.", "\n\n",
         "## Targets\n\n", "\n".join(_targets(rs)), "\n\n",
+        "## Transfer: trained on the model, run on MuJoCo\n\n", _transfer(rs), "\n\n",
         "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",
         "Thin lines: one seed each, success of the deterministic policy on the curve's 64 "
         "poses of the scaling table; dashed: the ceiling.\n"])

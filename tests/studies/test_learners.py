@@ -15,7 +15,7 @@ from twolink.studies.learners import report
 
 def test_plan_is_seed_major_small_arms_first_and_ids_unique():
     runs = P.plan()
-    over_pd = sum(b == "pd" for _, _, b in P.LEARNERS)         # not on the two-link arm
+    over_pd = sum(b == "pd" for _, _, b, _ in P.LEARNERS)      # not on the two-link arm
     assert len(runs) == (len(P.ARMS) * len(P.LEARNERS) - over_pd) * len(P.SEEDS)
     assert not [r for r in runs if r.links == 2 and r.base == "pd"]
     assert len({r.id for r in runs}) == len(runs)
@@ -24,12 +24,17 @@ def test_plan_is_seed_major_small_arms_first_and_ids_unique():
     first = runs[:len(runs) // len(P.SEEDS)]
     assert [r.links for r in first] == sorted(r.links for r in first)
     assert runs[0].id == "ppo_2t_seed0" and runs[0].steps == P.STEPS[2]
-    (run,) = P.plan(arms=((4, "copied"),), learners=(("ippo", "local", "pd"),), seeds=(2,),
-                    steps=4096)
+    (run,) = P.plan(arms=((4, "copied"),), learners=(("ippo", "local", "pd", "mujoco"),),
+                    seeds=(2,), steps=4096)
     assert run.id == "ippo-local-pd_4c_seed2"
     assert run.train_args() == [
         "--algo", "ippo", "--links", "4", "--rule", "copied", "--steps", "4096",
         "--seed", "2", "--eval-every", "4096", "--observe", "local", "--base", "pd"]
+    (model,) = P.plan(arms=((3, "tapered"),), learners=(("ppo", "global", "none", "model"),),
+                      seeds=(0,))
+    assert model.id == "ppo-model_3t_seed0" and model.train_args()[-2:] == ["--plant", "model"]
+    with pytest.raises(ValueError, match="plant"):         # skrl's learners step MuJoCo only
+        P.plan(learners=(("ippo", "local", "none", "model"),))
 
 
 def test_fresh_poses_seed_is_used_by_nothing_else():
@@ -51,8 +56,11 @@ def test_bad_arm_is_one_line(text, message):
 
 def test_arms_and_learners_parse():
     assert P.parse_arm("4c") == (4, "copied") and P.parse_arm("6") == (6, "tapered")
-    assert P.parse_learner("mappo-neighbours") == ("mappo", "neighbours", "none")
-    assert P.parse_learner("ippo-local-pd") == ("ippo", "local", "pd")
+    assert P.parse_learner("mappo-neighbours") == ("mappo", "neighbours", "none", "mujoco")
+    assert P.parse_learner("ippo-local-pd") == ("ippo", "local", "pd", "mujoco")
+    assert P.parse_learner("ppo-model") == ("ppo", "global", "none", "model")
+    with pytest.raises(ValueError, match="unknown learner 'ippo-local-model'"):
+        P.parse_learner("ippo-local-model")
     with pytest.raises(ValueError, match="unknown learner 'sac'.*ippo-local"):
         P.parse_learner("sac")
 
@@ -133,15 +141,22 @@ def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
     r = _cli("--smoke", "--json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     rows = json.loads(r.stdout)
-    assert [(x["links"], x["algo"], x["base"]) for x in rows] == [
-        (2, "ppo", "none"), (2, "ippo", "none"), (3, "ppo", "none"), (3, "ippo", "none"),
-        (3, "ippo", "pd")]
+    assert [(x["links"], x["algo"], x["base"], x["plant"]) for x in rows] == [
+        (2, "ppo", "none", "mujoco"), (2, "ippo", "none", "mujoco"),
+        (2, "ppo", "none", "model"), (3, "ppo", "none", "mujoco"),
+        (3, "ippo", "none", "mujoco"), (3, "ippo", "pd", "mujoco"), (3, "ppo", "none", "model")]
     for x in rows:
         assert x["fresh"]["n"] == P.SMOKE["poses"] and x["steps"] == P.SMOKE["steps"]
         assert x["parameters"] > 1000 and x["cpu_us_per_step"] > 0
+        assert x["fresh_model"]["n"] == P.SMOKE["poses"]     # the same poses on the model
     data = json.loads((tmp_path / "twolink-results/learners-smoke/learners.json").read_text())
-    assert data["schema"] == P.SCHEMA and len(data["runs"]) == 5
+    assert data["schema"] == P.SCHEMA and len(data["runs"]) == 7
     assert data["runs"][0]["fresh"]["poses_seed"] in {P.FRESH_SEED + 2, P.FRESH_SEED + 3}
+    model_run = next(r for r in data["runs"] if r["id"] == "ppo-model_2t_seed0")
+    curve = json.loads((tmp_path / "twolink-results/learners-smoke/runs/ppo-model_2t_seed0/"
+                        "curve.json").read_text())
+    assert curve["config"]["plant"] == "model"             # trained on the model (6)
+    assert model_run["fresh_model"]["poses_seed"] == model_run["fresh"]["poses_seed"]
     again = _cli("--smoke", cwd=tmp_path)
-    assert again.returncode == 0 and "5 of 5 runs" in again.stderr
+    assert again.returncode == 0 and "7 of 7 runs" in again.stderr
     assert "training" not in again.stderr

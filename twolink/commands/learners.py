@@ -1,10 +1,11 @@
 """``twolink learners``: Table II for today's learners, a resumable study.
 
-Trains centralized PPO and IPPO / MAPPO (local and neighbours observations), and PPO,
-IPPO and MAPPO (local) as residuals over the per-joint PD, on N = 2..6 tapered links and
-copied N = 3, 4, three seeds each (``twolink train`` runs with one
-hyperparameter set per algorithm), scores every final agent on 256 poses of the scaling
-table and 256 fresh poses at 8 s, and writes the study's JSON after every finished run,
+Trains centralized PPO and IPPO / MAPPO (local and neighbours observations), PPO, IPPO
+and MAPPO (local) as residuals over the per-joint PD, and PPO on the rigid-body model (6)
+instead of MuJoCo, on N = 2..6 tapered links and copied N = 3, 4, three seeds each
+(``twolink train`` runs with one hyperparameter set per algorithm), scores every final
+agent on 256 poses of the scaling table and 256 fresh poses at 8 s (those also on the
+model: the transfer gap), and writes the study's JSON after every finished run,
 with its table and learning-curve figure beside it. Run the same command again to
 continue: finished runs are kept, an interrupted one resumes from its last checkpoint.
 --seeds 0 is the one-seed version; --smoke checks the pipeline in a few thousand steps.
@@ -34,8 +35,9 @@ def add_parser(sub):
                         "2 3 4 5 6 3c 4c)")
     p.add_argument("--learners", nargs="+", metavar="L", default=None,
                    help="ppo, ippo-local, ippo-neighbours, mappo-local, mappo-neighbours, "
-                        "and with -pd the residual over the per-joint PD (default: those "
-                        "five, ppo-pd, ippo-local-pd, mappo-local-pd)")
+                        "with -pd the residual over the per-joint PD, ppo-model trained on "
+                        "the model (6) (default: those five, ppo-pd, ippo-local-pd, "
+                        "mappo-local-pd, ppo-model)")
     p.add_argument("--seeds", nargs="+", type=int, metavar="S", default=None,
                    help="seeds (default 0 1 2; 0 alone is the one-seed version)")
     p.add_argument("--steps", type=float, default=None, metavar="N",
@@ -44,9 +46,9 @@ def add_parser(sub):
     p.add_argument("--poses", type=int, default=None, metavar="K",
                    help=f"poses of each final score, table and fresh (default {P.POSES})")
     p.add_argument("--smoke", action="store_true",
-                   help="the pipeline end to end in a few thousand steps: N = 2, 3, PPO and "
-                        "IPPO (local; N = 3 also over the PD), seed 0, 8 poses (learning "
-                        "quality not judged)")
+                   help="the pipeline end to end in a few thousand steps: N = 2, 3, PPO "
+                        "(on MuJoCo and on the model) and IPPO (local; N = 3 also over the "
+                        "PD), seed 0, 8 poses (learning quality not judged)")
     p.add_argument("--work", type=Path, default=None, metavar="DIR",
                    help="the runs' folders (checkpoints, agents; default "
                         "<output>/learners/runs)")

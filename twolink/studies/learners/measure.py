@@ -6,7 +6,9 @@ train ... -o WORK/<id>``; ``--resume`` when the folder holds an interrupted run,
 interruption loses at most one evaluation period), reads the child's peak resident
 memory from the kernel (``os.wait4``), then scores the final agent with ``twolink
 evaluate AGENT --links N --rule R --poses K --seed S --json`` on the scaling table's poses
-and on fresh ones (:data:`~.plan.FRESH_SEED`) and counts the parameters the agent file
+and on fresh ones (:data:`~.plan.FRESH_SEED`), those again on the rigid-body model (6)
+(``--plant model``: the transfer gap of a model-trained agent, the model's error seen from
+a MuJoCo-trained one), and counts the parameters the agent file
 holds (read with ``torch.load(weights_only=True)``). :func:`study` runs a plan, ``workers``
 runs at a time on this machine (``executor="local"``) or as tasks on a Ray cluster
 (``executor="ray"``), skipping every run the JSON already holds, and rewrites the JSON
@@ -92,10 +94,11 @@ def parameter_count(path: Path) -> int:
     return count(tree)
 
 
-def _score(agent: Path, run: Run, poses: int, seed: int, log) -> dict:
+def _score(agent: Path, run: Run, poses: int, seed: int, log, plant: str = "mujoco") -> dict:
     rule = ["--rule", run.rule] if run.links > 2 else []     # two links: Table I's arm
     text, code, _ = _child(_twolink("evaluate", agent, "--links", run.links, *rule,
-                                    "--poses", poses, "--seed", seed, "--json"),
+                                    "--poses", poses, "--seed", seed, "--plant", plant,
+                                    "--json"),
                            log, f"  {run.id} evaluate: ")
     if code != 0:
         raise RuntimeError(f"scoring {agent} failed (exit {code})")
@@ -130,7 +133,8 @@ def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
             "hyperparameters": record.get("hyperparameters"),
             "versions": record.get("versions"),
             "table": _score(agent, run, poses, TABLE_SEED, log),
-            "fresh": _score(agent, run, poses, FRESH_SEED, log)}
+            "fresh": _score(agent, run, poses, FRESH_SEED, log),
+            "fresh_model": _score(agent, run, poses, FRESH_SEED, log, plant="model")}
 
 
 

@@ -34,14 +34,19 @@ SCHEMA, VERSION = "twolink.learners", 1
 #: The arms: (links, rule).
 ARMS = ((2, "tapered"), (3, "tapered"), (4, "tapered"), (5, "tapered"), (6, "tapered"),
         (3, "copied"), (4, "copied"))
-#: The learners: (algo, observe, base); PPO is centralized and observes the whole arm;
-#: base ``pd``: the action is a residual over the tuned per-joint PD (``twolink train
+#: The learners: (algo, observe, base, plant); PPO is centralized and observes the whole
+#: arm; base ``pd``: the action is a residual over the tuned per-joint PD (``twolink train
 #: --base pd``, 3 to 6 links; each joint's PD reads only its own joint, so IPPO/MAPPO over
-#: it stay decentralized).
-LEARNERS = (("ppo", "global", "none"), ("ippo", "local", "none"),
-            ("ippo", "neighbours", "none"), ("mappo", "local", "none"),
-            ("mappo", "neighbours", "none"), ("ppo", "global", "pd"),
-            ("ippo", "local", "pd"), ("mappo", "local", "pd"))
+#: it stay decentralized); plant ``model``: trained on the rigid-body model (6) instead of
+#: MuJoCo (``twolink train --plant model``, PPO only), for the transfer gap: every final
+#: agent is also scored on the model (:mod:`.measure`).
+LEARNERS = (("ppo", "global", "none", "mujoco"), ("ippo", "local", "none", "mujoco"),
+            ("ippo", "neighbours", "none", "mujoco"), ("mappo", "local", "none", "mujoco"),
+            ("mappo", "neighbours", "none", "mujoco"), ("ppo", "global", "pd", "mujoco"),
+            ("ippo", "local", "pd", "mujoco"), ("mappo", "local", "pd", "mujoco"),
+            ("ppo", "global", "none", "model"))
+#: What a run trains on: ``twolink train --plant``.
+TRAIN_PLANTS = ("mujoco", "model")
 #: Seeds of the learners and their arms.
 SEEDS = (0, 1, 2)
 #: Environment steps of a run, by links.
@@ -57,9 +62,10 @@ TABLE_SEED = 20061122
 #: leaderboard's 2026).
 FRESH_SEED = 4_180_000
 #: The smoke plan CI runs: two arms, one step budget of a few updates, few poses.
-SMOKE = dict(arms=((2, "tapered"), (3, "tapered")), learners=(("ppo", "global", "none"),
-             ("ippo", "local", "none"), ("ippo", "local", "pd")), seeds=(0,), steps=4096,
-             poses=8)
+SMOKE = dict(arms=((2, "tapered"), (3, "tapered")),
+             learners=(("ppo", "global", "none", "mujoco"), ("ippo", "local", "none", "mujoco"),
+                       ("ippo", "local", "pd", "mujoco"), ("ppo", "global", "none", "model")),
+             seeds=(0,), steps=4096, poses=8)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,11 +80,13 @@ class Run:
     steps: int
     eval_every: int
     base: str = "none"
+    plant: str = "mujoco"
 
     @property
     def learner(self) -> str:
-        """The learner's name: ``ppo``, ``ippo-local``, ... (``-pd`` over the PD)."""
-        return learner_id(self.algo, self.observe, self.base)
+        """The learner's name: ``ppo``, ``ippo-local``, ... (``-pd`` over the PD,
+        ``-model`` trained on the model)."""
+        return learner_id(self.algo, self.observe, self.base, self.plant)
 
     @property
     def id(self) -> str:
@@ -88,7 +96,7 @@ class Run:
     @property
     def row(self) -> tuple:
         """The row of the study's table the run belongs to (seeds pooled)."""
-        return (self.links, self.rule, self.algo, self.observe, self.base)
+        return (self.links, self.rule, self.algo, self.observe, self.base, self.plant)
 
     def train_args(self) -> list:
         """The ``twolink train`` options of the run."""
@@ -99,6 +107,8 @@ class Run:
             args += ["--observe", self.observe]
         if self.base != "none":
             args += ["--base", self.base]
+        if self.plant != "mujoco":
+            args += ["--plant", self.plant]
         return args
 
     def as_dict(self) -> dict:
@@ -111,10 +121,11 @@ def plan(*, arms=ARMS, learners=LEARNERS, seeds=SEEDS, steps=None) -> list:
     for links, rule in arms:
         whole(links, "links", MIN_LINKS, MAX_LINKS)
         choice(rule, "rule", LINK_RULES)
-    for algo, observe, base in learners:
+    for algo, observe, base, plant in learners:
         choice(algo, "algo", ("ppo", "ippo", "mappo"))
         choice(observe, "observe", ("global",) if algo == "ppo" else OBSERVE)
         choice(base, "base", ("none", "pd"))
+        choice(plant, "plant", TRAIN_PLANTS if algo == "ppo" else ("mujoco",))
     for s in seeds:
         whole(s, "seed", 0, 2**31 - 1)
     if steps is not None:
@@ -122,26 +133,28 @@ def plan(*, arms=ARMS, learners=LEARNERS, seeds=SEEDS, steps=None) -> list:
     runs = []
     for seed in seeds:
         for links, rule in sorted(arms, key=lambda a: (a[0], a[1] != "tapered")):
-            for algo, observe, base in learners:
+            for algo, observe, base, plant in learners:
                 if base == "pd" and links == 2:        # the PD is tuned for 3 to 6 links
                     continue
                 n = steps or STEPS[links]
                 runs.append(Run(algo, observe, links, rule, seed, n,
-                                steps or EVAL_EVERY[links], base))
+                                steps or EVAL_EVERY[links], base, plant))
     return runs
 
 
-def learner_id(algo: str, observe: str, base: str = "none") -> str:
-    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``...: a learner's name."""
+def learner_id(algo: str, observe: str, base: str = "none", plant: str = "mujoco") -> str:
+    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``, ``ppo-model``...: a learner's name."""
     who = "ppo" if algo == "ppo" else f"{algo}-{observe}"
-    return who + ("" if base == "none" else f"-{base}")
+    return (who + ("" if base == "none" else f"-{base}")
+            + ("" if plant == "mujoco" else f"-{plant}"))
 
 
 def parse_learner(text: str) -> tuple:
-    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``... -> (algo, observe, base); one
-    line naming the choices otherwise."""
-    names = {learner_id(a, o, b): (a, o, b) for a in ("ppo", "ippo", "mappo")
-             for o in (("global",) if a == "ppo" else OBSERVE) for b in ("none", "pd")}
+    """``ppo``, ``ippo-local``, ``mappo-neighbours-pd``, ``ppo-model``... -> (algo,
+    observe, base, plant); one line naming the choices otherwise."""
+    names = {learner_id(a, o, b, p): (a, o, b, p) for a in ("ppo", "ippo", "mappo")
+             for o in (("global",) if a == "ppo" else OBSERVE) for b in ("none", "pd")
+             for p in (TRAIN_PLANTS if a == "ppo" else ("mujoco",))}
     if text not in names:
         raise ValueError(f"unknown learner {text!r}; choose one of {', '.join(names)}")
     return names[text]

@@ -3,7 +3,9 @@
 For each row of :func:`rows`: the seeds run; success of the final agents on the fresh
 poses (counts pooled over seeds, the Wilson 95 % interval) and on the scaling table's
 poses; the interquartile mean over seeds of the fresh success rate with a 95 % percentile
-bootstrap interval (rliable's protocol for few runs, Agarwal et al. 2021: IQM by
+bootstrap interval; success on the same fresh poses run on the rigid-body model (6)
+(the transfer gap: a model-trained learner's MuJoCo score against this; runs recorded
+before it was measured have none) (rliable's protocol for few runs, Agarwal et al. 2021: IQM by
 ``scipy.stats.trim_mean(·, 0.25)``, resampled by ``scipy.stats.bootstrap``); the
 environment steps each seed took to reach 90 % of the ceiling on the curve's poses (the
 first evaluation at or above it; ``None`` where it never did); the median settle time;
@@ -27,10 +29,12 @@ OF_CEILING = 0.9
 RESAMPLES, BOOT_SEED = 2000, 0
 
 
-def learner_name(algo: str, observe: str, base: str = "none") -> str:
-    """How the table names a learner: ``PPO (centralized)``, ``IPPO (local) + PD``..."""
+def learner_name(algo: str, observe: str, base: str = "none", plant: str = "mujoco") -> str:
+    """How the table names a learner: ``PPO (centralized)``, ``IPPO (local) + PD``,
+    ``PPO (centralized), trained on the model``..."""
     name = "PPO (centralized)" if algo == "ppo" else f"{algo.upper()} ({observe})"
-    return name + (" + PD" if base == "pd" else "")
+    return (name + (" + PD" if base == "pd" else "")
+            + ("" if plant == "mujoco" else f", trained on the {plant}"))
 
 
 def ceilings(reach: dict | None) -> dict:
@@ -72,11 +76,11 @@ def rows(data: dict, ceiling: dict | None = None) -> list:
     for r in data.get("runs", []):
         run = r["run"]
         groups[(run["links"], run["rule"], run["algo"], run["observe"],
-                run.get("base", "none"))].append(r)
+                run.get("base", "none"), run.get("plant", "mujoco"))].append(r)
     out = []
-    for (links, rule, algo, observe, base), runs in sorted(groups.items(), key=lambda kv: (
-            kv[0][0], kv[0][1] != "tapered", kv[0][4] != "none", kv[0][2] != "ppo",
-            kv[0][2], kv[0][3])):
+    for (links, rule, algo, observe, base, plant), runs in sorted(groups.items(), key=lambda kv: (
+            kv[0][0], kv[0][1] != "tapered", kv[0][5] != "mujoco", kv[0][4] != "none",
+            kv[0][2] != "ppo", kv[0][2], kv[0][3])):
         runs.sort(key=lambda r: r["run"]["seed"])
         top = ceiling.get((links, rule), 1.0)
         fresh_k = sum(r["fresh"]["successes"] for r in runs)
@@ -86,9 +90,13 @@ def rows(data: dict, ceiling: dict | None = None) -> list:
         point, lo, hi = iqm([r["fresh"]["rate"] for r in runs])
         settles = [r["fresh"]["median_settle"] for r in runs
                    if r["fresh"]["median_settle"] is not None]
+        on_model = [r["fresh_model"] for r in runs if "fresh_model" in r]
+        model_k, model_n = (sum(m["successes"] for m in on_model),
+                            sum(m["n"] for m in on_model))
         out.append({
             "links": links, "rule": rule, "algo": algo, "observe": observe, "base": base,
-            "learner": learner_name(algo, observe, base), "seeds": [r["run"]["seed"] for r in runs],
+            "plant": plant, "learner": learner_name(algo, observe, base, plant),
+            "seeds": [r["run"]["seed"] for r in runs],
             "steps": max(r["steps"] for r in runs),
             "fresh": {"successes": fresh_k, "n": fresh_n,
                       "wilson_95": list(wilson_interval(fresh_k, fresh_n)),
@@ -96,6 +104,10 @@ def rows(data: dict, ceiling: dict | None = None) -> list:
                       "iqm": point, "iqm_95": [lo, hi]},
             "table": {"successes": table_k, "n": table_n,
                       "wilson_95": list(wilson_interval(table_k, table_n))},
+            # the same fresh poses on the model (6), for the seeds scored there
+            "fresh_model": None if not on_model else {
+                "successes": model_k, "n": model_n, "seeds": len(on_model),
+                "wilson_95": list(wilson_interval(model_k, model_n))},
             "ceiling": ceiling.get((links, rule)),
             "steps_to_90pct_ceiling": [steps_to(r["curve"], OF_CEILING * top) for r in runs],
             "median_settle_s": float(np.median(settles)) if settles else None,
@@ -118,18 +130,21 @@ def _steps(values) -> str:
 def table(rows_: list) -> str:
     """The rows as a Markdown table."""
     out = ["| N | links | learner | seeds | fresh poses at 8 s | IQM over seeds [95 % "
-           "bootstrap] | table poses at 8 s | ceiling | steps to 90 % of it | median settle "
-           "| CPU per step | wall per run | peak memory | parameters |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "bootstrap] | fresh poses on the model (6) | table poses at 8 s | ceiling | steps "
+           "to 90 % of it | median settle | CPU per step | wall per run | peak memory | "
+           "parameters |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows_:
         f, t = r["fresh"], r["table"]
         ceiling = "—" if r["ceiling"] is None else f"{100 * r['ceiling']:.0f} %"
         settle = "—" if r["median_settle_s"] is None else f"{r['median_settle_s']:.2f} s"
         mem = "—" if not r["peak_rss_bytes"] else f"{r['peak_rss_bytes'] / 2**20:.0f} MiB"
+        m = r.get("fresh_model")
+        model = "—" if not m else _rate(m["successes"], m["n"], m["wilson_95"])
         out.append(
             f"| {r['links']} | {r['rule']} | {r['learner']} | {len(r['seeds'])} | "
             f"{_rate(f['successes'], f['n'], f['wilson_95'])} | {100 * f['iqm']:.1f} % "
-            f"[{100 * f['iqm_95'][0]:.1f}, {100 * f['iqm_95'][1]:.1f}] | "
+            f"[{100 * f['iqm_95'][0]:.1f}, {100 * f['iqm_95'][1]:.1f}] | {model} | "
             f"{_rate(t['successes'], t['n'], t['wilson_95'])} | {ceiling} | "
             f"{_steps(r['steps_to_90pct_ceiling'])} | {settle} | "
             f"{r['cpu_us_per_step']:.0f} µs | {r['wall_s'] / 60:.1f} min | {mem} | "
@@ -157,8 +172,8 @@ def figure(data: dict, path, ceiling: dict | None = None):
         by = defaultdict(list)
         for r in data["runs"]:
             if (r["run"]["links"], r["run"]["rule"]) == (links, rule):
-                by[(r["run"]["algo"], r["run"]["observe"],
-                    r["run"].get("base", "none"))].append(r)
+                by[(r["run"]["algo"], r["run"]["observe"], r["run"].get("base", "none"),
+                    r["run"].get("plant", "mujoco"))].append(r)
         for key, runs in sorted(by.items()):
             name = learner_name(*key)
             colour = colours.setdefault(name, f"C{len(colours)}")
