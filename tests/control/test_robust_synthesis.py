@@ -251,7 +251,7 @@ def test_robust_memory_is_estimated_before_any_work():
     (["centralized", "--robust", "worst", "--spread", "0.9"], "--spread must lie in [0, 0.9)"),
     (["centralized", "--robust", "worst", "--spread", "-0.1"], "--spread must lie in"),
     (["centralized", "--robust", "worst", "--spread", "nan"], "--spread must be a number"),
-    (["centralized", "--robust", "worst", "--draws", "0"], "--draws must be at least 1"),
+    (["centralized", "--robust", "worst", "--draws", "0"], "--draws must be a positive whole number, got 0"),
     (["centralized", "--robust", "worst", "--draws", "2.5"], "--draws must be a whole number"),
     (["centralized", "--robust", "mean", "--draws", "1000"],
      "--draws 1000: the transitions of 1000 centralized models take about"),

@@ -36,12 +36,10 @@ from twolink.synthesis.problems import (
     LINK1_READINGS,
     SWEEPS,
     SYNTHESIS_MODELS,
-    check_robust,
-    check_robust_size,
-    check_size,
 )
+from twolink.synthesis.settings import SynthesisSettings
 from twolink.synthesis.synthesize import synthesize
-from twolink.fqi.fuzzy import BIN_LAYOUTS, check_bins
+from twolink.fqi.fuzzy import BIN_LAYOUTS
 from twolink.fqi.iteration import ROBUST_MODES
 from twolink.policy.fuzzy_policy import (
     MAX_Q_BYTES,  # what Policy.load accepts per Q-table
@@ -50,7 +48,6 @@ from twolink.policy.readout import MIN_ARGMAX_DEG, NEAR_DEG_RANGE, Readout
 from twolink.policy.registry import SHIPPED, shipped
 from twolink.resources import source_checkout
 from twolink.sim.perturbations import MAX_SPREAD
-from twolink.validate import real, whole
 
 #: Defaults of a robust synthesis (those of the shipped robust policies).
 DEFAULT_DRAWS = 8
@@ -189,9 +186,28 @@ def chain_file_name(kind: str, links: int, rule: str, context: str | None = None
     return f"{name}.npz"
 
 
-def _chain_job(args, links: int) -> tuple[str, dict, Path]:
-    """(kind, synthesize() options, output) of an N-link synthesis (N >= 3), checked; the
-    two-link options and the centralized table that no policy file can hold refused."""
+#: The option of each settings field whose one-line error names the field first.
+_OPTION_OF = {"gamma": "--gamma", "delta": "--delta", "draws": "--draws",
+              "spread": "--spread", "seed": "--seed", "levels": "--levels",
+              "refine": "--refine", "links": "--links"}
+
+
+def settings_of(**fields) -> SynthesisSettings:
+    """The :class:`SynthesisSettings` of ``fields``; a one-line error that names a field
+    first names its option instead (``draws must ...`` reads ``--draws must ...``)."""
+    try:
+        return SynthesisSettings(**fields)
+    except ValueError as e:
+        text = str(e)
+        word = text.split(" ", 1)[0]
+        if word in _OPTION_OF:
+            raise ValueError(_OPTION_OF[word] + text[len(word):]) from None
+        raise
+
+
+def _chain_job(args, links: int) -> tuple[SynthesisSettings, Path]:
+    """(settings, output) of an N-link synthesis (N >= 3), checked; the two-link options
+    and the centralized table that no policy file can hold refused."""
     two_link = [o for o, given in (
         ("--model simplified", args.model == "simplified"),
         (f"--model {args.model}", args.model in IDENTIFIED_MODELS),
@@ -217,14 +233,14 @@ def _chain_job(args, links: int) -> tuple[str, dict, Path]:
                              f"{est.peak_bytes / 2**30:.3g} GiB) is over the "
                              f"{MAX_Q_BYTES >> 20} MiB a policy file may hold; twolink "
                              f"scaling synthesises it in memory")
+    settings = settings_of(kind=args.kind, links=links, rule=args.rule,
+                           context=args.context, gamma=args.gamma, delta=args.delta)
     out, folders = output_file(args.output, chain_file_name(args.kind, links, args.rule,
                                                             args.context))
     check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
-    opts = {"p": TABLE_I, "links": links, "rule": args.rule, "context": args.context,
-            "gamma": args.gamma, "delta": args.delta}
-    return args.kind, opts, out
+    return settings, out
 
 
 def _number(text, option: str, kind: type):
@@ -240,13 +256,14 @@ def _number(text, option: str, kind: type):
 
 
 def _design_options(args) -> dict:
-    """synthesize()'s levels, bins and readout from --levels/--bins/--speed-dead-zone,
-    checked (a two-link synthesis only)."""
+    """The settings' levels, bins, readout and agent2_link1 from --levels, --bins, the
+    read-out options and --agent2-link1 (a two-link synthesis only); the read-out's
+    options checked here, the rest by the settings."""
     opts = {}
     if args.levels is not None:
-        opts["levels"] = whole(_number(args.levels, "--levels", int), "--levels", 2, MAX_LEVELS)
+        opts["levels"] = _number(args.levels, "--levels", int)
     if args.bins is not None:
-        opts["bins"] = check_bins(args.bins)
+        opts["bins"] = args.bins
     width, beyond = 0.0, None
     if args.speed_dead_zone is not None:
         width = _number(args.speed_dead_zone, "--speed-dead-zone", float)
@@ -282,7 +299,8 @@ def _design_options(args) -> dict:
 
 
 def _robust_options(args) -> dict:
-    """synthesize()'s robust keywords from --robust/--draws/--spread/--seed, checked."""
+    """The settings' robust, draws, spread and seed from --robust/--draws/--spread/--seed
+    (the draws' defaults filled in; their ranges are the settings' checks)."""
     given = [o for o, v in (("--draws", args.draws), ("--spread", args.spread),
                             ("--seed", args.seed)) if v is not None]
     if args.robust is None:
@@ -294,16 +312,7 @@ def _robust_options(args) -> dict:
     draws = DEFAULT_DRAWS if args.draws is None else _number(args.draws, "--draws", int)
     spread = DEFAULT_SPREAD if args.spread is None else _number(args.spread, "--spread", float)
     seed = DEFAULT_SEED if args.seed is None else _number(args.seed, "--seed", int)
-    if draws < 1:
-        raise ValueError(f"--draws must be at least 1, got {draws}")
-    if not 0.0 <= spread < MAX_SPREAD:
-        raise ValueError(f"--spread must lie in [0, {MAX_SPREAD}), got {spread}")
-    if seed < 0:
-        raise ValueError(f"--seed must be a non-negative whole number, got {seed}")
-    robust, draws, spread, seed = check_robust(args.robust, draws, spread, seed)
-    if (args.sweeps or "synchronous") != "synchronous":
-        raise ValueError("--robust runs synchronous sweeps only; give no --sweeps serial")
-    return {"robust": robust, "draws": draws, "spread": spread, "seed": seed}
+    return {"robust": args.robust, "draws": draws, "spread": spread, "seed": seed}
 
 
 def _parameters(args) -> tuple:
@@ -320,11 +329,9 @@ def _parameters(args) -> tuple:
                             "provenance": content.provenance}
 
 
-def _jobs(args) -> list[tuple[str, dict, Path]]:
-    """(kind, synthesize() options, output path) for every policy to write; checks first."""
+def _jobs(args) -> list[tuple[SynthesisSettings, Path]]:
+    """(settings, output path) for every policy to write; all checked before any work."""
     links, _ = arm_of(args)
-    real(args.gamma, "--gamma", 0.0, 1.0, open_low=True, open_high=True)
-    real(args.delta, "--delta", 0.0, open_low=True)      # inf or NaN: before any work
     if args.ship:
         if args.kind or args.model or args.context or args.output or args.force \
                 or args.sweeps or args.refine or args.gamma != GAMMA or args.delta != DELTA \
@@ -346,7 +353,7 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
         if source_checkout() is None:
             raise RuntimeError("--ship writes into policies/ of a source checkout, and this "
                                "twolink is an installed package; use -o FILE instead")
-        return [(e.kind, {"p": TABLE_I, **e.synthesis_options()}, e.file) for e in entries]
+        return [(e.settings(), e.file) for e in entries]
     if args.kind is None:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
     if links != 2:
@@ -360,29 +367,21 @@ def _jobs(args) -> list[tuple[str, dict, Path]]:
             raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "
                              f"the paper's levels and bins")
         return [_chain_job(args, links)]
-    model = args.model or "simplified"
-    context = args.context or "frozen"
     if args.kind == "centralized" and args.context is not None:
         raise ValueError("--context applies to the decentralized policy only")
-    sweeps = args.sweeps or "synchronous"
-    refine = args.refine or 1
     robust = _robust_options(args)
     design = _design_options(args)
-    levels, bins = design.get("levels", PAPER_LEVELS), design.get("bins", "paper")
-    check_size(args.kind, refine, levels, bins)
-    if robust:
-        check_robust_size(args.kind, refine, robust["draws"], levels, bins)
     p, source = _parameters(args)
+    s = settings_of(kind=args.kind, model=args.model, context=args.context,
+                    gamma=args.gamma, delta=args.delta, sweeps=args.sweeps or "synchronous",
+                    refine=args.refine or 1, parameters=p, source=source, **robust, **design)
     out, folders = output_file(args.output, default_file_name(
-        args.kind, model, context, sweeps, refine, robust.get("robust"), levels, bins,
-        design.get("agent2_link1", "free")))
+        s.kind, s.model, s.context or "frozen", s.sweeps, s.refine, s.robust, s.levels,
+        s.bins, s.agent2_link1))
     check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
         raise OSError(f"{out} exists; give --force to overwrite it or -o another file")
-    opts = {"p": p, "model": model, "context": context, "gamma": args.gamma,
-            "delta": args.delta, "sweeps": sweeps, "refine": refine, "source": source,
-            **robust, **design}
-    return [(args.kind, opts, out)]
+    return [(s, out)]
 
 
 def _unchanged(out: Path, policy) -> bool:
@@ -400,8 +399,8 @@ def _unchanged(out: Path, policy) -> bool:
 def run(args) -> int:
     jobs = _jobs(args)
     summary = []
-    for kind, opts, out in jobs:
-        policy = synthesize(kind, progress=not args.json, **opts)
+    for settings, out in jobs:
+        policy = synthesize(settings, progress=not args.json)
         kept = bool(args.ship) and _unchanged(out, policy)
         if not kept:
             out.parent.mkdir(exist_ok=True)      # -o DIR/: DIR passed check_outputs
