@@ -353,7 +353,7 @@ def _jobs(args) -> list[tuple[SynthesisSettings, Path]]:
         if source_checkout() is None:
             raise RuntimeError("--ship writes into policies/ of a source checkout, and this "
                                "twolink is an installed package; use -o FILE instead")
-        return [(e.settings(), e.file) for e in entries]
+        return [(SynthesisSettings.shipped(e.name), e.file) for e in entries]
     if args.kind is None:
         raise ValueError("give a policy kind (centralized or decentralized) or --ship NAME")
     if links != 2:

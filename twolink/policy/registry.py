@@ -70,13 +70,6 @@ class ShippedPolicy:
         opts.pop("readout", None)
         return {"kind": self.kind, "links": self.links, **opts}
 
-    def settings(self):
-        """The :class:`twolink.synthesis.settings.SynthesisSettings` that rebuild it (on
-        Table I): ``synthesize(entry.settings())``, what ``twolink synthesize --ship``
-        runs."""
-        from twolink.synthesis.settings import SynthesisSettings
-        return SynthesisSettings(self.kind, **self.synthesis_options())
-
     def synthesis_options(self) -> dict:
         """Keyword arguments of :func:`twolink.synthesis.synthesize.synthesize` that rebuild it."""
         opts = {"model": self.model, "sweeps": self.sweeps}

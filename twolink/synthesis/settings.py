@@ -1,5 +1,5 @@
-"""The settings of one fuzzy synthesis (Alg. 1): what :func:`twolink.synthesis.synthesize.synthesize`
-builds, in one frozen, checked value.
+"""The settings of one fuzzy synthesis (Alg. 1): what
+:func:`twolink.synthesis.synthesize.synthesize` builds, in one frozen, checked value.
 
 One spelling runs from the command line to the file: ``twolink synthesize`` reads its
 options into a :class:`SynthesisSettings`, ``synthesize(settings)`` solves it, and the
@@ -33,6 +33,7 @@ from twolink.arm.parameters import (
 from twolink.arm.task import PAPER_LEVELS, check_levels
 from twolink.fqi import fuzzy
 from twolink.policy.readout import Readout
+from twolink.policy.registry import shipped
 from twolink.sim.perturbations import PHYSICAL
 from twolink.synthesis.problems import (
     CONTEXTS,
@@ -189,6 +190,14 @@ class SynthesisSettings:
         if self.sweeps != "synchronous":
             raise ValueError("robust synthesis runs synchronous sweeps only")
         check_robust_size(self.kind, self.refine, self.draws, self.levels, self.bins)
+
+    @classmethod
+    def shipped(cls, name: str) -> "SynthesisSettings":
+        """The settings that rebuild the shipped policy ``name``'s Q-tables and read-out
+        (:data:`twolink.policy.registry.SHIPPED`, on Table I): what ``twolink synthesize
+        --ship NAME`` runs."""
+        entry = shipped(name)
+        return cls(entry.kind, **entry.synthesis_options())
 
     def replace(self, **changes) -> "SynthesisSettings":
         """A copy with ``changes``, checked again."""
