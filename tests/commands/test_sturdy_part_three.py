@@ -33,8 +33,8 @@ def test_an_unknown_option_is_one_line_for_every_subcommand(capsys, command):
 @pytest.mark.parametrize("argv, line", [
     (["evaluate", "centralized", "--foo", "--bar=3"],
      "twolink evaluate: error: unknown options --foo, --bar (see twolink evaluate --help)"),
-    (["evaluate", "centralized", "--plantz", "3"],
-     "twolink evaluate: error: unknown option --plantz (did you mean --plants?) "
+    (["evaluate", "centralized", "--plantss", "3"],
+     "twolink evaluate: error: unknown option --plantss (did you mean --plants?) "
      "(see twolink evaluate --help)"),
     (["evaluate", "centralized", "extra"],
      "twolink evaluate: error: unexpected argument 'extra' (see twolink evaluate --help)"),
