@@ -10,8 +10,9 @@ scored best on the curve's own evaluation (the level on 8 plants of seed 2006112
 training seeds' side, never the leaderboard's seed 2026), copying that agent to
 ``renders/challenge_agents/ppo_<level>.zip``, the file the catalogue's ``ppo_<level>``
 names. Training seeds 1-3 are neither 2026 nor 20061122 (``twolink train`` refuses
-those under a challenge). About 15 minutes of one core per run on this machine (a third
-of it the curve's evaluations under the level).
+those under a challenge). What each run cost (steps, CPU, wall) is the ``Cost of
+learning`` section of the leaderboard (:func:`twolink.control.learned.learning_cost`,
+read from the curves copied here).
 """
 from __future__ import annotations
 

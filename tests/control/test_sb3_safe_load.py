@@ -196,16 +196,18 @@ def test_the_default_leaderboard_loads_no_zip_of_the_working_folder(tiny, tmp_pa
     monkeypatch.delenv("TWOLINK_OUTPUT", raising=False)
     specs = chosen_specs(None, [])
     assert not any(s.endswith(".zip") for s in specs)
-    assert "lqr" in specs and "ppo_seed0" in specs          # the shipped, named agent
+    assert "lqr" in specs and "ppo_medium" in specs         # the shipped, named agents
+    assert "ppo_seed0" not in specs                         # nominal only: in --all
     monkeypatch.setenv("TWOLINK_OUTPUT", str(tmp_path / "out"))
     assert chosen_specs(None, []) == specs
     controllers = controllers_of(None, [])
-    assert "evil" not in controllers and "ppo_seed0" in controllers
+    assert "evil" not in controllers and "ppo_hard" in controllers
     assert not marker.exists()
     # A named agent's file given as a path is not run twice.
-    committed = str(ROOT / LEARNED_AGENTS["ppo_seed0"])
+    committed = str(ROOT / LEARNED_AGENTS["ppo_hard"])
     again = chosen_specs(None, [committed])
-    assert "ppo_seed0" not in again and again[-1] == committed
+    assert "ppo_hard" not in again and again[-1] == committed
+    assert "ppo_seed0" in chosen_specs(None, [], every=True)
 
 
 def test_ppo_seed0_resolves_by_name_with_the_torques_of_ppo_load():
@@ -232,7 +234,7 @@ def test_a_learned_agent_outside_a_checkout_is_one_line(monkeypatch):
                             "of a source checkout of the repository, and this one has none")
     from twolink.commands.leaderboard import chosen_specs
 
-    assert "ppo_seed0" not in chosen_specs(None, [])
+    assert not {"ppo_seed0", "ppo_medium"} & set(chosen_specs(None, [], every=True))
 
 
 def test_a_sac_save_loads_with_the_torques_of_sac_load(tmp_path):

@@ -2,7 +2,8 @@
 
 By default the benchmark rows of the controller catalogue (its tag benchmark: the paper's
 three policies, the best fuzzy design of each kind, the five classical baselines and the
-learned agent ppo_seed0 where its file and Stable-Baselines3 are there); --tag T the
+learned agents ppo_medium and ppo_hard, trained for those levels, where their files and
+Stable-Baselines3 are there); --tag T the
 entries of another tag, --all every two-link entry, and --controller (repeatable; with
 --only, instead of the benchmark rows) any controller of yours (module:callable, path/to/file.py:callable, a policy .npz or an
 SB3 agent .zip). Each runs under the levels none, easy, medium and hard, plain and (for
@@ -10,7 +11,8 @@ controllers that name their model) compensated, on MuJoCo from the 65 states of 
 evaluation set: k/n with the 95 % Wilson interval, the worst plant, the median settle
 time, settle / T* (median and worst, failures as never settled) and the mean torque, ranked
 per level and mode by one rule (success, ties within overlapping Wilson intervals broken by
-median settle / T*). Writes Markdown, JSON and a figure into twolink-results/leaderboard
+median settle / T*); for a shipped learned agent, what learning it cost (every seed
+trained: env steps, CPU and wall time). Writes Markdown, JSON and a figure into twolink-results/leaderboard
 ($TWOLINK_OUTPUT, or --out); prints a compact table, or for --controller and --merge where
 each ranks. --from-json re-renders a saved report without measuring. With --executor ray
 the rows run as tasks on a Ray cluster, with the same numbers as a local run.
@@ -283,6 +285,11 @@ def _measure_and_write(args, controllers, specs, x0, limits, source, levels, pla
     report = {"command": command, "states": len(x0), "plants": plants, "seed": seed,
               "horizon": 5.0, "limits": source, "levels": levels,
               "rows": [r.as_dict() for r in rows]}
+    from twolink.control.learned import learning_cost
+
+    learning = {name: cost for name in controllers if (cost := learning_cost(name))}
+    if learning:
+        report["learning"] = learning
     if saved is not None:
         from twolink.studies.leaderboard.merge import merged
         report = merged(saved, report)

@@ -54,10 +54,11 @@ TAGS = {
 }
 #: The default leaderboard's rows: the paper's policies, the best fuzzy design of each
 #: kind under ``hard`` without compensation (``docs/results/leaderboard.md``), the
-#: classical baselines and the shipped learned agent.
+#: classical baselines and the learned agents trained for a challenge level (``ppo_seed0``,
+#: trained on the nominal arm only, is in ``--all``).
 BENCHMARK = ("centralized", "decentralized", "decentralized_propagated",
              "centralized_robust_edge_gain", "decentralized_locked_gain",
-             "pd", "pd_deadzone", "lqr", "lqr_delay", "bang_bang", "ppo_seed0")
+             "pd", "pd_deadzone", "lqr", "lqr_delay", "bang_bang", "ppo_medium", "ppo_hard")
 #: What an entry's ``kind`` may be: a controller that reads the whole state and sets every
 #: torque, one made of per-joint agents, or (a user's entry that does not say) unknown.
 KINDS = ("centralized", "decentralized", "unknown")
@@ -153,13 +154,14 @@ def _baselines() -> list:
 
 
 def _learned() -> list:
-    from twolink.control.learned import LEARNED_AGENTS
+    from twolink.control.learned import LEARNED
 
-    return [Entry(name=name, kind="centralized", tags=("learned", *(
-                      ("benchmark",) if name in BENCHMARK else ())),
+    return [Entry(name=name, kind=a.kind, links=a.links, rule=a.rule,
+                  tags=("learned", *(("n-link",) if a.links > 2 else ()),
+                        *(("benchmark",) if name in BENCHMARK else ())),
                   entry="twolink.control.learned:learned_agent", data={"name": name},
-                  description=f"Stable-Baselines3 agent {path}")
-            for name, path in LEARNED_AGENTS.items()]
+                  description=f"{a.description}: {a.path}")
+            for name, a in LEARNED.items()]
 
 
 def links_pd_name(links: int, rule: str) -> str:

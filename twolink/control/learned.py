@@ -1,21 +1,57 @@
 """The learned agents shipped in the repository, by name.
 
-:data:`LEARNED_AGENTS` maps a name to its Stable-Baselines3 save, a path relative to the
-repository root (``renders/deep_rl/`` of a source checkout; a wheel does not hold them).
+:data:`LEARNED` holds each one: its file, a path relative to the repository root (a
+source checkout's ``renders/``; a wheel does not hold them), whether it is centralized (a
+Stable-Baselines3 save, :class:`twolink.control.sb3_agent.SB3Agent`) or decentralized (an
+IPPO/MAPPO ``.marl.pt``, :class:`twolink.control.marl_agent.MarlController`), its arm
+(links, rule) and what it is. :data:`LEARNED_AGENTS` is the name -> file view.
 :func:`twolink.control.controllers.resolve_controller` accepts these names, so
-``twolink evaluate ppo_seed0`` runs the committed PPO agent through
-:class:`twolink.control.sb3_agent.SB3Agent`. No command loads a saved agent that it was
+``twolink evaluate ppo_medium`` runs the committed agent. No command loads a saved agent that it was
 not given by name or path: the leaderboard's default rows hold the agents of this table
 whose file exists (:func:`default_learned_agents`), never a folder's ``*.zip``.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from twolink.sim.controller import ControllerError
 
-#: Name -> the agent's SB3 save, relative to the repository root.
-LEARNED_AGENTS = {"ppo_seed0": "renders/deep_rl/ppo_seed0.zip"}
+
+@dataclasses.dataclass(frozen=True)
+class Learned:
+    """A shipped learned agent: its file (relative to the repository root), kind, arm and
+    what it is."""
+
+    path: str
+    kind: str = "centralized"
+    links: int = 2
+    rule: str | None = None
+    description: str = ""
+    #: The learning-curve JSONs of every seed trained for this entry (``twolink train``'s
+    #: ``*.json``, relative to the repository root), the chosen one among them.
+    curves: tuple = ()
+
+
+#: The shipped learned agents, by name.
+LEARNED = {
+    "ppo_seed0": Learned("renders/deep_rl/ppo_seed0.zip",
+                         description="PPO trained on the nominal arm (renders/deep_rl/)"),
+    "ppo_medium": Learned("renders/challenge_agents/ppo_medium.zip",
+                          description="PPO trained under medium: history 3, action rate 1, "
+                                      "the best of seeds 1-3 on training plants "
+                                      "(docs/studies/challenge_agents.py)",
+                          curves=tuple(f"renders/challenge_agents/ppo_medium_seed{s}.json"
+                                       for s in (1, 2, 3))),
+    "ppo_hard": Learned("renders/challenge_agents/ppo_hard.zip",
+                        description="PPO trained under hard: history 3, action rate 1, "
+                                    "the best of seeds 1-3 on training plants "
+                                    "(docs/studies/challenge_agents.py)",
+                        curves=tuple(f"renders/challenge_agents/ppo_hard_seed{s}.json"
+                                     for s in (1, 2, 3))),
+}
+#: Name -> the agent's file, relative to the repository root.
+LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
 
 
 def learned_agent_names() -> tuple:
@@ -43,24 +79,37 @@ def learned_agent_path(name: str) -> Path:
                               f"{', '.join(LEARNED_AGENTS)}")
     path = _file_of(name)
     if path is None:
+        from twolink.resources import source_checkout
+
+        if source_checkout() is not None:
+            raise ControllerError(f"learned agent {name}: its file {LEARNED_AGENTS[name]} is "
+                                  f"missing from this checkout")
         raise ControllerError(f"learned agent {name} is the file {LEARNED_AGENTS[name]} of a "
                               f"source checkout of the repository, and this one has none")
     return path
 
 
 def learned_agent(name: str):
-    """The controller of the learned agent ``name``
-    (:class:`twolink.control.sb3_agent.SB3Agent`, labelled ``name``)."""
+    """The controller of the learned agent ``name`` (an SB3 save's
+    :class:`~twolink.control.sb3_agent.SB3Agent` or a ``.marl.pt``'s
+    :class:`~twolink.control.marl_agent.MarlController`), labelled ``name``."""
+    path = learned_agent_path(name)
+    if path.name.endswith(".marl.pt"):
+        from twolink.control.marl_agent import load_marl_agent
+
+        agent = load_marl_agent(path)
+        agent.name = name
+        return agent
     from twolink.control.sb3_agent import sb3_agent
 
-    return sb3_agent(learned_agent_path(name), name)
+    return sb3_agent(path, name)
 
 
 def default_learned_agents(exclude=()) -> list:
     """The learned agents a default leaderboard runs: the names of :data:`LEARNED_AGENTS`
     whose file exists, where Stable-Baselines3 imports (none otherwise, silently). A name
     in ``exclude``, or whose file an ``exclude`` ``.zip`` path names, is left out."""
-    present = [n for n in LEARNED_AGENTS if _file_of(n) is not None]
+    present = [n for n, a in LEARNED.items() if a.links == 2 and _file_of(n) is not None]
     if not present:
         return []
     try:
@@ -70,3 +119,45 @@ def default_learned_agents(exclude=()) -> list:
     given = {str(Path(s).resolve()) for s in exclude if isinstance(s, str) and s.endswith(".zip")}
     return [n for n in present
             if n not in exclude and str(_file_of(n).resolve()) not in given]
+
+
+def learning_cost(name: str) -> dict | None:
+    """What learning the shipped agent ``name`` cost, from its curves (:attr:`Learned.curves`,
+    ``twolink train``'s JSON of each seed): ``seeds`` (each seed's environment steps, CPU
+    and wall seconds, final successes of n on its curve's evaluation), the totals over the
+    seeds (every seed trained is paid for, not only the chosen one) and ``chosen_seed``
+    (the seed of the agent file, read from its ``twolink.json``). None when the entry has no
+    curves or a file is missing (a wheel); a curve that is not ``twolink train``'s is a
+    one-line ControllerError."""
+    import json
+
+    from twolink.resources import source_checkout
+
+    entry, root = LEARNED.get(name), source_checkout()
+    if entry is None or not entry.curves or root is None:
+        return None
+    seeds = []
+    for rel in entry.curves:
+        path = root / rel
+        if not path.is_file():
+            return None
+        try:
+            d = json.loads(path.read_text())
+            last = d["curve"][-1]
+            seeds.append({"seed": int(d["config"]["seed"]), "steps": int(d["steps"]),
+                          "cpu_s": float(d["cpu_s"]), "wall_s": float(d["wall_s"]),
+                          "successes": int(last["successes"]), "n": int(last["n"])})
+        except (ValueError, KeyError, IndexError, TypeError) as exc:
+            raise ControllerError(f"learned agent {name}: {rel} is not a twolink train "
+                                  f"curve ({type(exc).__name__}: {exc})") from None
+    chosen = None
+    agent = _file_of(name)
+    if agent is not None and agent.suffix == ".zip":
+        from twolink.control.agent_meta import AGENT_MEMBER
+        from twolink.control.sb3_agent import read_save
+
+        raw = read_save(agent, members=(), optional=(AGENT_MEMBER,)).get(AGENT_MEMBER)
+        chosen = json.loads(raw).get("seed") if raw else None
+    return {"seeds": seeds, "steps": sum(s["steps"] for s in seeds),
+            "cpu_s": sum(s["cpu_s"] for s in seeds), "wall_s": sum(s["wall_s"] for s in seeds),
+            "chosen_seed": chosen}

@@ -51,6 +51,22 @@ def _check_settings(report: dict) -> str | None:
             len(set(levels)) < len(levels):
         return (f"levels must be distinct names among {', '.join(LEVELS)}, got "
                 f"{levels!r}")
+    return _check_learning(report.get("learning", {}))
+
+
+def _check_learning(learning) -> str | None:
+    """What is wrong with a report's ``learning`` (name -> learning cost), or None."""
+    if not isinstance(learning, dict):
+        return "learning is not an object"
+    for name, cost in learning.items():
+        if not isinstance(cost, dict) or not isinstance(cost.get("seeds"), list) or \
+                not all(_is_number(cost.get(k)) and cost[k] >= 0
+                        for k in ("steps", "cpu_s", "wall_s")):
+            return f"learning of {name} lacks seeds, steps, cpu_s or wall_s"
+        for s in cost["seeds"]:
+            if not isinstance(s, dict) or not all(
+                    _is_number(s.get(k)) for k in ("seed", "steps", "cpu_s", "successes", "n")):
+                return f"learning of {name} has a seed without seed, steps, cpu_s or score"
     return None
 
 
@@ -169,4 +185,9 @@ def merged(saved: dict, new: dict) -> dict:
     check_joinable(saved, new, new["levels"])
     replaced = {r["controller"] for r in new["rows"]}
     rows = [r for r in saved["rows"] if r["controller"] not in replaced] + new["rows"]
-    return {**saved, "rows": rows, "provenance": new.get("provenance", saved.get("provenance"))}
+    learning = {name: cost for name, cost in saved.get("learning", {}).items()
+                if name not in replaced}
+    learning.update(new.get("learning", {}))
+    out = {**saved, "rows": rows, "provenance": new.get("provenance", saved.get("provenance"))}
+    out.pop("learning", None)
+    return {**out, **({"learning": learning} if learning else {})}

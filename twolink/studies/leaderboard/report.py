@@ -97,7 +97,8 @@ def markdown(report: dict) -> str:
     if grid:
         lines += ["*grid*: the same controller on the level's grid of plants (its parameter "
                   "box's centre and 24 corners, twolink.sim.plant_grid): successes over the "
-                  "grid and its worst plant.", ""]
+                  "grid and its worst plant; - where the row was not run on the grid (a row "
+                  "measured or merged without --worst-case).", ""]
     for level in report["levels"]:
         lines += [f"## {level}", "",
                   "| # | controller | mode | success | worst plant | median settle | "
@@ -115,7 +116,30 @@ def markdown(report: dict) -> str:
                              f"{_ratio(r['settle_ratio_worst'])} | "
                              f"{r['mean_abs_torque']:.3f} |" + (_grid_cell(r) if grid else ""))
         lines.append("")
-    return "\n".join(lines)
+    return "\n".join(lines + learning_lines(report))
+
+
+def learning_lines(report: dict) -> list:
+    """The section on what the learned rows cost to learn (the report's ``learning``:
+    every seed trained, the chosen one marked), or nothing."""
+    learning = report.get("learning") or {}
+    if not learning:
+        return []
+    lines = ["## Cost of learning", "",
+             "Every seed trained for a row is paid for: environment steps, CPU and wall "
+             "time summed over the seeds; each seed's score is its final evaluation on the "
+             "training plants (never the leaderboard's), the row's agent the best of them.",
+             "", "| controller | seeds (final score on training plants) | env steps | "
+             "CPU | wall | CPU per env step |", "|---|---|---|---|---|---|"]
+    for name, c in learning.items():
+        seeds = ", ".join(f"{s['seed']} ({s['successes']}/{s['n']}"
+                          f"{', chosen' if s['seed'] == c.get('chosen_seed') else ''})"
+                          for s in c["seeds"])
+        per_step = 1e6 * c["cpu_s"] / c["steps"] if c["steps"] else float("nan")
+        lines.append(f"| {name} | {seeds} | {c['steps'] / 1e6:.2f} M | "
+                     f"{c['cpu_s'] / 60:.1f} min | {c['wall_s'] / 60:.1f} min | "
+                     f"{per_step:.0f} µs |")
+    return lines + [""]
 
 
 def _grid_cell(row: dict) -> str:
