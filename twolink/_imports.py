@@ -8,6 +8,11 @@ its new module, and the finder :func:`install` puts on ``sys.meta_path`` returns
 module itself (no copy) under the old name, with a ``DeprecationWarning``.
 ``twolink.policy`` and ``twolink.fqi`` are packages now and need no alias.
 
+Old names: a module whose public names were renamed (the N-link arm's *chain* names of
+0.1 became *links* names) keeps the old ones for one release with
+``__getattr__ = renamed(__name__, {old: new})`` (:func:`renamed`): each old name returns
+the new name's object itself, with a ``DeprecationWarning``.
+
 Hooks: :func:`around_import` runs a function while a module (mujoco, gymnasium) is first
 executed and another once it has loaded, whoever imports it, so that ``import twolink``
 itself never has to import it.
@@ -115,6 +120,22 @@ def install() -> None:
     """Put the finder of old module paths on ``sys.meta_path`` (once)."""
     if not any(isinstance(f, _MovedFinder) for f in sys.meta_path):
         sys.meta_path.append(_MovedFinder())
+
+
+def renamed(module: str, names: dict):
+    """A module-level ``__getattr__`` for ``module`` (its ``__name__``) that answers each old
+    name of ``names`` (old -> new) with the object of the new name, warning
+    ``DeprecationWarning``; any other name is an AttributeError, as without it."""
+    def __getattr__(name: str):
+        new = names.get(name)
+        if new is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        warnings.warn(f"{module}.{name} is now {module}.{new}; the old name goes in the "
+                      "next release", DeprecationWarning, stacklevel=2)
+        return getattr(sys.modules[module], new)
+
+    __getattr__.renamed = dict(names)
+    return __getattr__
 
 
 class _Around(importlib.abc.MetaPathFinder, importlib.abc.Loader):

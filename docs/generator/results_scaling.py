@@ -73,7 +73,7 @@ def _own_motor_block(report: dict) -> str:
     import numpy as np
 
     from twolink.arm.task import own_motor_speed
-    from twolink.arm.parameters import chain
+    from twolink.arm.parameters import links_parameters
     from twolink.viz.formatting import format_rate
 
     data = _load(OWN_MOTOR, SCHEMAS[OWN_MOTOR])
@@ -94,7 +94,7 @@ def _own_motor_block(report: dict) -> str:
            "τ_i max / b_i (`twolink.arm.task.own_motor_speed`). Tapered links halve the "
            "torque per link and keep link 2's damping: "
            + "; ".join(f"at N = {n} joint {n} turns at most "
-                       f"{own_motor_speed(chain(n, 'tapered'))[-1]:.3g} rad/s"
+                       f"{own_motor_speed(links_parameters(n, 'tapered'))[-1]:.3g} rad/s"
                        for n in sorted({r["links"] for r in data["runs"]
                                         if r["rule"] == "tapered"}))
            + ". A pose's *own-motor time* is the largest over its joints of |θ_i| over that "
@@ -197,7 +197,7 @@ def _scaling_findings(report: dict) -> str:
             f"synthesise in {s['wall_seconds']:.1f} s wall and "
             f"{s['peak_bytes'] / 2**20:.0f} MiB (the targets below).\n")
     from twolink.arm.task import own_motor_speed
-    from twolink.arm.parameters import chain
+    from twolink.arm.parameters import links_parameters
 
     bad = [(k, at(k)) for k in (("decentralized", "tapered", 5), ("decentralized", "tapered", 6),
                                 ("decentralized", "copied", 4)) if at(k)]
@@ -209,13 +209,13 @@ def _scaling_findings(report: dict) -> str:
             "In the tapered arms the outermost joint is the slowest: its torque halves with "
             "every link while its damping stays link 2's, so on its own it turns at most "
             "τ_N max / b_N ("
-            + ", ".join(f"{own_motor_speed(chain(n, 'tapered'))[-1]:.3g} rad/s at N = {n}"
-                        for n in (5, 6)) + "), and the poses that "
+            + ", ".join(f"{own_motor_speed(links_parameters(n, 'tapered'))[-1]:.3g} rad/s "
+                        f"at N = {n}" for n in (5, 6)) + "), and the poses that "
             "start it far from home fail most (see [what a joint's own motor can do]"
             "(#what-a-joints-own-motor-can-do)); from the other poses the middle joints "
             "fall into slow limit cycles, pushing in phase. In the copied arms the "
             "middle links keep swinging in limit cycles: each middle agent carries the heavy "
-            "outer chain, and its one-hop model does not see the reactions from links two or "
+            "outer links, and its one-hop model does not see the reactions from links two or "
             "more joints away. A diagnostic run over 30 s (not committed data) found copied "
             "N = 4 mostly too slow rather than unstable and tapered N = 6 and copied N = 6 "
             "not converging even then. On poses from seeds other than the table's, tapered "
@@ -297,7 +297,7 @@ def _scaling_findings(report: dict) -> str:
             + ("the 5-level agents' lies above its at " + ", ".join(lose) + ". "
                if lose else "")
             + "With gains shared by all joints and each joint seeing only itself, the "
-            "tapered outer joints and the copied heavy chain are not held within 8 s.\n")
+            "tapered outer joints and the copied heavy links are not held within 8 s.\n")
     ship = [r for r in report["rows"] if r["status"] == "run" and r["synthesis"]
             and r["synthesis"].get("shipped_policy")
             and r["synthesis"].get("matches_shipped_policy") is False]

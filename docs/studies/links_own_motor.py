@@ -29,7 +29,7 @@ if __package__ in (None, ""):
 import numpy as np  # noqa: E402
 
 from twolink.arm.task import own_motor_seconds  # noqa: E402
-from twolink.arm.parameters import CHAIN_HORIZON, LINK_RULES, chain  # noqa: E402
+from twolink.arm.parameters import LINK_RULES, LINKS_HORIZON, links_parameters  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.control.links_pd import tuned  # noqa: E402
 from twolink.sim.metrics import random_poses, success  # noqa: E402
@@ -50,7 +50,7 @@ DEFAULT_JSON = Path("renders/links_reach/own_motor.json")
 def controller(links: int, rule: str, scheme: str):
     """The scaling table's controller of row ``scheme`` for this arm."""
     if scheme == "pd":
-        return tuned(chain(links, rule))
+        return tuned(links_parameters(links, rule))
     return cell_policy(links, rule, scheme, 2 * 2**30)[0]
 
 
@@ -58,18 +58,18 @@ def measure(links: int, rule: str, poses: int = POSES) -> dict:
     """Every controller's success on the first ``poses`` poses of the table's set at 8 s,
     with each pose's own-motor time and the joint that sets it."""
     t0 = time.perf_counter()
-    p = chain(links, rule)
+    p = links_parameters(links, rule)
     x0 = random_poses(links, POSES, EVAL_SEED + links)[:poses]
     own = own_motor_seconds(p, x0[:, :links])
     out = {"links": links, "rule": rule, "poses": poses, "seed": EVAL_SEED + links,
-           "horizon_s": CHAIN_HORIZON,
+           "horizon_s": LINKS_HORIZON,
            "own_motor_s": [round(float(v), 4) for v in own.max(axis=1)],
            "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {}}
     for scheme in CONTROLLERS:
         print(f"  {scheme}: building", flush=True)
         policy = controller(links, rule, scheme)
         with make_plant("mujoco", p) as plant:
-            traj = rollout(policy, plant, x0, duration=CHAIN_HORIZON)
+            traj = rollout(policy, plant, x0, duration=LINKS_HORIZON)
         ok = success(traj)
         out["success"][scheme] = [int(v) for v in ok]
         print(f"  {scheme}: {int(ok.sum())}/{poses} settled", flush=True)
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
     except ValueError as exc:
         print(f"links_own_motor: error: {exc}", file=sys.stderr)
         return 2
-    print(f"{args.links} {args.rule} links, {args.poses} poses, {CHAIN_HORIZON:g} s",
+    print(f"{args.links} {args.rule} links, {args.poses} poses, {LINKS_HORIZON:g} s",
           flush=True)
     run = measure(args.links, args.rule, args.poses)
     runs = [r for r in data["runs"] if (r["links"], r["rule"]) != (args.links, args.rule)]
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     write_json(args.json, {"schema": SCHEMA, "version": VERSION, "runs": runs,
                            "provenance": provenance()})
-    late = int(np.sum(np.asarray(run["own_motor_s"]) > CHAIN_HORIZON - 1))
+    late = int(np.sum(np.asarray(run["own_motor_s"]) > LINKS_HORIZON - 1))
     print(json.dumps({"links": run["links"], "rule": run["rule"], "poses": run["poses"],
                       "own_motor_over_deadline": late,
                       **{k: sum(v) for k, v in run["success"].items()}}))

@@ -24,7 +24,7 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from twolink.arm.parameters import LINK_RULES, TS, chain  # noqa: E402
+from twolink.arm.parameters import LINK_RULES, TS, links_parameters  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.limits import casadi_version  # noqa: E402
 from twolink.limits.links import HOLD, NLP_SUBSTEPS, reach_all  # noqa: E402
@@ -47,7 +47,7 @@ def _chunk(links: int, rule: str, rows: list) -> list:
         print(f"  pose {rows[i] + 1}: {'reachable' if r.reachable else 'not found'} "
               f"({r.status}, defect {r.defect:.1e}, {r.seconds:.0f} s)", flush=True)
 
-    return reach_all(chain(links, rule), x0, DEADLINE, on_pose=report)
+    return reach_all(links_parameters(links, rule), x0, DEADLINE, on_pose=report)
 
 
 def measure(links: int, rule: str, rows: list, workers: int = 1) -> list:

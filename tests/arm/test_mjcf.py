@@ -56,15 +56,15 @@ def test_motors_saturate_at_tau_max(model):
 def test_mjcf_command_writes_the_n_link_arm(tmp_path, capsys, links, rule, name):
     import mujoco
 
-    from twolink.arm.parameters import chain
+    from twolink.arm.parameters import links_parameters
     from twolink.cli import main
 
     assert main(["mjcf", "--links", str(links), "--rule", rule, "-o", f"{tmp_path}/"]) == 0
     path = tmp_path / name
-    assert path.read_text() == mjcf.model_xml(chain(links, rule))
+    assert path.read_text() == mjcf.model_xml(links_parameters(links, rule))
     model = mujoco.MjModel.from_xml_path(str(path))
     assert model.nq == links and model.nu == links
-    assert np.allclose(model.body_mass[1:], chain(links, rule).masses)
+    assert np.allclose(model.body_mass[1:], links_parameters(links, rule).masses)
 
 
 def test_mjcf_command_refuses_links_it_cannot_build_or_ship(tmp_path, capsys):

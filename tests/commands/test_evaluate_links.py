@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from twolink.arm.parameters import chain
+from twolink.arm.parameters import links_parameters
 from twolink.cli import main
 from twolink.commands import evaluate as evaluate_cmd
 from twolink.control import catalogue
@@ -39,7 +39,7 @@ def test_pd_entry_scores_as_the_scaling_tables_pd_row(capsys):
 def test_fuzzy_agents_match_a_rollout_scored_by_hand(capsys):
     got = _json(capsys, "decentralized_3link", "--links", "3", "--poses", "5", "--seed", "3")
     policy = catalogue.load("decentralized_3link")
-    with make_plant("mujoco", chain(3, "tapered")) as plant:
+    with make_plant("mujoco", links_parameters(3, "tapered")) as plant:
         traj = rollout(policy, plant, random_poses(3, 5, 3 + 3), duration=8.0)
     want = score(success(traj), settle_time(traj)).as_dict()
     assert got["controller"] == "decentralized_3link"
@@ -72,7 +72,7 @@ def test_pd_entries_carry_the_tuned_gains():
         assert pd.name == e.name and pd.links == n
         x = np.zeros((1, 2 * n))
         x[0, 0] = 0.01            # inside every saturation: tau_1 = -kp_1 * 0.01
-        kp1 = chain(n, rule).tau_max[0] / np.radians(t["sat_deg"])
+        kp1 = links_parameters(n, rule).tau_max[0] / np.radians(t["sat_deg"])
         assert pd(x)[0, 0] == pytest.approx(-kp1 * 0.01)
     assert len(catalogue.entries(tag="n-link", links=5)) >= 2
 

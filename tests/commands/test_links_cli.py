@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from twolink.arm import mjcf, parameter_file
-from twolink.arm.parameters import TABLE_I, chain
+from twolink.arm.parameters import TABLE_I, links_parameters
 from twolink.cli import main
 from twolink.fqi.fuzzy import Axis, Grid
 from twolink.policy.fuzzy_policy import Agent, Policy
@@ -17,7 +17,7 @@ from twolink.sim.metrics import random_poses, success
 from twolink.sim.plants import make_plant
 from twolink.sim.rollout import Trajectory, rollout
 from twolink.sim.trajectory_file import csv_columns, load_npz, to_csv_text
-from twolink.studies.mismatch.plan import CHAIN_SEED, plan
+from twolink.studies.mismatch.plan import LINKS_SEED, plan
 from twolink.viz.render import goal_tip_radius, tip_positions
 
 COMMANDS = ("rollout", "render", "synthesize", "mismatch")
@@ -135,7 +135,7 @@ def test_rollout_of_three_links_matches_the_library(three_link, tmp_path, capsys
     rep = json.loads(out)
     assert rep["links"] == 3 and rep["rule"] == "tapered" and rep["duration"] == 0.5
     policy = Policy.load(three_link)
-    with make_plant("mujoco", chain(3)) as plant:
+    with make_plant("mujoco", links_parameters(3)) as plant:
         direct = rollout(policy, plant, x0, duration=0.5)
     mj = next(e for e in rep["runs"] if e["plant"] == "mujoco")
     assert mj["final_state"] == direct.x[-1].tolist()
@@ -176,7 +176,7 @@ def test_render_three_links_writes_a_gif(three_link, tmp_path, capsys):
 
 @pytest.mark.parametrize("links", [2, 3, 5])
 def test_tip_positions_are_mujocos_sites(links, rng):
-    p = TABLE_I if links == 2 else chain(links, "copied")
+    p = TABLE_I if links == 2 else links_parameters(links, "copied")
     model = mjcf.build_model(p)
     data = mujoco.MjData(model)
     x = np.concatenate([rng.uniform(-np.pi, np.pi, links), np.zeros(links)])
@@ -194,13 +194,13 @@ def test_mismatch_section_counts_are_the_plants(three_link, tmp_path, capsys):
                              "--policies", three_link, "--json", "--out", out)
     assert code == 0, err
     rep = json.loads(stdout)
-    n = plan("quick").chain_poses
-    x0 = random_poses(3, n, CHAIN_SEED)
-    with make_plant("full", chain(3)) as plant:
+    n = plan("quick").links_poses
+    x0 = random_poses(3, n, LINKS_SEED)
+    with make_plant("full", links_parameters(3)) as plant:
         tr = rollout(Policy.load(three_link), plant, x0, duration=8.0)
     got = rep["results"]["hand3"]["full"]
     assert (got["successes"], got["n"]) == (int(success(tr).sum()), n)
-    assert rep["seed"] == CHAIN_SEED and rep["duration"] == 8.0
+    assert rep["seed"] == LINKS_SEED and rep["duration"] == 8.0
     md = (out / "report.md").read_text()
     assert "| hand3 |" in md and f"{got['successes']}/{n}" in md
     assert json.loads((out / "report.json").read_text())["results"] == rep["results"]
@@ -227,10 +227,10 @@ def test_reproduce_takes_two_link_policies_only():
 
 
 def test_synthesize_three_links_gives_the_shipped_policy(tmp_path, capsys, monkeypatch):
-    from twolink.commands.synthesize import chain_file_name
+    from twolink.commands.synthesize import links_file_name
     shipped_file = SHIPPED["decentralized_3link"].file
-    assert chain_file_name("decentralized", 3, "tapered") == shipped_file.name
-    assert chain_file_name("decentralized", 4, "copied", "frozen") == \
+    assert links_file_name("decentralized", 3, "tapered") == shipped_file.name
+    assert links_file_name("decentralized", 4, "copied", "frozen") == \
         "decentralized_4link_copied_frozen.npz"
     monkeypatch.chdir(tmp_path)
     code, out, err = _run(capsys, "synthesize", "decentralized", "--links", 3, "--json")

@@ -4,13 +4,13 @@ import math
 import numpy as np
 import pytest
 
-from twolink.arm.parameters import TABLE_I, chain
+from twolink.arm.parameters import TABLE_I, links_parameters
 from twolink.control.links_pd import (
     TUNED,
     TUNING_SEED,
-    ChainPD,
-    chain_pd,
+    LinksPD,
     joint_inertias,
+    make_links_pd,
     tuned,
 )
 from twolink.sim.metrics import random_poses, success
@@ -22,9 +22,9 @@ from twolink.studies.scaling.measure import EVAL_SEED
 def test_gains_follow_the_rule_and_two_links_match_the_two_link_inertias():
     t = TABLE_I                                       # det M0 / M0_jj of (7)
     m0 = np.array([[t.P1 + t.P2 + 2 * t.P3, t.P2 + t.P3], [t.P2 + t.P3, t.P2]])
-    np.testing.assert_allclose(joint_inertias(chain(2)), 1 / np.diag(np.linalg.inv(m0)))
-    p = chain(4, "copied")
-    pd = chain_pd(p, 20.0, 0.7)
+    np.testing.assert_allclose(joint_inertias(links_parameters(2)), 1 / np.diag(np.linalg.inv(m0)))
+    p = links_parameters(4, "copied")
+    pd = make_links_pd(p, 20.0, 0.7)
     kp = p.tau_max / math.radians(20.0)
     np.testing.assert_allclose(pd.kp, kp)
     np.testing.assert_allclose(pd.kd, 1.4 * np.sqrt(kp * joint_inertias(p)))
@@ -38,7 +38,7 @@ def test_gains_follow_the_rule_and_two_links_match_the_two_link_inertias():
 
 
 def test_tuned_pd_settles_the_three_link_arm():
-    p = chain(3)
+    p = links_parameters(3)
     pd = tuned(p)
     assert pd.links == 3 and TUNED[(3, "tapered")]["successes"] == 64
     x0 = random_poses(3, 4, 11)
@@ -55,12 +55,12 @@ def test_the_tuning_seeds_are_not_the_evaluation_seeds():
 
 def test_bad_gains_and_states_are_refused():
     with pytest.raises(ValueError, match="sat_deg must be a positive number, got 0"):
-        chain_pd(chain(3), 0, 1.0)
+        make_links_pd(links_parameters(3), 0, 1.0)
     with pytest.raises(ValueError, match="zeta must be a positive number, got nan"):
-        chain_pd(chain(3), 10, float("nan"))
+        make_links_pd(links_parameters(3), 10, float("nan"))
     with pytest.raises(ValueError, match=r"kd must be 3 finite numbers >= 0"):
-        ChainPD([1, 1, 1], [1, -1, 1], [1, 1, 1])
+        LinksPD([1, 1, 1], [1, -1, 1], [1, 1, 1])
     with pytest.raises(ValueError, match=r"states must have shape \(\.\.\., 6\) for 3 links"):
-        chain_pd(chain(3), 10, 1.0)(np.zeros(4))
+        make_links_pd(links_parameters(3), 10, 1.0)(np.zeros(4))
     with pytest.raises(ValueError, match="no tuned PD gains for 2 tapered links"):
-        tuned(chain(2))
+        tuned(links_parameters(2))

@@ -6,14 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from twolink.arm.dynamics import chain_acceleration
+from twolink.arm.dynamics import links_acceleration
 from twolink.arm.integrate import SUBSTEPS, rk4, sample_step
-from twolink.arm.parameters import TS, chain
+from twolink.arm.parameters import TS, links_parameters
 from twolink.limits import links as L
 
 def _step(p, x, tau):
     """One sample of the package's RK4, unwrapped (as the answers are checked)."""
-    return rk4(chain_acceleration, p, x, tau, TS, SUBSTEPS)
+    return rk4(links_acceleration, p, x, tau, TS, SUBSTEPS)
 
 
 casadi = pytest.importorskip("casadi", reason="CasADi is not installed "
@@ -22,22 +22,22 @@ casadi = pytest.importorskip("casadi", reason="CasADi is not installed "
 
 @pytest.mark.parametrize("links, rule", [(3, "tapered"), (6, "tapered"), (4, "copied")])
 def test_the_symbolic_dynamics_and_step_are_the_package_s(links, rule):
-    p = chain(links, rule)
+    p = links_parameters(links, rule)
     rng = np.random.default_rng(links)
     x = np.concatenate([rng.uniform(-3, 3, links), rng.uniform(-2, 2, links)])
     tau = rng.uniform(-1, 1, links) * p.tau_max
     sym = casadi.SX.sym("x", 2 * links)
     accel = casadi.Function("a", [sym], [L.acceleration_expression(casadi, p, sym, tau)])
-    np.testing.assert_allclose(np.asarray(accel(x)).ravel(), chain_acceleration(p, x, tau),
+    np.testing.assert_allclose(np.asarray(accel(x)).ravel(), links_acceleration(p, x, tau),
                                rtol=1e-13, atol=1e-12)
     stepped = np.asarray(L.step_function(p)(x, tau)).ravel()
-    ours = sample_step(chain_acceleration, p, x, tau)
+    ours = sample_step(links_acceleration, p, x, tau)
     wrapped = np.mod(stepped[:links] - ours[:links] + math.pi, 2 * math.pi) - math.pi
     assert np.abs(wrapped).max() < 1e-11 and np.abs(stepped[links:] - ours[links:]).max() < 1e-11
 
 
 def test_a_near_pose_is_reachable_and_its_answer_is_a_trajectory_of_the_model():
-    p = chain(3)
+    p = links_parameters(3)
     x0 = np.array([0.4, -0.3, 0.2, 0, 0, 0])
     r = L.reach(p, x0, 20)                              # 1 s
     assert r.reachable and r.targets == (0.0, 0.0, 0.0)
@@ -47,12 +47,12 @@ def test_a_near_pose_is_reachable_and_its_answer_is_a_trajectory_of_the_model():
     # The torques replayed for a few samples follow the answer (no feedback needed there).
     x = x0
     for tau in r.torques[:4]:
-        x = sample_step(chain_acceleration, p, x, tau)
+        x = sample_step(links_acceleration, p, x, tau)
     assert np.abs(x[3:]).max() > 0.05                  # it moves
 
 
 def test_a_far_pose_is_not_reachable_in_two_samples():
-    r = L.reach(chain(3), np.array([3.0, 0, 0, 0, 0, 0]), 2)
+    r = L.reach(links_parameters(3), np.array([3.0, 0, 0, 0, 0, 0]), 2)
     assert not r.reachable and r.torques is None and r.slack > 0
     assert r.as_dict()["reachable"] is False and len(r.targets) == 3
 
@@ -65,7 +65,7 @@ def test_the_candidate_bands_go_the_other_way_round_for_far_joints():
 
 
 def test_the_defect_sees_a_state_off_the_model():
-    p = chain(3)
+    p = links_parameters(3)
     x0 = np.array([0.1, 0.0, 0.0, 0, 0, 0])
     tau = np.tile(0.5 * p.tau_max, (2, 1))
     states = [x0]
@@ -88,7 +88,7 @@ def test_the_defect_sees_a_state_off_the_model():
 ])
 def test_bad_input_is_one_line_before_any_solve(x0, deadline, kwargs, match):
     with pytest.raises(ValueError, match=match):
-        L.reach(chain(3), x0, deadline, **kwargs)
+        L.reach(links_parameters(3), x0, deadline, **kwargs)
 
 
 def test_the_deadline_is_in_samples_of_ts():
@@ -99,7 +99,7 @@ def test_speeds_inside_a_held_period_are_checked():
     """The NLP bounds the speeds at the ends of the held periods only; the answer's check
     sees the samples in between: link 3 coasting down from 3 rad/s is fastest at the
     period's first sample, not at its end."""
-    p = chain(3)
+    p = links_parameters(3)
     x0 = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 3.0])
     tau = np.zeros((1, 3))
     mid = _step(p, x0, tau[0])

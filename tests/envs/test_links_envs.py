@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import api_test, parallel_api_test
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from twolink.arm.parameters import REWARD_GOAL, REWARD_OTHER, TABLE_I, TS, chain
+from twolink.arm.parameters import REWARD_GOAL, REWARD_OTHER, TABLE_I, TS, links_parameters
 from twolink.arm.task import agent_reward, centralized_reward
 from twolink.envs import core as tasks
 from twolink.envs import dm as twolink_env
@@ -36,7 +36,7 @@ def policy3():
 @pytest.fixture(scope="module")
 def reference(policy3):
     """The 3-link policy from POSES on the MuJoCo plant, through ``rollout``."""
-    with MujocoPlant(chain(3), nthread=1) as plant:
+    with MujocoPlant(links_parameters(3), nthread=1) as plant:
         return rollout(policy3, plant, POSES, duration=DURATION)
 
 
@@ -68,7 +68,7 @@ def test_observation_names_extend_the_two_link_agents():
 def test_dm_env_specs_shapes_and_rewards(task, links):
     env = twolink_env.load(task, links=links, seed=0, time_limit=0.5)
     assert env.action_spec().shape == (links,)
-    np.testing.assert_array_equal(env.action_spec().maximum, chain(links).tau_max)
+    np.testing.assert_array_equal(env.action_spec().maximum, links_parameters(links).tau_max)
     spec = env.observation_spec()
     keys = ["state"] if task == "centralized" else [f"agent{i}" for i in range(1, links + 1)]
     assert list(spec) == keys
@@ -79,7 +79,8 @@ def test_dm_env_specs_shapes_and_rewards(task, links):
     while not ts.last():
         for key, value in ts.observation.items():
             spec[key].validate(value)
-        ts = env.step(rng.uniform(-chain(links).tau_max, chain(links).tau_max))
+        tau_max = links_parameters(links).tau_max
+        ts = env.step(rng.uniform(-tau_max, tau_max))
         steps += 1
         x = env.physics.state()
         want = (centralized_reward(x) if task == "centralized"
@@ -112,7 +113,7 @@ def test_dm_env_defaults_and_determinism():
         slow.step(slow.action_spec().maximum)
     assert slow.task.params.speed_limits == (1.0,) * 3
     assert np.abs(slow.physics.speeds()).max() == 1.0                 # the limit binds
-    two = twolink_env.load("centralized", params=chain(2))        # a two-link chain is Table I
+    two = twolink_env.load("centralized", params=links_parameters(2))        # two links are Table I
     assert two.task.params == TABLE_I and two.reset().observation["state"].tolist() == \
         [-1.0, -3.0, 0.0, 0.0]
 
@@ -146,7 +147,7 @@ def test_gymnasium_checker_and_spaces(observation, actions, size, n_actions):
         assert env.action_space.shape == (3,)
     else:
         assert env.action_space.n == n_actions
-        np.testing.assert_array_equal(env._arms.table[-1], chain(3).tau_max)
+        np.testing.assert_array_equal(env._arms.table[-1], links_parameters(3).tau_max)
     assert env._arms.steps == 160
     obs, _ = env.reset(seed=3)
     again, _ = gym_env.TwoLinkEnv(links=3, observation=observation, actions=actions).reset(seed=3)
@@ -161,7 +162,7 @@ def test_gymnasium_four_links_and_render():
     assert obs.shape == (8,) and env.action_space.shape == (4,)
     obs, r, terminated, truncated, _ = env.step(np.zeros(4))
     assert obs.shape == (8,) and r == REWARD_OTHER and not terminated and not truncated
-    assert env.plant.params == chain(4, "copied")
+    assert env.plant.params == links_parameters(4, "copied")
     frame = env.render()
     assert frame.shape == (120, 160, 3) and frame.std() > 10
     env.close()
@@ -204,7 +205,7 @@ def test_pettingzoo_agents_one_per_joint(links):
     assert env.possible_agents == names and tpz.agents(links) == tuple(names)
     assert [env.observation_space(a).shape for a in names] == [(5,)] * (links - 1) + [(2,)]
     np.testing.assert_array_equal([env.action_space(a).high[0] for a in names],
-                                  chain(links).tau_max)
+                                  links_parameters(links).tau_max)
     obs, _ = env.reset(seed=2)
     x = env.state()
     assert x.shape == (2 * links,) and env._steps == 160
@@ -277,8 +278,8 @@ def test_each_agent_acts_on_its_own_sequential_observation(policy3, reference):
     (dict(links=3, perturbation={"m2": 0.1}, speed_noise=0.1),
      "perturbation, speed_noise are two-link options"),
     (dict(links=4, challenge="easy"), "this arm has 4 links"),
-    (dict(params=chain(3), links=2), "params describe a 3-link arm, but links=2"),
-    (dict(params=chain(3), rule="copied"), "give either params or rule"),
+    (dict(params=links_parameters(3), links=2), "params describe a 3-link arm, but links=2"),
+    (dict(params=links_parameters(3), rule="copied"), "give either params or rule"),
 ])
 def test_bad_options_refused(make, kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from twolink.arm.task import own_motor_seconds
-from twolink.arm.parameters import chain
+from twolink.arm.parameters import links_parameters
 from twolink.sim.metrics import random_poses
 
 PATH = Path(__file__).resolve().parents[2] / "docs" / "studies" / "links_own_motor.py"
@@ -32,7 +32,7 @@ def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path,
     assert (data["schema"], data["version"]) == (study.SCHEMA, study.VERSION)
     (run,) = data["runs"]
     x0 = random_poses(3, study.POSES, 20061122 + 3)[:3]
-    own = own_motor_seconds(chain(3, "tapered"), x0[:, :3])
+    own = own_motor_seconds(links_parameters(3, "tapered"), x0[:, :3])
     np.testing.assert_allclose(run["own_motor_s"], own.max(axis=1), atol=1e-4)
     assert run["slowest_joint"] == [int(j) + 1 for j in own.argmax(axis=1)]
     assert sorted(run["success"]) == sorted(study.CONTROLLERS)

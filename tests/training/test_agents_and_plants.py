@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from twolink.arm.parameters import chain  # noqa: E402
+from twolink.arm.parameters import links_parameters  # noqa: E402
 from twolink.control.sb3_agent import sb3_agent  # noqa: E402
 from twolink.envs.sb3 import TwoLinkSB3VecEnv  # noqa: E402
 from twolink.sim.controller import ControllerError  # noqa: E402
@@ -52,7 +52,8 @@ def test_an_n_link_agent_scales_by_its_arms_tau_max(four_links):
     x = np.random.default_rng(1).uniform(-1, 1, (7, 8))
     from twolink.arm.observations import features
     action, _ = model.predict(features(x, "cos_sin"), deterministic=True)
-    np.testing.assert_allclose(agent(x), np.clip(action, -1, 1) * chain(4, "copied").tau_max,
+    np.testing.assert_allclose(agent(x),
+                               np.clip(action, -1, 1) * links_parameters(4, "copied").tau_max,
                                rtol=0, atol=1e-12)
     assert agent.meta["links"] == 4
 

@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 import torch  # noqa: E402
 
-from twolink.arm.parameters import TS, chain  # noqa: E402
+from twolink.arm.parameters import TS, links_parameters  # noqa: E402
 from twolink.cli import main  # noqa: E402
 from twolink.control.links_pd import tuned  # noqa: E402
 from twolink.control.residual import base_controller  # noqa: E402
@@ -28,7 +28,7 @@ from twolink.sim.rollout import rollout  # noqa: E402
 from twolink.training.config import TrainConfig  # noqa: E402
 from twolink.training.run import PolicyController, build, save_agent  # noqa: E402
 
-ARM = chain(6, "tapered")
+ARM = links_parameters(6, "tapered")
 STATES = np.concatenate([random_poses(6, 16, 3)[:, :6],
                          np.random.default_rng(4).normal(0, 2, (16, 6))], 1)
 

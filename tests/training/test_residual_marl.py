@@ -14,7 +14,7 @@ pytest.importorskip("skrl")
 
 import torch  # noqa: E402
 
-from twolink.arm.parameters import TS, chain  # noqa: E402
+from twolink.arm.parameters import TS, links_parameters  # noqa: E402
 from twolink.cli import main  # noqa: E402
 from twolink.control.links_pd import tuned  # noqa: E402
 from twolink.control.marl_agent import load_marl_agent, read_marl_file  # noqa: E402
@@ -22,7 +22,7 @@ from twolink.sim.controller import ControllerError  # noqa: E402
 from twolink.training import marl_state  # noqa: E402
 from twolink.training.marl import MarlConfig  # noqa: E402
 
-ARM = chain(6, "tapered")
+ARM = links_parameters(6, "tapered")
 STATES = np.concatenate([np.random.default_rng(5).uniform(-3, 3, (16, 6)),
                          np.random.default_rng(6).normal(0, 2, (16, 6))], 1)
 SMALL = dict(links=6, envs=4, n_steps=8, eval_every=32, steps=32, observe="local")

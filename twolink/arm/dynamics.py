@@ -1,7 +1,7 @@
 """Continuous-time dynamics of the two-link arm, vectorised over a leading batch axis.
 
 State x = [theta1, theta2, dtheta1, dtheta2], torque tau = [tau1, tau2].
-Each ``*_acceleration`` function returns d(dtheta)/dt of shape (..., 2). The ``chain_*``
+Each ``*_acceleration`` function returns d(dtheta)/dt of shape (..., 2). The ``links_*``
 functions are the N-link arm (x = [theta_1..theta_N, dtheta_1..dtheta_N], tau of N),
 of which (6)-(9) are the two-link case.
 """
@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from twolink.arm.parameters import ArmParameters, ChainParameters, as_chain
+from twolink._imports import renamed
+from twolink.arm.parameters import ArmParameters, LinksParameters, as_links
 
 
 def mass_matrix(p: ArmParameters, theta2: np.ndarray) -> np.ndarray:
@@ -84,7 +85,7 @@ MODELS = {
 
 
 # --------------------------------------------------------------------------- N links
-# The horizontal arm of N links (twolink.arm.parameters.chain), of which (6)-(9) are the
+# The horizontal arm of N links (twolink.arm.parameters.links_parameters), of which (6)-(9) are the
 # two-link case. With phi_a = theta_2 + ... + theta_a the angle of link a relative to
 # link 1 (phi_1 = 0) and omega_a = dtheta_1 + ... + dtheta_a its angular speed, the
 # kinetic energy is 1/2 sum_ab G_ab omega_a omega_b with
@@ -95,7 +96,7 @@ MODELS = {
 # For two links W_11 + I_1 = P1, W_22 + I_2 = P2 and W_12 = P3 of (10).
 
 
-def chain_weights(c: ChainParameters) -> np.ndarray:
+def links_weights(c: LinksParameters) -> np.ndarray:
     """The constant N x N matrix W of the comment above: the kinetic-energy weights
     W_ab = sum_{k >= max(a, b)} m_k r_ka r_kb of the N-link arm ``c``."""
     n = c.links
@@ -137,10 +138,10 @@ def _sin_diff(cos, sin, a, b):
     return -sin[b] if a == 0 else sin[a] * cos[b] - cos[a] * sin[b]
 
 
-def _mass_entries(c: ChainParameters, cos, sin, batch: tuple) -> np.ndarray:
+def _mass_entries(c: LinksParameters, cos, sin, batch: tuple) -> np.ndarray:
     """M(theta) laid out as (N, N) + batch (each entry contiguous)."""
     n = c.links
-    w = chain_weights(c)
+    w = links_weights(c)
     g = np.empty((n, n) + batch)
     for a in range(n):
         g[a, a] = w[a, a] + c.inertias[a]
@@ -154,11 +155,11 @@ def _mass_entries(c: ChainParameters, cos, sin, batch: tuple) -> np.ndarray:
     return g
 
 
-def _bias(c: ChainParameters, dtheta: list, cos, sin) -> list:
+def _bias(c: LinksParameters, dtheta: list, cos, sin) -> list:
     """C(theta, dtheta) dtheta as a list of N arrays (no damping) from the joint speeds
     ``dtheta`` (a list of N arrays)."""
     n = c.links
-    w = chain_weights(c)
+    w = links_weights(c)
     omega2, omega = [], None
     for v in dtheta:
         omega = v if omega is None else omega + v
@@ -174,18 +175,18 @@ def _bias(c: ChainParameters, dtheta: list, cos, sin) -> list:
     return h
 
 
-def _check_chain_state(c: ChainParameters, x: np.ndarray, name: str = "x") -> None:
+def _check_links_state(c: LinksParameters, x: np.ndarray, name: str = "x") -> None:
     n = c.links
     if x.ndim < 1 or x.shape[-1] != 2 * n:
         raise ValueError(f"{name} must have shape (..., {2 * n}) for a {n}-link arm "
                          f"([theta_1..theta_{n}, dtheta_1..dtheta_{n}]), got {x.shape}")
 
 
-def chain_mass_matrix(p: ArmParameters | ChainParameters, theta) -> np.ndarray:
+def links_mass_matrix(p: ArmParameters | LinksParameters, theta) -> np.ndarray:
     """M(theta) of the N-link arm, shape (..., N, N); (7) for two links.
 
     ``theta`` has shape (..., N) (the joint angles; only theta_2..theta_N matter)."""
-    c = as_chain(p)
+    c = as_links(p)
     theta = np.asarray(theta, dtype=float)
     if theta.ndim < 1 or theta.shape[-1] != c.links:
         raise ValueError(f"theta must have shape (..., {c.links}) for a {c.links}-link arm, "
@@ -195,13 +196,13 @@ def chain_mass_matrix(p: ArmParameters | ChainParameters, theta) -> np.ndarray:
     return np.ascontiguousarray(np.moveaxis(m, (0, 1), (-2, -1)))
 
 
-def chain_bias(p: ArmParameters | ChainParameters, x) -> np.ndarray:
+def links_bias(p: ArmParameters | LinksParameters, x) -> np.ndarray:
     """Coriolis/centrifugal forces C(theta, dtheta) dtheta of the N-link arm, shape
     (..., N), as MuJoCo's qfrc_bias of the horizontal arm (no gravity torque, no damping);
     (8) without the damping diag(b) for two links (see :func:`coriolis_forces`)."""
-    c = as_chain(p)
+    c = as_links(p)
     x = np.asarray(x, dtype=float)
-    _check_chain_state(c, x)
+    _check_links_state(c, x)
     cols = _columns(x)
     cos, sin = _relative_angles(cols[:c.links])
     return np.stack(_bias(c, cols[c.links:], cos, sin), -1)
@@ -222,7 +223,7 @@ def _check_locked(locked, n: int) -> list:
     return free
 
 
-def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
+def links_acceleration(p: ArmParameters | LinksParameters, x, tau, *,
                        locked=None) -> np.ndarray:
     """ddtheta of the N-link horizontal arm, shape (..., N): M ddtheta = tau - C dtheta
     - diag(b) dtheta, the N-link form of (6)-(9) (G = 0: the arm is horizontal).
@@ -231,11 +232,11 @@ def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
     ``locked`` (N booleans) holds joints fixed: their ddtheta is 0 and they leave the
     solve, which becomes M_uu ddtheta_u = rhs_u over the free joints u.
     """
-    c = as_chain(p)
+    c = as_links(p)
     n = c.links
     x = np.asarray(x, dtype=float)
     tau = np.asarray(tau, dtype=float)
-    _check_chain_state(c, x)
+    _check_links_state(c, x)
     if tau.ndim < 1 or tau.shape[-1] != n:
         raise ValueError(f"tau must have shape (..., {n}) for a {n}-link arm, "
                          f"got {tau.shape}")
@@ -281,3 +282,11 @@ def chain_acceleration(p: ArmParameters | ChainParameters, x, tau, *,
     for i, k in enumerate(free):
         out[k] = z[i]
     return np.stack(out, -1)
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "chain_weights": "links_weights", "chain_mass_matrix": "links_mass_matrix",
+    "chain_bias": "links_bias", "chain_acceleration": "links_acceleration"
+})

@@ -13,14 +13,14 @@ from typing import Callable
 
 import numpy as np
 
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters, as_chain
+from twolink.arm.parameters import TS, ArmParameters, LinksParameters, as_links
 
 #: RK4 substeps per sample period used by every numpy plant (see README, integration error).
 SUBSTEPS = 10
 
-#: A two-link arm (Table I) or an N-link chain: anything with ``links``, ``tau_max`` and
+#: A two-link arm (Table I) or an arm of N links: anything with ``links``, ``tau_max`` and
 #: ``speed_max``.
-Parameters = ArmParameters | ChainParameters
+Parameters = ArmParameters | LinksParameters
 Acceleration = Callable[[Parameters, np.ndarray, np.ndarray], np.ndarray]
 
 
@@ -129,7 +129,7 @@ def sample_step_compiled(model: str, p: ArmParameters, x: np.ndarray, tau: np.nd
     if p.links != 2:
         raise ValueError(f"the compiled step is for two links; use sample_step for a "
                          f"{p.links}-link arm")
-    if isinstance(p, ChainParameters):
+    if isinstance(p, LinksParameters):
         p = p.as_arm()
     if not isinstance(substeps, (int, np.integer)) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps}")
@@ -173,11 +173,11 @@ def sampling_rate(p: Parameters) -> tuple[float, int]:
     form; more: over the poses of :func:`_check_poses`), and the link whose joint alone
     (the others free) is fastest, b_k (M^-1)_kk. Infinity (and the lightest link) where
     M(theta) is singular or not finite. Cached per parameter set."""
-    return _sampling_rate(as_chain(p))
+    return _sampling_rate(as_links(p))
 
 
 @functools.lru_cache(maxsize=1024)
-def _sampling_rate(c: ChainParameters) -> tuple[float, int]:
+def _sampling_rate(c: LinksParameters) -> tuple[float, int]:
     lightest = int(np.argmin(np.asarray(c.masses) + np.asarray(c.inertias))) + 1
     with np.errstate(all="ignore"):
         if c.links == 2:
@@ -194,7 +194,7 @@ def _sampling_rate(c: ChainParameters) -> tuple[float, int]:
         from twolink.arm import dynamics
 
         b = np.sqrt(np.asarray(c.dampings))
-        m = dynamics.chain_mass_matrix(c, _check_poses(c.links))
+        m = dynamics.links_mass_matrix(c, _check_poses(c.links))
         try:
             if not np.all(np.isfinite(m)):
                 raise np.linalg.LinAlgError
@@ -213,7 +213,7 @@ def check_masses(p: Parameters) -> None:
     """A ValueError naming the link if a link's mass or inertia is under
     :data:`MUJOCO_MIN_MASS`: an all but massless link, which no plant simulates (MuJoCo
     refuses to compile it, the models divide by zero)."""
-    c = as_chain(p)
+    c = as_links(p)
     for k, (mass, inertia) in enumerate(zip(c.masses, c.inertias), 1):
         if mass < MUJOCO_MIN_MASS or inertia < MUJOCO_MIN_MASS:
             raise ValueError(f"link {k} is all but massless (mass {mass:g} kg, inertia "
@@ -227,7 +227,7 @@ def check_sampling(p: Parameters, *, ts: float = TS, substeps: int = SUBSTEPS) -
     every numpy plant and of MuJoCo: the substep times :func:`sampling_rate` below
     :data:`RK4_LIMIT`. A link too light for its damping (its inertia over its damping far
     under the substep) fails it; so does a mass matrix that is singular in floating point."""
-    c = as_chain(p)
+    c = as_links(p)
     check_masses(c)
     rate, k = sampling_rate(c)
     h = ts / substeps

@@ -13,7 +13,7 @@ from pathlib import Path
 import mujoco
 
 from twolink.arm.integrate import SUBSTEPS
-from twolink.arm.parameters import TABLE_I, TS, ArmParameters, ChainParameters, as_chain
+from twolink.arm.parameters import TABLE_I, TS, ArmParameters, LinksParameters, as_links
 from twolink.artifacts import write_text
 
 
@@ -37,11 +37,11 @@ _RGBA_LINKS = ((0.85, 0.45, 0.1, 1.0), (0.15, 0.45, 0.85, 1.0), (0.2, 0.65, 0.3,
                (0.55, 0.3, 0.75, 1.0), (0.8, 0.2, 0.25, 1.0), (0.1, 0.6, 0.6, 1.0))
 
 
-def build_spec(p: ArmParameters | ChainParameters = TABLE_I) -> mujoco.MjSpec:
+def build_spec(p: ArmParameters | LinksParameters = TABLE_I) -> mujoco.MjSpec:
     """MjSpec of the arm: link masses, centres of mass and inertias, damping, motors of
-    Table I (an :class:`ArmParameters`), or of an N-link chain (a :class:`ChainParameters`,
-    :func:`twolink.arm.parameters.chain`). Two links give the same model either way."""
-    c = as_chain(p)
+    Table I (an :class:`ArmParameters`), or of an arm of N links (a :class:`LinksParameters`,
+    :func:`twolink.arm.parameters.links_parameters`). Two links give the same model either way."""
+    c = as_links(p)
     n = c.links
     joints, links = joint_names(n), link_names(n)
     spec = mujoco.MjSpec()
@@ -97,18 +97,18 @@ def build_spec(p: ArmParameters | ChainParameters = TABLE_I) -> mujoco.MjSpec:
     return spec
 
 
-def build_model(p: ArmParameters | ChainParameters = TABLE_I) -> mujoco.MjModel:
-    """Compiled MjModel of the arm for parameters ``p`` (two links or a chain)."""
+def build_model(p: ArmParameters | LinksParameters = TABLE_I) -> mujoco.MjModel:
+    """Compiled MjModel of the arm for parameters ``p`` (two links or more)."""
     return build_spec(p).compile()
 
 
-def model_xml(p: ArmParameters | ChainParameters = TABLE_I) -> str:
+def model_xml(p: ArmParameters | LinksParameters = TABLE_I) -> str:
     """The MJCF text for parameters ``p``."""
     spec = build_spec(p)
     spec.compile()
     return spec.to_xml()
 
 
-def write_model(path: os.PathLike, p: ArmParameters | ChainParameters = TABLE_I) -> Path:
+def write_model(path: os.PathLike, p: ArmParameters | LinksParameters = TABLE_I) -> Path:
     """Write the generated MJCF atomically to ``path``."""
     return write_text(path, model_xml(p))

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from twolink._imports import renamed
 from twolink.validate import whole
 
 #: Sample time Ts of the discrete-time system (Section IV-B).
@@ -31,12 +32,12 @@ HORIZON = 5.0
 SUCCESS_MARGIN = 1.0
 #: Horizon of arms of three links or more (:func:`horizon`): the tapered links' torque
 #: limits (0.05 N m for link 3, halving after) need more than the paper's 5 s.
-CHAIN_HORIZON = 8.0
+LINKS_HORIZON = 8.0
 
-#: Arms of this many links can be built (:func:`chain`): two (Table I) to six.
+#: Arms of this many links can be built (:func:`links_parameters`): two (Table I) to six.
 MIN_LINKS = 2
 MAX_LINKS = 6
-#: How the links beyond the second are made (:func:`chain`).
+#: How the links beyond the second are made (:func:`links_parameters`).
 LINK_RULES = ("tapered", "copied")
 #: The tapered rule: each link beyond the second is the previous one with its mass,
 #: inertia and torque limit multiplied by this factor (length, centre of mass, damping
@@ -64,8 +65,8 @@ STATE_NAMES = state_names(2)
 
 def horizon(links: int = 2) -> float:
     """Evaluation and episode horizon (s) of an arm of ``links`` links: the paper's
-    :data:`HORIZON` (5 s) for two, :data:`CHAIN_HORIZON` (8 s) for three or more."""
-    return HORIZON if check_links(links) == 2 else CHAIN_HORIZON
+    :data:`HORIZON` (5 s) for two, :data:`LINKS_HORIZON` (8 s) for three or more."""
+    return HORIZON if check_links(links) == 2 else LINKS_HORIZON
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,11 +162,11 @@ _ARM_NAMES = {"lengths": "l", "masses": "m", "coms": "c", "inertias": "I", "damp
 
 
 @dataclasses.dataclass(frozen=True)
-class ChainParameters:
+class LinksParameters:
     """A horizontal arm of N links, link k's numbers at index k - 1 of each tuple (SI
     units): length, mass, centre of mass (distance from the link's joint), inertia about
     the centre of mass, joint damping, torque limit and speed limit. Built by
-    :func:`chain`; for N = 2 :meth:`as_arm` gives the :class:`ArmParameters`."""
+    :func:`links_parameters`; for N = 2 :meth:`as_arm` gives the :class:`ArmParameters`."""
 
     lengths: tuple
     masses: tuple
@@ -212,7 +213,8 @@ class ChainParameters:
         return np.array(self.speed_limits)
 
     def as_arm(self) -> ArmParameters:
-        """The :class:`ArmParameters` of a two-link chain (Table I for ``chain(2)``)."""
+        """The :class:`ArmParameters` of an arm of two links (Table I for
+        ``links_parameters(2)``)."""
         if self.links != 2:
             raise ValueError(f"a {self.links}-link arm has no two-link ArmParameters")
         values = {"g": self.g}
@@ -227,14 +229,14 @@ class ChainParameters:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict) -> "ChainParameters":
+    def from_dict(cls, data: dict) -> "LinksParameters":
         known = set(_LINK_FIELDS) | {"g", "rule", "links"}
         unknown = sorted(set(data) - known)
         if unknown:
-            raise ValueError(f"unknown chain parameter(s) {unknown}")
+            raise ValueError(f"unknown LinksParameters field(s) {unknown}")
         missing = sorted(set(_LINK_FIELDS) - set(data))
         if missing:
-            raise ValueError(f"missing chain parameter(s) {missing}")
+            raise ValueError(f"missing LinksParameters field(s) {missing}")
         out = cls(**{k: tuple(data[k]) for k in _LINK_FIELDS},
                   g=float(data.get("g", 9.81)), rule=str(data.get("rule", "tapered")))
         if "links" in data and data["links"] != out.links:
@@ -243,27 +245,28 @@ class ChainParameters:
         return out
 
 
-def as_chain(p: "ArmParameters | ChainParameters") -> ChainParameters:
-    """``p`` as a :class:`ChainParameters` (a two-link chain for :class:`ArmParameters`)."""
-    if isinstance(p, ChainParameters):
+def as_links(p: "ArmParameters | LinksParameters") -> LinksParameters:
+    """``p`` as a :class:`LinksParameters` (its two links for an :class:`ArmParameters`)."""
+    if isinstance(p, LinksParameters):
         return p
-    return ChainParameters(
+    return LinksParameters(
         **{name: tuple(getattr(p, (arm.format(k) if "{}" in arm else f"{arm}{k}"))
                        for k in (1, 2)) for name, arm in _ARM_NAMES.items()}, g=p.g)
 
 
-def chain(links: int = 2, rule: str = "tapered", base: ArmParameters = TABLE_I
-          ) -> ChainParameters:
+def links_parameters(links: int = 2, rule: str = "tapered",
+                     base: ArmParameters = TABLE_I) -> LinksParameters:
     """The N-link horizontal arm that extends Table I (``base``): links 1 and 2 are
     Table I's; with ``rule="tapered"`` each further link is the previous one with its mass,
     inertia and torque limit times :data:`TAPER` (real arms taper toward the tip: with
-    copied links the inner motors turn the heavy outer chain only slowly), with
+    copied links the inner motors turn the heavy outer links only slowly), with
     ``rule="copied"`` each further link is a copy of link 2. Length, centre of mass,
-    damping and speed limit are link 2's in both rules. ``chain(2)`` is Table I exactly."""
+    damping and speed limit are link 2's in both rules. ``links_parameters(2)`` is Table I
+    exactly."""
     n = check_links(links)
     if rule not in LINK_RULES:
         raise ValueError(f"unknown link rule {rule!r}; choose one of {', '.join(LINK_RULES)}")
-    two = as_chain(base)
+    two = as_links(base)
     rows = [{name: getattr(two, name)[k] for name in _LINK_FIELDS} for k in (0, 1)]
     factor = TAPER if rule == "tapered" else 1.0
     for _ in range(2, n):
@@ -271,5 +274,13 @@ def chain(links: int = 2, rule: str = "tapered", base: ArmParameters = TABLE_I
         rows.append(dict(prev, masses=prev["masses"] * factor,
                          inertias=prev["inertias"] * factor,
                          torque_limits=prev["torque_limits"] * factor))
-    return ChainParameters(**{name: tuple(r[name] for r in rows) for name in _LINK_FIELDS},
+    return LinksParameters(**{name: tuple(r[name] for r in rows) for name in _LINK_FIELDS},
                            g=base.g, rule=rule)
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "ChainParameters": "LinksParameters", "chain": "links_parameters",
+    "as_chain": "as_links", "CHAIN_HORIZON": "LINKS_HORIZON"
+})

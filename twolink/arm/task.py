@@ -16,8 +16,8 @@ from twolink.arm.parameters import (
     REWARD_GOAL,
     REWARD_OTHER,
     ArmParameters,
-    ChainParameters,
-    as_chain,
+    LinksParameters,
+    as_links,
 )
 from twolink.validate import whole
 
@@ -81,30 +81,30 @@ def action_levels(tau_max: float, levels: int = PAPER_LEVELS) -> np.ndarray:
     return np.array([tau_max * (2 * j / (levels - 1) - 1) for j in range(levels)])
 
 
-def own_motor_speed(p: ArmParameters | ChainParameters) -> np.ndarray:
+def own_motor_speed(p: ArmParameters | LinksParameters) -> np.ndarray:
     """The fastest each joint turns on its own motor with every other joint held, shape (N,).
 
     With joints j != i locked the links beyond joint i move as one rigid body about a
-    fixed axis, so :func:`twolink.arm.dynamics.chain_acceleration` reduces to
+    fixed axis, so :func:`twolink.arm.dynamics.links_acceleration` reduces to
     J_i ddtheta_i = tau_i - b_i dtheta_i: the bias C vanishes (M_ii does not depend on
     theta_i) and J_i is the
     inertia of links i..N about joint i. From rest the speed then stays below
     tau_i max / b_i, and within the joint's speed limit: min(tau_i max / b_i,
-    speed limit_i) (every damping is positive: :class:`ChainParameters` checks it)."""
-    c = as_chain(p)
+    speed limit_i) (every damping is positive: :class:`LinksParameters` checks it)."""
+    c = as_links(p)
     tau = np.asarray(c.tau_max, dtype=float)
     b = np.asarray(c.dampings, dtype=float)
     limit = np.asarray(c.speed_limits, dtype=float)
     return np.minimum(tau / b, limit)
 
 
-def own_motor_seconds(p: ArmParameters | ChainParameters, angles) -> np.ndarray:
+def own_motor_seconds(p: ArmParameters | LinksParameters, angles) -> np.ndarray:
     """A lower bound on the seconds joint i's own motor needs to bring it from the wrapped
     angle theta_i (at rest) to 0 with every other joint held: |theta_i| /
     :func:`own_motor_speed`, shape of ``angles`` (..., N). Moving the other joints can
     shorten it (their reactions turn joint i too); a decentralized controller whose
     joints do not help each other cannot."""
-    c = as_chain(p)
+    c = as_links(p)
     a = np.asarray(angles, dtype=float)
     if a.ndim < 1 or a.shape[-1] != c.links:
         raise ValueError(f"angles must have shape (..., {c.links}) for a {c.links}-link "

@@ -15,8 +15,8 @@ from twolink.arm.parameters import (
     MIN_LINKS,
     PAPER_X0,
     TABLE_I,
-    chain,
     check_links,
+    links_parameters,
     state_names,
 )
 from twolink.policy.fuzzy_policy import check_links_match
@@ -49,13 +49,13 @@ def add_arm_options(p) -> None:
 
 def arm_of(args) -> tuple:
     """(N, parameters) of ``--links`` / ``--rule``: Table I for two links, else
-    :func:`twolink.arm.parameters.chain`; a ValueError naming the supported range."""
+    :func:`twolink.arm.parameters.links_parameters`; a ValueError naming the supported range."""
     try:
         links = check_links(args.links)
     except ValueError:
         raise ValueError(f"--links must be a whole number from {MIN_LINKS} to {MAX_LINKS}, "
                          f"got {args.links}") from None
-    return links, (TABLE_I if links == 2 else chain(links, args.rule))
+    return links, (TABLE_I if links == 2 else links_parameters(links, args.rule))
 
 
 def default_policy(links: int, rule: str) -> str:
@@ -150,7 +150,7 @@ def parse_x0(values, *, degrees: bool = False, seed: int = 0, links: int = 2,
     A negative or too large ``seed`` is refused first, as ``--seed``."""
     seed_option(seed)
     if links != 2:
-        return _parse_chain_x0(values, degrees=degrees, seed=seed, links=links,
+        return _parse_links_x0(values, degrees=degrees, seed=seed, links=links,
                                speed_max=speed_max)
     if not values:
         return np.asarray(PAPER_X0, dtype=float)
@@ -171,7 +171,7 @@ def parse_x0(values, *, degrees: bool = False, seed: int = 0, links: int = 2,
     return x0
 
 
-def _parse_chain_x0(values, *, degrees: bool, seed: int, links: int, speed_max) -> np.ndarray:
+def _parse_links_x0(values, *, degrees: bool, seed: int, links: int, speed_max) -> np.ndarray:
     from twolink.sim.metrics import random_poses
 
     words = [w for v in values or () for w in re.split(r"[,\s]+", v.strip()) if w]

@@ -34,7 +34,7 @@ from twolink.sim.cell_store import CellFile
 from twolink.sim.cells import EXECUTORS, ray_session
 from twolink.sim.challenges import LEVELS, challenge
 from twolink.studies.mismatch.measure import build
-from twolink.studies.mismatch.plan import CHAIN_SEED, PLANS, plan
+from twolink.studies.mismatch.plan import LINKS_SEED, PLANS, plan
 from twolink.studies.mismatch.report import summary, write
 from twolink.viz.formatting import format_rate
 
@@ -70,7 +70,7 @@ def add_parser(sub):
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the robust section's plants and noise (default: the "
                         "plan's, never tuned on); with --links N: of the random poses "
-                        f"(default {CHAIN_SEED}, never tuned on)")
+                        f"(default {LINKS_SEED}, never tuned on)")
     p.add_argument("--robust", action=argparse.BooleanOptionalAction, default=True,
                    help="measure the robust section (default on)")
     add_arm_options(p)
@@ -92,10 +92,10 @@ def _robust_args(args) -> list:
     return out
 
 
-def _chain_section(args, links: int, params) -> int:
+def _links_section(args, links: int, params) -> int:
     """``twolink mismatch --links N`` (N >= 3): the N-link section, checked before any work
     or file."""
-    from twolink.studies.mismatch.figures import chain_markdown
+    from twolink.studies.mismatch.figures import links_markdown
     from twolink.studies.mismatch.links import measure
 
     chosen = plan(args.plan)
@@ -108,7 +108,7 @@ def _chain_section(args, links: int, params) -> int:
         raise ValueError(f"{', '.join(two_link)} apply to the two-link report only; the "
                          f"{links}-link section takes --plan, --policies, --seed, --rule, "
                          f"--out and --json")
-    seed = CHAIN_SEED if args.seed is None else args.seed
+    seed = LINKS_SEED if args.seed is None else args.seed
     if seed < 0:
         raise ValueError(f"--seed must be a non-negative whole number, got {seed}")
     names = list(dict.fromkeys(args.policies or [default_policy(links, args.rule)]))
@@ -123,7 +123,7 @@ def _chain_section(args, links: int, params) -> int:
     out = args.out or output_dir(create=False) / f"mismatch-{links}link{suffix}"
     if out.parent != output_dir(create=False) or out.parent.is_dir():
         check_report_folder(out, force=args.force)
-    section = measure(policies, params, poses=chosen.chain_poses, seed=seed,
+    section = measure(policies, params, poses=chosen.links_poses, seed=seed,
                       duration=horizon(links))
     command = (f"twolink mismatch --links {links}"
                + ("" if args.rule == "tapered" else f" --rule {args.rule}")
@@ -132,7 +132,7 @@ def _chain_section(args, links: int, params) -> int:
                + ("" if args.seed is None else f" --seed {seed}"))
     with staged_set(out) as stage:                  # both files or neither
         write_json(stage / "report.json", {"command": command, **section})
-        write_text(stage / "report.md", chain_markdown(section, command))
+        write_text(stage / "report.md", links_markdown(section, command))
     if args.json:
         print(json.dumps(section, indent=2))
         return 0
@@ -179,7 +179,7 @@ def check_report_folder(out: Path, *, force: bool) -> None:
 def run(args) -> int:
     links, params = arm_of(args)
     if links != 2:
-        return _chain_section(args, links, params)
+        return _links_section(args, links, params)
     if args.policies is None:
         args.policies = list(PAPER_DESIGNS)
     chosen = plan(args.plan)

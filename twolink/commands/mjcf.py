@@ -1,5 +1,5 @@
 """``twolink mjcf``: write the MJCF model generated from Table I (``--links N``: the N-link
-arm that extends it, :func:`twolink.arm.parameters.chain`)."""
+arm that extends it, :func:`twolink.arm.parameters.links_parameters`)."""
 from __future__ import annotations
 
 from twolink.arm import mjcf

@@ -7,8 +7,8 @@ or a policy file, :func:`twolink.control.controllers.resolve_controller`) to the
 closed loop. ``--challenge``
 (or ``--delay`` / ``--angle-noise-deg``) runs them under a challenge level, ``--compensate``
 behind the run-time compensator (:mod:`twolink.sim.estimation`). ``--links N`` (with
-``--rule``) runs an N-link arm (:func:`twolink.arm.parameters.chain`) on MuJoCo or the numpy
-full N-link model; the simplified model (11) and the challenges are the two-link arm's.
+``--rule``) runs an N-link arm (:func:`twolink.arm.parameters.links_parameters`) on MuJoCo
+or the numpy full N-link model; the simplified model (11) and the challenges are the two-link arm's.
 """
 from __future__ import annotations
 

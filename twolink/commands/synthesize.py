@@ -23,6 +23,7 @@ import argparse
 import json
 from pathlib import Path
 
+from twolink._imports import renamed
 from twolink.arm.parameters import DELTA, GAMMA, GOAL_SPEED, TABLE_I
 from twolink.arm.task import MAX_LEVELS, PAPER_LEVELS
 from twolink.artifacts import check_outputs, output_file
@@ -175,13 +176,13 @@ def add_parser(sub):
     return p
 
 
-def chain_file_name(kind: str, links: int, rule: str, context: str | None = None) -> str:
+def links_file_name(kind: str, links: int, rule: str, context: str | None = None) -> str:
     """``<kind>_<N>link[_<rule>][_<context>].npz``: the rule when not tapered, the
     context when given and not the N-link default (so the shipped one gets its name)."""
-    from twolink.synthesis.links_decentralized import CHAIN_DEFAULT
+    from twolink.synthesis.links_decentralized import LINKS_DEFAULT
 
     name = f"{kind}_{links}link" + ("" if rule == "tapered" else f"_{rule}")
-    if context is not None and context != CHAIN_DEFAULT.context:
+    if context is not None and context != LINKS_DEFAULT.context:
         name += f"_{context}"
     return f"{name}.npz"
 
@@ -205,7 +206,7 @@ def settings_of(**fields) -> SynthesisSettings:
         raise
 
 
-def _chain_job(args, links: int) -> tuple[SynthesisSettings, Path]:
+def _links_job(args, links: int) -> tuple[SynthesisSettings, Path]:
     """(settings, output) of an N-link synthesis (N >= 3), checked; the two-link options
     and the centralized table that no policy file can hold refused."""
     two_link = [o for o, given in (
@@ -235,7 +236,7 @@ def _chain_job(args, links: int) -> tuple[SynthesisSettings, Path]:
                              f"scaling synthesises it in memory")
     settings = settings_of(kind=args.kind, links=links, rule=args.rule,
                            context=args.context, gamma=args.gamma, delta=args.delta)
-    out, folders = output_file(args.output, chain_file_name(args.kind, links, args.rule,
+    out, folders = output_file(args.output, links_file_name(args.kind, links, args.rule,
                                                             args.context))
     check_outputs({"-o": out}, creatable=folders)
     if out.exists() and not args.force:
@@ -366,7 +367,7 @@ def _jobs(args) -> list[tuple[SynthesisSettings, Path]]:
         if given:
             raise ValueError(f"{', '.join(given)}: two-link options; a {links}-link arm takes "
                              f"the paper's levels and bins")
-        return [_chain_job(args, links)]
+        return [_links_job(args, links)]
     if args.kind == "centralized" and args.context is not None:
         raise ValueError("--context applies to the decentralized policy only")
     robust = _robust_options(args)
@@ -421,3 +422,10 @@ def run(args) -> int:
         print(json.dumps(summary[0] if len(summary) == 1 and not args.ship else summary,
                          indent=2))
     return 0
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "chain_file_name": "links_file_name"
+})

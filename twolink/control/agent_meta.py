@@ -4,7 +4,7 @@ its Stable-Baselines3 ``.zip`` (:mod:`twolink.control.sb3_agent`), written by
 
 ``{"schema": "twolink.agent", "version": 1, "links": N, "rule": "tapered"|"copied"}``:
 N must equal the size of the saved action space; the rule picks the arm of
-:func:`twolink.arm.parameters.chain` whose tau_max scales the actions (two links: Table
+:func:`twolink.arm.parameters.links_parameters` whose tau_max scales the actions (two links: Table
 I, rule ``None``). A two-link save without the member is Table I's arm.
 """
 from __future__ import annotations

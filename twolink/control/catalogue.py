@@ -172,13 +172,13 @@ def links_pd_name(links: int, rule: str) -> str:
 
 
 def links_pd(links: int, rule: str):
-    """The tuned per-joint saturated PD of the arm ``chain(links, rule)``
+    """The tuned per-joint saturated PD of the arm ``links_parameters(links, rule)``
     (:func:`twolink.control.links_pd.tuned`), named by :func:`links_pd_name`: the entry
     point of the ``pd_<N>link_<rule>`` entries."""
-    from twolink.arm.parameters import chain
+    from twolink.arm.parameters import links_parameters
     from twolink.control.links_pd import tuned
 
-    return tuned(chain(links, rule), name=links_pd_name(links, rule))
+    return tuned(links_parameters(links, rule), name=links_pd_name(links, rule))
 
 
 def _links_pd() -> list:

@@ -7,7 +7,7 @@ the two-link ``pd`` baseline is parametrised (:func:`twolink.control.baselines.t
 ``sat_deg``, the angle at which the P term alone saturates (kp_i = tau_max_i /
 radians(sat_deg)), and ``zeta``, the damping ratio on the inertia joint i sees on its
 own with every other joint free (kd_i = 2 zeta sqrt(kp_i J_i), J_i = 1 / (M0^-1)_ii of
-:func:`twolink.arm.dynamics.chain_mass_matrix` at theta = 0).
+:func:`twolink.arm.dynamics.links_mass_matrix` at theta = 0).
 
 :func:`tune` picks (sat_deg, zeta) for one arm on a grid, from random poses at rest drawn
 from :data:`TUNING_SEED` + N on the MuJoCo plant: the most successes, then the lowest
@@ -24,14 +24,15 @@ import sys
 
 import numpy as np
 
-from twolink.arm.dynamics import chain_mass_matrix
+from twolink._imports import renamed
+from twolink.arm.dynamics import links_mass_matrix
 from twolink.arm.integrate import wrap_angle
 from twolink.arm.parameters import (
     LINK_RULES,
     MAX_LINKS,
-    ChainParameters,
-    as_chain,
-    chain,
+    LinksParameters,
+    as_links,
+    links_parameters,
 )
 from twolink.validate import real
 
@@ -61,12 +62,12 @@ TUNED = {
 def joint_inertias(p) -> np.ndarray:
     """The inertia each joint of ``p`` sees on its own at theta = 0 with the others free:
     1 / (M0^-1)_ii (kg m^2)."""
-    c = as_chain(p)
-    m0 = chain_mass_matrix(c, np.zeros(c.links))
+    c = as_links(p)
+    m0 = links_mass_matrix(c, np.zeros(c.links))
     return 1.0 / np.diag(np.linalg.inv(m0))
 
 
-class ChainPD:
+class LinksPD:
     """Per-joint saturated PD for an N-link arm (module docstring). ``kp`` (> 0), ``kd``
     (>= 0) and ``tau_max`` (> 0): one value per joint."""
 
@@ -103,26 +104,26 @@ class ChainPD:
                 "kd": self.kd.tolist(), "tau_max": self.tau_max.tolist()}
 
 
-def chain_pd(p: ChainParameters, sat_deg: float, zeta: float, *, name: str = "pd") -> ChainPD:
+def make_links_pd(p: LinksParameters, sat_deg: float, zeta: float, *, name: str = "pd") -> LinksPD:
     """The PD of ``p`` with gains from ``sat_deg`` (> 0) and ``zeta`` (> 0)."""
     for what, v in (("sat_deg", sat_deg), ("zeta", zeta)):
         real(v, what, 0.0, open_low=True, numpy=False,
              message="{what} must be a positive number, got {value!r}")
-    c = as_chain(p)
+    c = as_links(p)
     kp = c.tau_max / math.radians(sat_deg)
     kd = 2.0 * zeta * np.sqrt(kp * joint_inertias(c))
-    return ChainPD(kp, kd, c.tau_max, name=name)
+    return LinksPD(kp, kd, c.tau_max, name=name)
 
 
-def tuned(p: ChainParameters, *, name: str = "pd") -> ChainPD:
+def tuned(p: LinksParameters, *, name: str = "pd") -> LinksPD:
     """The PD of ``p`` with the (sat_deg, zeta) of :data:`TUNED` for its links and rule;
     a ValueError for an arm that was not tuned."""
-    c = as_chain(p)
+    c = as_links(p)
     got = TUNED.get((c.links, c.rule))
     if got is None:
         raise ValueError(f"no tuned PD gains for {c.links} {c.rule} links; tuned: "
                          f"{sorted(TUNED)}")
-    return chain_pd(c, got["sat_deg"], got["zeta"], name=name)
+    return make_links_pd(c, got["sat_deg"], got["zeta"], name=name)
 
 
 def _score(ok: np.ndarray, settle: np.ndarray, end: float) -> tuple:
@@ -140,13 +141,13 @@ def tune(links: int, rule: str, *, poses: int = TUNING_POSES, seed: int = TUNING
     from twolink.sim.plants import make_plant
     from twolink.sim.rollout import rollout
 
-    p = chain(links, rule)
+    p = links_parameters(links, rule)
     x0 = random_poses(links, poses, seed + links)
     grid = [(s, z) for s in SAT_DEG for z in ZETA]
-    ctrls = [chain_pd(p, s, z) for s, z in grid]
+    ctrls = [make_links_pd(p, s, z) for s, z in grid]
     kp = np.repeat([c.kp for c in ctrls], poses, axis=0)
     kd = np.repeat([c.kd for c in ctrls], poses, axis=0)
-    stack = ChainPD(np.ones(links), np.zeros(links), p.tau_max, name="stack")
+    stack = LinksPD(np.ones(links), np.zeros(links), p.tau_max, name="stack")
 
     def act(x):
         theta, speed = wrap_angle(x[..., :links]), x[..., links:]
@@ -179,6 +180,13 @@ def main(argv=None) -> int:
     table = {f"{n} {r}": tune(n, r, log=log) for r in args.rules for n in args.links}
     print(json.dumps(table, indent=1))
     return 0
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "ChainPD": "LinksPD", "chain_pd": "make_links_pd"
+})
 
 
 if __name__ == "__main__":

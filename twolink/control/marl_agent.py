@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS, TABLE_I, chain
+from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS, TABLE_I, links_parameters
 from twolink.control.history import MAX_HISTORY, ObservationHistory, history_layout, \
     history_size
 from twolink.control.residual import base_of, residual_torques
@@ -150,10 +150,10 @@ class MarlController:
 
 
 def arm_tau_max(links: int, rule: str | None) -> np.ndarray:
-    """tau_max (N,) of the arm: Table I's for two links, :func:`chain`'s beyond."""
+    """tau_max (N,) of the arm: Table I's for two links, :func:`links_parameters`'s beyond."""
     if links == 2:
         return np.asarray(TABLE_I.tau_max, dtype=float)
-    return np.asarray(chain(links, rule).tau_max, dtype=float)
+    return np.asarray(links_parameters(links, rule).tau_max, dtype=float)
 
 
 def save_marl_agent(path, header: dict, policies: dict) -> Path:
@@ -272,8 +272,8 @@ def load_marl_agent(path) -> MarlController:
             raise _bad(path, f"weights of {agent} hold NaN or infinite values")
         net.eval()
         nets.append(net)
-    base_name, base = base_of(path, header, TABLE_I if links == 2 else chain(links, rule),
-                              "header")
+    base_name, base = base_of(path, header,
+                              TABLE_I if links == 2 else links_parameters(links, rule), "header")
     steps = header.get("steps")
     meta = {"algo": header["algo"], "links": links, "rule": rule, "base": base_name,
             "observe": header.get("observe"), "seed": header.get("seed"),

@@ -46,9 +46,9 @@ def base_gains(base: str, params) -> dict | None:
     if base == "none":
         return None
     from twolink.control.links_pd import TUNED
-    from twolink.arm.parameters import as_chain
+    from twolink.arm.parameters import as_links
 
-    c = as_chain(params)
+    c = as_links(params)
     got = TUNED.get((c.links, c.rule))
     if got is None:
         raise ValueError(f"no tuned PD gains for {c.links} {c.rule} links; tuned: "
@@ -58,15 +58,15 @@ def base_gains(base: str, params) -> dict | None:
 
 def base_controller(base: str, params, gains: dict | None = None):
     """The base controller (states (..., 2N) -> torques (..., N)) of ``base`` on the arm
-    ``params``: None for ``'none'``, the :func:`twolink.control.links_pd.chain_pd` of
+    ``params``: None for ``'none'``, the :func:`twolink.control.links_pd.make_links_pd` of
     ``gains`` (default :func:`base_gains`) for ``'pd'``."""
     check_base(base, params.links)
     if base == "none":
         return None
-    from twolink.control.links_pd import chain_pd
+    from twolink.control.links_pd import make_links_pd
 
     gains = gains or base_gains(base, params)
-    return chain_pd(params, gains["sat_deg"], gains["zeta"], name="base_pd")
+    return make_links_pd(params, gains["sat_deg"], gains["zeta"], name="base_pd")
 
 
 def residual_torques(base, x, action, tau_max) -> np.ndarray:

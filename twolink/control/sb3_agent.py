@@ -34,7 +34,7 @@ controller's torques and clipped when ``twolink.json`` names a ``base``,
 :mod:`twolink.control.residual`). N is the size of the saved action space (2 to 6); an
 agent of N > 2 links names its arm's link rule in the optional member ``twolink.json``
 (:mod:`twolink.control.agent_meta`), whose ``links`` must agree with the spaces; tau_max
-is then that of :func:`twolink.arm.parameters.chain` (Table I's for two links). SB3 is
+is then that of :func:`twolink.arm.parameters.links_parameters` (Table I's for two links). SB3 is
 imported only when an agent is built: without it, one line saying the rl extras are
 needed. Its ``meta`` holds the algorithm, seed, steps trained, base and file; no
 ``"model"`` (nothing for a compensator to predict with: plain leaderboard rows only).
@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from twolink.arm.observations import features
-from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, chain
+from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, links_parameters
 from twolink.control.agent_meta import AGENT_MEMBER, agent_arm, agent_observation
 from twolink.control.history import ObservationHistory
 from twolink.control.residual import agent_base, residual_torques
@@ -331,13 +331,13 @@ def _parameter_count(algo: str, n_obs: int, kwargs: dict, n_act: int = 2) -> int
     arch = kwargs.get("net_arch") or {k: default for k in
                                       (("pi", "vf") if algo == "ppo" else ("pi", "qf"))}
 
-    def chain(n_in, widths, n_out):
+    def mlp(n_in, widths, n_out):
         sizes = [n_in, *widths, n_out]
         return sum(a * b + b for a, b in zip(sizes, sizes[1:]))
 
     if algo == "ppo":
-        return chain(n_obs, arch["pi"], n_act) + chain(n_obs, arch["vf"], 1)
-    return chain(n_obs, arch["pi"], 2 * n_act) + 2 * kwargs.get("n_critics", 2) * chain(
+        return mlp(n_obs, arch["pi"], n_act) + mlp(n_obs, arch["vf"], 1)
+    return mlp(n_obs, arch["pi"], 2 * n_act) + 2 * kwargs.get("n_critics", 2) * mlp(
         n_obs + n_act, arch["qf"], 1)
 
 
@@ -445,7 +445,7 @@ class SB3Agent:
         self.links, self.rule = agent_arm(path, len(_action_space(data, path)[0]),
                                           members.get(AGENT_MEMBER))
         if params is None:
-            params = TABLE_I if self.links == 2 else chain(self.links, self.rule)
+            params = TABLE_I if self.links == 2 else links_parameters(self.links, self.rule)
         elif params.links != self.links:
             raise ControllerError(f"{path}: a {self.links}-link agent given the parameters "
                                   f"of {params.links} links")

@@ -9,7 +9,7 @@ of the package builds its episodes from these pieces, so the same option means t
 thing in all.
 
 Arms of N = 2 .. 6 links (:func:`arm`): two links are Table I and behave exactly as
-before; more links are :func:`twolink.arm.parameters.chain`. Episodes last
+before; more links are :func:`twolink.arm.parameters.links_parameters`. Episodes last
 :func:`horizon` seconds by default (5 s for two links as in the paper, 8 s beyond).
 """
 from __future__ import annotations
@@ -21,14 +21,14 @@ import warnings
 import numpy as np
 
 from twolink.arm.parameters import (  # noqa: F401
-    CHAIN_HORIZON,
+    LINKS_HORIZON,
     HORIZON,
     LINK_RULES,
     PAPER_X0,
     TABLE_I,
     ArmParameters,
-    ChainParameters,
-    chain,
+    LinksParameters,
+    links_parameters,
     check_links,
     horizon,
     state_names,
@@ -45,7 +45,7 @@ from twolink.validate import choice, is_real, numbers
 
 TASKS = ("centralized", "decentralized")
 #: Episode length (s) of arms of three links or more: their tapered outer motors (half
-#: the torque per link) need longer than the paper's 5 s to bring the chain to rest.
+#: the torque per link) need longer than the paper's 5 s to bring all links to rest.
 INITIAL_STATES = ("paper", "random")
 #: The message of a bad episode length (a :func:`twolink.validate.real` template).
 BAD_TIME_LIMIT = "{what} must be a positive number of seconds, got {value!r}"
@@ -81,10 +81,10 @@ def observation_names(links: int = 2) -> dict:
 OBSERVATION_NAMES = observation_names(2)
 
 
-def arm(params=None, *, links=None, rule=None) -> ArmParameters | ChainParameters:
+def arm(params=None, *, links=None, rule=None) -> ArmParameters | LinksParameters:
     """The nominal arm of an environment: ``params`` as given (a two-link
-    :class:`ChainParameters` as its :class:`ArmParameters`, so two links always run the
-    same code), else Table I for two links, else ``chain(links, rule)`` (rule default
+    :class:`LinksParameters` as its :class:`ArmParameters`, so two links always run the
+    same code), else Table I for two links, else ``links_parameters(links, rule)`` (rule default
     ``'tapered'``). ``links`` defaults to that of ``params``, else 2; a ValueError when
     it contradicts ``params``, is out of range, or ``rule`` is unknown or given with
     ``params``."""
@@ -93,16 +93,16 @@ def arm(params=None, *, links=None, rule=None) -> ArmParameters | ChainParameter
         raise ValueError(f"unknown link rule {rule!r}; choose one of {', '.join(LINK_RULES)}")
     if params is None:
         n = 2 if n is None else n
-        return TABLE_I if n == 2 else chain(n, rule or "tapered")
-    if not isinstance(params, (ArmParameters, ChainParameters)):
-        raise ValueError(f"params must be ArmParameters or ChainParameters, got "
+        return TABLE_I if n == 2 else links_parameters(n, rule or "tapered")
+    if not isinstance(params, (ArmParameters, LinksParameters)):
+        raise ValueError(f"params must be ArmParameters or LinksParameters, got "
                          f"{type(params).__name__}")
     if rule is not None:
         raise ValueError("give either params or rule: the link rule only builds an arm "
                          "when no params are given")
     if n is not None and params.links != n:
         raise ValueError(f"params describe a {params.links}-link arm, but links={n}")
-    if isinstance(params, ChainParameters) and params.links == 2:
+    if isinstance(params, LinksParameters) and params.links == 2:
         return params.as_arm()
     return params
 

@@ -20,7 +20,7 @@ dtheta2]}``; reward (15), a float.
 acts first and hands its tau2 to agent 1 directly (see :func:`decentralized_action`).
 The reward is the array [r1, r2] of (17) (``reward_spec()`` has shape (2,)).
 
-N links (``links=3`` .. 6): the arm of :func:`twolink.arm.parameters.chain`
+N links (``links=3`` .. 6): the arm of :func:`twolink.arm.parameters.links_parameters`
 (``rule`` ``'tapered'`` or ``'copied'``). ``centralized``: action [tau1 .. tauN],
 observation ``{'state': [theta1 .. thetaN, dtheta1 .. dthetaN]}``, reward (15) over all
 links. ``decentralized``: observations ``'agent1'`` .. ``'agentN'`` as
@@ -246,9 +246,9 @@ def load(task_name: str, *, seed=None, time_limit: float | None = None, params=N
 
     ``links``: the number of links N, 2 (default; Table I) to 6; ``rule``: how the links
     beyond the second are made, ``'tapered'`` (default) or ``'copied'``
-    (:func:`twolink.arm.parameters.chain`); ``params``: the arm itself instead
+    (:func:`twolink.arm.parameters.links_parameters`); ``params``: the arm itself instead
     (:class:`~twolink.arm.parameters.ArmParameters` or
-    :class:`~twolink.arm.parameters.ChainParameters`; ``links`` then defaults to its own).
+    :class:`~twolink.arm.parameters.LinksParameters`; ``links`` then defaults to its own).
     ``time_limit``: seconds per episode (default :func:`twolink.envs.core.horizon`: 5 s for
     two links, 8 s for more).
     ``x0``: ``'paper'`` ([-1, -3, 0, 0], the default for two links), ``'random'`` (angles

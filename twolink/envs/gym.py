@@ -93,10 +93,10 @@ class TwoLinkEnv(gymnasium.Env):
     """The arm, ``centralized`` task, under Gymnasium's API (see the module docstring).
 
     Options (keyword-only): ``links`` (2, the default, to 6) and ``rule`` (``'tapered'``
-    | ``'copied'``, :func:`twolink.arm.parameters.chain`) or ``params`` (the nominal arm,
+    | ``'copied'``, :func:`twolink.arm.parameters.links_parameters`) or ``params`` (the nominal arm,
     Table I by default, whose torque limits bound the actions; an
     :class:`~twolink.arm.parameters.ArmParameters` or a
-    :class:`~twolink.arm.parameters.ChainParameters`); ``observation`` ``'state'`` |
+    :class:`~twolink.arm.parameters.LinksParameters`); ``observation`` ``'state'`` |
     ``'cos_sin'``; ``actions`` ``'box'`` | ``'normalized'`` | ``'discrete'``; ``reward``
     ``'paper'`` ((15), the default) | ``'shaped'``; ``x0`` ``'paper'`` (two links; the
     default there) | ``'random'`` (the default for N >= 3) | a state (2N,), the default

@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from twolink.arm.observations import OBSERVATIONS, features
-from twolink.arm.parameters import SUCCESS_MARGIN, TS, ArmParameters, ChainParameters
+from twolink.arm.parameters import SUCCESS_MARGIN, TS, ArmParameters, LinksParameters
 from twolink.arm.task import action_levels, in_goal_band
 from twolink.synthesis.problems import centralized_actions
 from twolink.envs.core import (
@@ -40,7 +40,7 @@ from twolink.sim.plants import ModelPlant, MujocoPlant, check_states
 from twolink.validate import choice, is_real, is_whole, numbers, real, real_array
 
 #: The plants the arms may step on: MuJoCo (one ``mujoco.rollout`` call per Ts) or the
-#: full model (6)-(9) (N links: the rigid-body chain) integrated by numpy, batched.
+#: full model (6)-(9) (N links: the rigid-body model of all N) integrated by numpy, batched.
 ENV_PLANTS = ("mujoco", "full")
 #: ``'box'``: torques in +-tau_max (float64); ``'discrete'``: the 3^N joint actions;
 #: ``'normalized'``: a float32 Box [-1, 1]^N scaled to +-tau_max (what deep RL libraries
@@ -93,8 +93,8 @@ class Arms:
                  x0, time_limit, perturbation, angle_noise, speed_noise, delay,
                  nthread, challenge=None, links=None, rule=None, reward="paper",
                  plant="mujoco"):
-        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
-            raise ValueError(f"params must be an ArmParameters or a ChainParameters, got "
+        if params is not None and not isinstance(params, (ArmParameters, LinksParameters)):
+            raise ValueError(f"params must be an ArmParameters or a LinksParameters, got "
                              f"{type(params).__name__}")
         params = arm(params, links=links, rule=rule)
         self.rows = rows

@@ -172,7 +172,7 @@ def policy_actions(policy, observations) -> dict:
     ``{agent: action (1,)}`` of a decentralized :class:`twolink.policy.fuzzy_policy.Policy` in the
     ordering of (18): its agent 2 acts on link2's observation first and hands tau2 to
     agent 1, which reads link1's observation (its (18) components) and that tau2. For N
-    links the same down the chain (agent N first); the arm's N is the number of
+    links the same, agent by agent inward (agent N first); the arm's N is the number of
     ``linkI`` observations, and a policy of another N is refused (ValueError)."""
     from twolink.envs.dm import policy_action  # the one implementation of (18) for policies
 

@@ -79,7 +79,7 @@ from pettingzoo.utils import conversions
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from twolink.arm import mjcf
-from twolink.arm.parameters import TS, ArmParameters, ChainParameters
+from twolink.arm.parameters import TS, ArmParameters, LinksParameters
 from twolink.arm.observations import OBSERVATIONS
 from twolink.envs.core import (
     AGENT_ACTION_OPTIONS,
@@ -150,8 +150,8 @@ class ParallelArm(pettingzoo.ParallelEnv):
                  challenge=None, links: int | None = None, rule: str | None = None,
                  actions: str = "box", observation: str = "state",
                  observe: str = "neighbours"):
-        if params is not None and not isinstance(params, (ArmParameters, ChainParameters)):
-            raise ValueError(f"params must be ArmParameters or ChainParameters, got {params!r}")
+        if params is not None and not isinstance(params, (ArmParameters, LinksParameters)):
+            raise ValueError(f"params must be ArmParameters or LinksParameters, got {params!r}")
         params = arm(params, links=links, rule=rule)
         n = self.links = params.links
         check_two_link_options(n, perturbation=perturbation, challenge=challenge,

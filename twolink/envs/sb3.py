@@ -8,7 +8,7 @@ batched episode core of the Gymnasium environments: the same options as
 ``time_limit``, ``params``, ``perturbation``, the noise, ``delay``, ``challenge``,
 ``nthread``, ``links``, ``rule``), the same spaces, and arm i's episodes equal those of a
 ``TwoLinkEnv`` reset with seed s + i, bit for bit. ``plant='full'`` steps the arms on the
-full model (6)-(9) (N links: the rigid-body chain) integrated by numpy instead of MuJoCo
+full model (6)-(9) (N links: the rigid-body model of all N) integrated by numpy instead of MuJoCo
 (a fixed plant: no perturbation size or challenge).
 
 SB3's conventions, not Gymnasium's vector ones:

@@ -3,7 +3,7 @@ ceiling of the N-link success rates (``twolink scaling``, ``docs/results/scaling
 
 For a pose x0 and a deadline of K samples the reach problem asks for admissible torques
 (|tau_i| <= tau_max_i, speeds within the links' limits) that bring the N-link arm of
-:func:`twolink.arm.dynamics.chain_acceleration` (the N-link form of (6)-(9)) from x0 to
+:func:`twolink.arm.dynamics.links_acceleration` (the N-link form of (6)-(9)) from x0 to
 rest inside the goal band (|theta_i| <= 5 deg around 0 or 2 pi k_i, every joint) at
 sample K. At rest with zero torque the horizontal arm stays there, so a pose reachable by
 the deadline 1 s before the end of a horizon can succeed under the success rule of
@@ -41,9 +41,9 @@ from typing import Optional
 
 import numpy as np
 
-from twolink.arm.dynamics import chain_acceleration, chain_weights
+from twolink.arm.dynamics import links_acceleration, links_weights
 from twolink.arm.integrate import SUBSTEPS, rk4
-from twolink.arm.parameters import GOAL_ANGLE, TS, ChainParameters, as_chain
+from twolink.arm.parameters import GOAL_ANGLE, TS, LinksParameters, as_links
 from twolink.limits.symbolic import require_casadi, rk4_expression
 from twolink.validate import whole
 
@@ -63,12 +63,12 @@ IPOPT_OPTIONS = {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                  "ipopt.hessian_approximation": "limited-memory"}
 
 
-def acceleration_expression(ca, p: ChainParameters, x, tau):
-    """:func:`twolink.arm.dynamics.chain_acceleration` (no joint locked) in CasADi
+def acceleration_expression(ca, p: LinksParameters, x, tau):
+    """:func:`twolink.arm.dynamics.links_acceleration` (no joint locked) in CasADi
     symbols: M(theta) ddtheta = tau - C(theta, dtheta) dtheta - diag(b) dtheta with
-    M = L^T G L and the bias of the same weights W (:func:`twolink.arm.dynamics.chain_weights`)."""
+    M = L^T G L and the bias of the same weights W (:func:`twolink.arm.dynamics.links_weights`)."""
     n = p.links
-    w = chain_weights(p)
+    w = links_weights(p)
     phi = [None]                                   # absolute angles of links 2..N
     for k in range(1, n):
         phi.append(x[k] if k == 1 else phi[-1] + x[k])
@@ -107,7 +107,7 @@ def acceleration_expression(ca, p: ChainParameters, x, tau):
     return ca.solve(mass, rhs)
 
 
-def step_function(p: ChainParameters, *, ts: float = TS, substeps: int = SUBSTEPS):
+def step_function(p: LinksParameters, *, ts: float = TS, substeps: int = SUBSTEPS):
     """The CasADi Function ``step(x[2N], u[N]) -> x_next[2N]``: RK4 of ``substeps`` steps
     over ``ts`` with the torque held, before the wrap (:func:`sample_step` to round-off)."""
     ca = require_casadi()
@@ -115,7 +115,7 @@ def step_function(p: ChainParameters, *, ts: float = TS, substeps: int = SUBSTEP
     x, u = ca.SX.sym("x", 2 * n), ca.SX.sym("u", n)
     y = rk4_expression(lambda s: ca.vertcat(s[n:], acceleration_expression(ca, p, s, u)),
                        x, ts, substeps)
-    return ca.Function("chain_step", [x, u], [y], ["x", "u"], ["x_next"])
+    return ca.Function("links_step", [x, u], [y], ["x", "u"], ["x_next"])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,14 +178,14 @@ def _solve(ca, step, p, x0, targets, intervals):
         return opti.stats()["return_status"], float(opti.debug.value(s)), None, None
 
 
-def defect(p: ChainParameters, states: np.ndarray, torques: np.ndarray, hold: int) -> float:
+def defect(p: LinksParameters, states: np.ndarray, torques: np.ndarray, hold: int) -> float:
     """The largest gap between ``states`` (K+1, 2N) and ``hold`` samples of the package's
     RK4 step from each of them under ``torques`` (K, N) (no wrap: the answer's angles are
     unwrapped)."""
     return _check_answer(p, states, torques, hold)[0]
 
 
-def peak_speed(p: ChainParameters, states: np.ndarray, torques: np.ndarray,
+def peak_speed(p: LinksParameters, states: np.ndarray, torques: np.ndarray,
                hold: int) -> float:
     """The largest |speed| over the links' speed limits at every sample of the answer,
     the samples inside each held period included (the NLP bounds the speeds only at the
@@ -197,7 +197,7 @@ def _check_answer(p, states, torques, hold) -> tuple:
     states = np.asarray(states, float)
     x, peak = states[:-1], 0.0
     for _ in range(hold):
-        x = rk4(chain_acceleration, p, x, np.asarray(torques, float), TS, SUBSTEPS)
+        x = rk4(links_acceleration, p, x, np.asarray(torques, float), TS, SUBSTEPS)
         peak = max(peak, float((np.abs(x[:, p.links:]) / p.speed_max).max()))
     return float(np.abs(x - states[1:]).max()), peak
 
@@ -216,12 +216,12 @@ def candidate_targets(x0, links: int) -> list:
 
 def reach(p, x0, deadline: int, *, hold: int = HOLD, substeps: int = NLP_SUBSTEPS,
           step=None) -> Reach:
-    """Whether the arm ``p`` (an N-link :class:`ChainParameters`) can be brought from
+    """Whether the arm ``p`` (an N-link :class:`LinksParameters`) can be brought from
     ``x0`` (2N,) to rest in the goal band by sample ``deadline`` (see the module
     docstring). ``step``: a :func:`step_function` of ``p`` over ``hold`` samples, made
     once and shared by many poses."""
     ca = require_casadi()
-    p = as_chain(p)
+    p = as_links(p)
     n = p.links
     x0 = np.asarray(x0, float)
     if x0.shape != (2 * n,) or not np.all(np.isfinite(x0)):
@@ -250,7 +250,7 @@ def reach_all(p, poses, deadline: int, *, hold: int = HOLD, substeps: int = NLP_
               on_pose=None) -> list:
     """:func:`reach` for every pose (rows of ``poses``), one CasADi step shared;
     ``on_pose(i, answer)`` after each."""
-    p = as_chain(p)
+    p = as_links(p)
     check_deadline(deadline, hold)
     step = step_function(p, ts=hold * TS, substeps=substeps)
     out = []

@@ -32,7 +32,7 @@ class ShippedPolicy:
     draws: int = 1                  # K models: the centre and K - 1 joint draws
     spread: float = 0.0             # each physical parameter uniform in +-spread (relative)
     seed: int = 0                   # seed of the draws (twolink.synthesis.problems.parameter_draws)
-    links: int = 2                  # links of the arm (twolink.arm.parameters.chain beyond 2)
+    links: int = 2                  # links of the arm (arm.parameters.links_parameters beyond 2)
     rule: str = "tapered"           # how links beyond the second are made (links > 2 only)
     levels: int = 3                 # torque levels per joint (twolink.arm.task.action_levels)
     bins: str = "paper"             # bin layout (twolink.fqi.fuzzy.BIN_LAYOUTS)

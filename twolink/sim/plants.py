@@ -5,10 +5,10 @@ zero-order-hold torques (..., N), with the conventions of docs/conventions.md (t
 angles wrapped, speeds saturated at the end of the period). Plants are context managers
 (``with make_plant("mujoco") as plant:``); only the MuJoCo plant holds resources.
 
-N = 2 (Table I) unless the plant is made for a :class:`~twolink.arm.parameters.ChainParameters`
-of more links: ``full`` is then the N-link rigid body (:func:`dynamics.chain_acceleration`),
+N = 2 (Table I) unless the plant is made for a :class:`~twolink.arm.parameters.LinksParameters`
+of more links: ``full`` is then the N-link rigid body (:func:`dynamics.links_acceleration`),
 ``mujoco`` the N-link MJCF; ``simplified`` exists for two links only. A two-link
-ChainParameters runs the very code of its :class:`ArmParameters` (:meth:`as_arm`).
+LinksParameters runs the very code of its :class:`ArmParameters` (:meth:`as_arm`).
 
 States a plant accepts are finite, with angles within :data:`MAX_ANGLE` and speeds
 within :data:`SPEED_BOUND` times the plant's speed limit. A step that goes unstable (a
@@ -37,7 +37,7 @@ from twolink.arm.parameters import (
     TABLE_I,
     TS,
     ArmParameters,
-    ChainParameters,
+    LinksParameters,
     check_links,
     state_names,
 )
@@ -157,7 +157,7 @@ def substeps_per_sample(model: mujoco.MjModel) -> int:
     return int(round(TS / model.opt.timestep))
 
 
-def finish_data(p: ArmParameters | ChainParameters, data: mujoco.MjData) -> np.ndarray:
+def finish_data(p: ArmParameters | LinksParameters, data: mujoco.MjData) -> np.ndarray:
     """End a sample period on an ``MjData`` in place (:func:`finish_sample`); returns x."""
     x = finish_sample(p, data_state(data))
     set_data(data, x)
@@ -220,9 +220,9 @@ def _model(params) -> mujoco.MjModel:
 
 
 def _arm(params):
-    """``params`` with a two-link :class:`ChainParameters` turned into its
+    """``params`` with a two-link :class:`LinksParameters` turned into its
     :class:`ArmParameters`, so that two links always run the same code."""
-    if isinstance(params, ChainParameters) and params.links == 2:
+    if isinstance(params, LinksParameters) and params.links == 2:
         return params.as_arm()
     return params
 
@@ -233,7 +233,7 @@ class Plant:
 
     name = ""
 
-    def __init__(self, params: ArmParameters | ChainParameters = TABLE_I):
+    def __init__(self, params: ArmParameters | LinksParameters = TABLE_I):
         self.params = _arm(params)
         self._speed_max = self.params.speed_max
 
@@ -276,10 +276,10 @@ class ModelPlant(Plant):
     """A numpy model integrated with fixed-step RK4 substeps inside Ts.
 
     Two links: ``simplified`` (11) or ``full`` (6)-(9); more links: ``full`` only, the
-    N-link rigid body of :func:`dynamics.chain_acceleration` (horizontal, no gravity).
+    N-link rigid body of :func:`dynamics.links_acceleration` (horizontal, no gravity).
     """
 
-    def __init__(self, name: str, params: ArmParameters | ChainParameters = TABLE_I, *,
+    def __init__(self, name: str, params: ArmParameters | LinksParameters = TABLE_I, *,
                  substeps: int = SUBSTEPS, gravity: bool = False):
         super().__init__(params)
         self.name = name
@@ -299,7 +299,7 @@ class ModelPlant(Plant):
         elif gravity:
             raise ValueError(f"gravity is modelled for two links only, the arm has {n}")
         else:
-            self._accel = dynamics.chain_acceleration
+            self._accel = dynamics.links_acceleration
 
     def _step(self, x, tau):
         with np.errstate(all="ignore"):      # a blow-up is reported by step(), once
@@ -316,11 +316,11 @@ class MujocoPlant(Plant):
 
     name = "mujoco"
 
-    def __init__(self, params: ArmParameters | ChainParameters
-                 | Sequence[ArmParameters | ChainParameters] = TABLE_I, *,
+    def __init__(self, params: ArmParameters | LinksParameters
+                 | Sequence[ArmParameters | LinksParameters] = TABLE_I, *,
                  nthread: Optional[int] = None):
         self._pool = None
-        self.per_row = not isinstance(params, (ArmParameters, ChainParameters))
+        self.per_row = not isinstance(params, (ArmParameters, LinksParameters))
         plist = [_arm(p) for p in params] if self.per_row else [_arm(params)]
         if not plist:
             raise ValueError("no parameter sets given")
@@ -348,7 +348,7 @@ class MujocoPlant(Plant):
         self._batch = None          # (rows, models per row, state output) of the last step
         self._pool = mj_rollout.Rollout(nthread=self.nthread if self.nthread > 1 else 0)
 
-    def set_row_params(self, row: int, params: ArmParameters | ChainParameters) -> None:
+    def set_row_params(self, row: int, params: ArmParameters | LinksParameters) -> None:
         """Give batch row ``row`` of a per-row plant a new parameter set (its model is
         compiled now), e.g. a new random plant for one arm's next episode."""
         if not self.per_row:
@@ -421,7 +421,7 @@ class MujocoPlant(Plant):
         return out.reshape(batch + (2 * links,))
 
 
-def make_plant(name: str, params: ArmParameters | ChainParameters = TABLE_I,
+def make_plant(name: str, params: ArmParameters | LinksParameters = TABLE_I,
                **kwargs) -> Plant:
     """A plant by name: one of :data:`PLANTS`, for an arm of any number of links
     (``simplified`` two only)."""

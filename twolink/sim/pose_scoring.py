@@ -43,7 +43,7 @@ def score_poses(policy, params, x0, durations, plant: str = "mujoco") -> dict:
     (B, 2N) for the longest of ``durations`` (seconds) and scored at each (successes, 95 %
     Wilson interval, median settle time: :func:`twolink.sim.metrics.score`). ``plant``:
     ``mujoco`` (the MJCF arm) or ``full`` (the rigid-body model (6), for N links
-    :func:`twolink.arm.dynamics.chain_acceleration`), :func:`make_plant`'s names."""
+    :func:`twolink.arm.dynamics.links_acceleration`), :func:`make_plant`'s names."""
     durations = tuple(durations)
     with make_plant(plant, params) as plant:
         traj = rollout(policy, plant, x0, duration=max(durations))

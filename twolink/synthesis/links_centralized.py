@@ -4,7 +4,7 @@ The problem (16) for N links: the grid over x = [theta_1..theta_N, dtheta_1..dth
 (each angle :func:`twolink.fqi.fuzzy.angle_axis`, each speed :func:`twolink.fqi.fuzzy.speed_axis`),
 the 3**N joint actions {-tau_k max, 0, tau_k max} (the last joint varying fastest), reward
 (15) over every link (0 when all are in the goal band, else -0.5) on the state reached,
-and transitions of the full N-link model (:func:`twolink.arm.dynamics.chain_acceleration`;
+and transitions of the full N-link model (:func:`twolink.arm.dynamics.links_acceleration`;
 (6) itself for two links) over Ts. That is 7056 x 9 Q-values for N = 2, 592 704 x 27 = 16 M
 for N = 3 and 4.0e9 for N = 4.
 
@@ -35,7 +35,7 @@ from twolink.arm.parameters import (
     REWARD_OTHER,
     TS,
     ArmParameters,
-    ChainParameters,
+    LinksParameters,
     check_links,
     state_names,
 )
@@ -192,7 +192,7 @@ def _model(p):
     if p.links == 2:
         arm = p if isinstance(p, ArmParameters) else p.as_arm()
         return arm, dynamics.full_acceleration
-    return p, dynamics.chain_acceleration
+    return p, dynamics.links_acceleration
 
 
 def factored_problem(p, g: Optional[fuzzy.Grid] = None, *, progress: bool = False) -> tuple:
@@ -242,7 +242,7 @@ def factored_problem(p, g: Optional[fuzzy.Grid] = None, *, progress: bool = Fals
 def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool = False,
                            gamma: float = GAMMA, delta: float = DELTA, refine: int = 1,
                            threads: Optional[int] = None) -> Policy:
-    """The centralized policy (16) of an N-link arm ``p`` (a ChainParameters, or Table I's
+    """The centralized policy (16) of an N-link arm ``p`` (a LinksParameters, or Table I's
     ArmParameters), synthesised by synchronous sweeps of Alg. 1 on the full model, or a
     ValueError with the :func:`estimate` when that exceeds ``max_bytes`` (default
     :data:`MAX_BYTES`). One agent, "centralized", reads theta1..thetaN, dtheta1..dthetaN and
@@ -250,8 +250,8 @@ def synthesize_centralized(p, *, max_bytes: Optional[int] = None, progress: bool
     (wall and CPU: model, table, sweeps), sweeps, non-zeros and bytes. For two links it is
     the shipped ``centralized_full`` up to round-off. The Q-table stays in memory (for
     N >= 3 it exceeds what a policy file may hold)."""
-    if not isinstance(p, (ArmParameters, ChainParameters)):
-        raise ValueError(f"p must be ArmParameters or ChainParameters, got {type(p).__name__}")
+    if not isinstance(p, (ArmParameters, LinksParameters)):
+        raise ValueError(f"p must be ArmParameters or LinksParameters, got {type(p).__name__}")
     est = check_size(p.links, refine, max_bytes, gamma=gamma, delta=delta)
     threads = default_threads() if threads is None else threads
     whole(threads, "threads", 1)

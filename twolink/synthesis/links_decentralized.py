@@ -1,6 +1,6 @@
 """Decentralized agents for an arm of N links: one agent per joint.
 
-Agent i (joint i) is the paper's agent of (18) carried down the chain. The agents are
+Agent i (joint i) is the paper's agent of (18) carried inward, joint by joint. The agents are
 synthesised and run outermost first, N, N-1, ..., 1, as the paper runs agent 2 before
 agent 1. Agent i reads its own angle and speed and a bounded context from its outer
 neighbour i + 1: that link's angle, optionally its speed, and the torque tau_{i+1} the
@@ -38,12 +38,12 @@ For two links the default construction (frozen context, no speed context, no ext
 nothing locked) is the paper's pair (18) on the full model (6), bit for bit: its
 transitions go through :func:`twolink.synthesis.problems.model_step` exactly as
 :func:`twolink.synthesis.problems.agent2_problem` and :func:`~twolink.synthesis.problems.agent1_problem`
-do. For N >= 3 they come from :func:`twolink.arm.dynamics.chain_acceleration`. Reading an
+do. For N >= 3 they come from :func:`twolink.arm.dynamics.links_acceleration`. Reading an
 agent's transitions as for two links gives a middle agent far too little inertia (its
-outer chain free to swing away, its inner chain free to recoil) and the arm limit-cycles;
+outer links free to swing away, its inner links free to recoil) and the arm limit-cycles;
 the N >= 3 default has every middle agent hold its inner neighbour's joint, propagates
 the context (with the neighbour's speed for tapered links) and adds the +-6 deg/s bins to
-the context speed axes and to agent N - 1's own (see ``docs/studies/chain_study.py``).
+the context speed axes and to agent N - 1's own (see ``docs/studies/links_study.py``).
 """
 from __future__ import annotations
 
@@ -53,6 +53,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from twolink._imports import renamed
 from twolink.arm import dynamics
 from twolink.arm.integrate import SUBSTEPS, sample_step
 from twolink.arm.parameters import (
@@ -62,8 +63,8 @@ from twolink.arm.parameters import (
     TABLE_I,
     TS,
     ArmParameters,
-    ChainParameters,
-    as_chain,
+    LinksParameters,
+    as_links,
     check_links,
     state_names,
 )
@@ -138,22 +139,22 @@ PAPER_DESIGN = Design()
 #: The default construction for two links: the paper's pair (18) on the full model (6).
 TWO_LINK_DEFAULT = Construction()
 #: The default construction for three links and more (chosen on development seeds,
-#: ``docs/studies/chain_study.py``), for tapered links.
-CHAIN_DEFAULT = Construction(context="propagated", speed_context=True,
+#: ``docs/studies/links_study.py``), for tapered links.
+LINKS_DEFAULT = Construction(context="propagated", speed_context=True,
                              extra_speed_bins="neighbour", lock_inner="near", beyond="rest")
-#: The defaults for three links and more by link rule: copied links (heavy outer chains)
+#: The defaults for three links and more by link rule: copied links (heavy outer links)
 #: settle more surely without the neighbour's speed in the context (development seeds).
-CHAIN_DEFAULTS = {"tapered": CHAIN_DEFAULT,
-                  "copied": dataclasses.replace(CHAIN_DEFAULT, speed_context=False)}
+LINKS_DEFAULTS = {"tapered": LINKS_DEFAULT,
+                  "copied": dataclasses.replace(LINKS_DEFAULT, speed_context=False)}
 
 
 def construction(links: int, rule: str = "tapered", **options) -> Construction:
     """The default construction for an arm of ``links`` links made by ``rule``
-    (:data:`TWO_LINK_DEFAULT` for two links, else :data:`CHAIN_DEFAULTS`) with
+    (:data:`TWO_LINK_DEFAULT` for two links, else :data:`LINKS_DEFAULTS`) with
     ``options`` (keywords of :class:`Construction`; None keeps the default) replaced."""
     if rule not in LINK_RULES:
         raise ValueError(f"unknown link rule {rule!r}; choose one of {', '.join(LINK_RULES)}")
-    base = TWO_LINK_DEFAULT if check_links(links) == 2 else CHAIN_DEFAULTS[rule]
+    base = TWO_LINK_DEFAULT if check_links(links) == 2 else LINKS_DEFAULTS[rule]
     unknown = sorted(set(options) - {f.name for f in dataclasses.fields(Construction)})
     if unknown:
         raise ValueError(f"unknown construction option(s) {unknown}")
@@ -170,7 +171,7 @@ def _speed_axis(name: str, extra: bool, bins: str = "paper") -> fuzzy.Axis:
     return fuzzy.Axis(name, tuple(np.deg2rad(deg)))
 
 
-def agent_grid(i: int, p: ChainParameters, c: Construction,
+def agent_grid(i: int, p: LinksParameters, c: Construction,
                design: Design = PAPER_DESIGN) -> fuzzy.Grid:
     """Agent i's fuzzy grid over (theta_i, dtheta_i[, theta_{i+1}, [dtheta_{i+1},]
     tau_{i+1}]); the own axes have the bins of ``design``, the torque axis is the
@@ -209,12 +210,12 @@ def _outer_torque(outer: Sequence[Agent], x: np.ndarray, links: int, i: int) -> 
     return signals[f"tau{i + 1}"]
 
 
-def _transitions(p: ChainParameters, x: np.ndarray, tau: np.ndarray, locked: tuple,
+def _transitions(p: LinksParameters, x: np.ndarray, tau: np.ndarray, locked: tuple,
                  moving: int) -> np.ndarray:
     """One sample period from the states x under the torques tau; joints beyond
     ``moving`` have their acceleration zeroed (the frozen context). Two links with nothing
     locked: the full model (6) through :func:`twolink.synthesis.problems.model_step`, as the paper's
-    agents (bit for bit); otherwise :func:`twolink.arm.dynamics.chain_acceleration`."""
+    agents (bit for bit); otherwise :func:`twolink.arm.dynamics.links_acceleration`."""
     n = p.links
     if n == 2 and not any(locked):
         return model_step("full", p.as_arm(), x, tau, compiled=False, freeze_link2=moving < 2)
@@ -222,12 +223,12 @@ def _transitions(p: ChainParameters, x: np.ndarray, tau: np.ndarray, locked: tup
     locks = locked if any(locked) else None
 
     def accel(pp, s, t):
-        a = dynamics.chain_acceleration(pp, s, t, locked=locks)
+        a = dynamics.links_acceleration(pp, s, t, locked=locks)
         return a * mask if moving < n else a
     return sample_step(accel, p, x, tau)
 
 
-def agent_problem(i: int, p: ChainParameters, c: Construction,
+def agent_problem(i: int, p: LinksParameters, c: Construction,
                   outer: Sequence[Agent] = (), design: Design = PAPER_DESIGN) -> Problem:
     """Agent i's MDP (see the module docstring) made as ``design`` says; ``outer`` are
     the agents N..i+1 already synthesised (the propagated context runs them on the state
@@ -269,7 +270,7 @@ def agent_problem(i: int, p: ChainParameters, c: Construction,
                    agent_reward(nxt, i), time.perf_counter() - start)
 
 
-def transition_bytes(p: ChainParameters, c: Construction,
+def transition_bytes(p: LinksParameters, c: Construction,
                      design: Design = PAPER_DESIGN) -> int:
     """Peak bytes of the largest agent's transitions, known before any work: per (bin,
     action) row its RK4 states and the model's temporaries (about 16 state vectors and
@@ -285,7 +286,7 @@ def transition_bytes(p: ChainParameters, c: Construction,
     return need
 
 
-def check_size(p: ChainParameters, c: Construction, max_bytes: int = MAX_BYTES,
+def check_size(p: LinksParameters, c: Construction, max_bytes: int = MAX_BYTES,
                design: Design = PAPER_DESIGN) -> int:
     """:func:`transition_bytes`, or a ValueError with the estimate over ``max_bytes``."""
     need = transition_bytes(p, c, design)
@@ -302,7 +303,7 @@ def design(levels: int = PAPER_LEVELS, bins: str = "paper") -> Design:
     return Design(levels, bins)
 
 
-def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
+def synthesize_links(p: "LinksParameters | ArmParameters" = TABLE_I, *,
                      context: Optional[str] = None, speed_context: Optional[bool] = None,
                      extra_speed_bins: Optional[str] = None, lock_inner: Optional[str] = None,
                      beyond: Optional[str] = None, levels: int = PAPER_LEVELS,
@@ -313,14 +314,14 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
     """The decentralized policy of an N-link arm ``p``: agents N..1 (see the module
     docstring), each solved by Alg. 1 with ``sweeps``. Construction options left at None
     take the default for N links and the rule of ``p`` (:func:`construction`: the paper's
-    pair for N = 2, :data:`CHAIN_DEFAULTS` beyond); ``levels`` and ``bins`` make
+    pair for N = 2, :data:`LINKS_DEFAULTS` beyond); ``levels`` and ``bins`` make
     the :class:`Design` (the paper's by default). Every option and the memory the
     transitions take (refused over ``max_bytes``) are checked before any work. The
     policy's ``meta`` records the links, the rule, the parameters, the construction (and
     the design when it is not the paper's), gamma, delta, Ts, the RK4 substeps and every
     agent's sweeps and timings; ``readout`` (a :class:`twolink.policy.readout.Readout`,
     e.g. the argmax of Q far from the goal) is recorded there as the policy's read-out."""
-    p = as_chain(p)
+    p = as_links(p)
     n = p.links
     c = construction(n, p.rule, context=context, speed_context=speed_context,
                      extra_speed_bins=extra_speed_bins, lock_inner=lock_inner, beyond=beyond)
@@ -359,3 +360,11 @@ def synthesize_chain(p: "ChainParameters | ArmParameters" = TABLE_I, *,
     if readout is not None and readout.active:
         meta["readout"] = readout.as_dict()
     return Policy("decentralized", agents, meta)
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "synthesize_chain": "synthesize_links", "CHAIN_DEFAULT": "LINKS_DEFAULT",
+    "CHAIN_DEFAULTS": "LINKS_DEFAULTS"
+})

@@ -205,7 +205,7 @@ def check_link1(link1: str, model: str = "full") -> str:
 
 def _joint1_locked(p: ArmParameters, x: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """ddtheta of (6) with joint 1 held: 0 for joint 1, link 2 alone about a fixed joint."""
-    return dynamics.chain_acceleration(p, x, tau, locked=(True, False))
+    return dynamics.links_acceleration(p, x, tau, locked=(True, False))
 
 
 def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
@@ -217,7 +217,7 @@ def agent2_problem(p: ArmParameters = TABLE_I, model: str = "simplified", *,
     link 1: ``link1="free"`` assumes it at rest and free (theta1 = dtheta1 = 0, tau1 = 0,
     link 1 recoiling under link 2's reaction), ``"locked"`` holds joint 1 fixed, as
     agent 1's torque opposes that recoil (:data:`LINK1_READINGS`; the transitions then
-    come from the numpy RK4 of :func:`twolink.arm.dynamics.chain_acceleration` whatever
+    come from the numpy RK4 of :func:`twolink.arm.dynamics.links_acceleration` whatever
     ``compiled`` says). ``axes`` replaces the (theta2, dtheta2) axes of the layout
     ``bins`` (each refined ``refine`` times).
     """

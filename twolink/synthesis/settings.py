@@ -27,8 +27,8 @@ from twolink.arm.parameters import (
     GAMMA,
     TABLE_I,
     ArmParameters,
-    chain,
     check_links,
+    links_parameters,
 )
 from twolink.arm.task import PAPER_LEVELS, check_levels
 from twolink.fqi import fuzzy
@@ -69,7 +69,7 @@ class SynthesisSettings:
     threshold; ``sweeps``: synchronous or serial; ``refine``: subdivisions of every bin;
     ``robust``/``draws``/``spread``/``seed``: the worst case or mean over K parameter draws
     (:func:`twolink.synthesis.problems.parameter_draws`); ``links``/``rule``: an N-link arm
-    (:func:`twolink.arm.parameters.chain`); ``levels``, ``bins``, ``readout``,
+    (:func:`twolink.arm.parameters.links_parameters`); ``levels``, ``bins``, ``readout``,
     ``agent2_link1``: the two-link design (torque levels per joint, bin layout, read-out,
     agent 2's reading of link 1); ``parameters``: the arm (the centre of the draws).
 
@@ -128,11 +128,11 @@ class SynthesisSettings:
             put("source", json.loads(json.dumps(self.source)))      # a copy, JSON data
         check_sweeps(self.sweeps)
         if check_links(self.links) > 2:
-            self._check_chain(put)
+            self._check_links(put)
         else:
             self._check_two_link(put)
 
-    def _check_chain(self, put) -> None:
+    def _check_links(self, put) -> None:
         """The checks of an N-link arm (N > 2): its decentralized agents on its full model,
         synchronous or serial sweeps, the paper's grid and design."""
         from twolink.synthesis.links_decentralized import construction
@@ -217,11 +217,13 @@ class SynthesisSettings:
         is not the paper's (levels, bins, readout, agent2_link1); ``dynamics`` of an
         identified model and ``parameters_source``; ``robust`` (mode, draws, spread, seed,
         the perturbed parameters and every model). Beyond two links: the links, rule,
-        chain parameters, full model, resolved context, gamma, delta and sweeps that
-        :func:`twolink.synthesis.links_decentralized.synthesize_chain` records."""
+        :class:`~twolink.arm.parameters.LinksParameters`, full model, resolved context,
+        gamma, delta and sweeps that
+        :func:`twolink.synthesis.links_decentralized.synthesize_links` records."""
         if self.links > 2:
             return {"links": self.links, "rule": self.rule,
-                    "parameters": chain(self.links, self.rule, base=self.parameters).as_dict(),
+                    "parameters": links_parameters(self.links, self.rule,
+                                                   base=self.parameters).as_dict(),
                     "model": "full", "context": self.context, "gamma": self.gamma,
                     "delta": self.delta, "sweeps": self.sweeps}
         out = {"parameters": self.parameters.as_dict(), "model": self.model,
@@ -258,7 +260,8 @@ class SynthesisSettings:
                            delta=meta["delta"], sweeps=meta["sweeps"])
                 if made.header()["parameters"] != meta["parameters"]:
                     raise ValueError(f"the header's {meta['links']}-link arm is not "
-                                     f"chain({meta['links']}, {meta['rule']!r}) of Table I")
+                                     f"links_parameters({meta['links']}, {meta['rule']!r}) "
+                                     "of Table I")
                 return made
             robust = meta.get("robust", {})
             readout = meta.get("readout")

@@ -34,12 +34,12 @@ from __future__ import annotations
 from typing import Optional
 
 from twolink.arm.integrate import SUBSTEPS
-from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters, chain
+from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, TS, ArmParameters, links_parameters
 from twolink.arm.task import PAPER_LEVELS
 from twolink.artifacts import VERSION as __version__
 from twolink.policy.fuzzy_policy import Policy
 from twolink.policy.readout import Readout
-from twolink.synthesis.links_decentralized import synthesize_chain
+from twolink.synthesis.links_decentralized import synthesize_links
 from twolink.synthesis.problems import (
     agent1_problem,
     agent2_problem,
@@ -85,8 +85,8 @@ def synthesize(kind: "str | SynthesisSettings", p: ArmParameters = TABLE_I, *,
     :meth:`~SynthesisSettings.header` (``meta["parameters"]`` is the centre of the draws;
     ``meta["parameters_source"]`` the provenance of an identified model's file).
 
-    More links: the decentralized agents of the arm ``chain(links, rule, base=p)`` on its
-    full model (:func:`twolink.synthesis.links_decentralized.synthesize_chain`).
+    More links: the decentralized agents of the arm ``links_parameters(links, rule, base=p)`` on its
+    full model (:func:`twolink.synthesis.links_decentralized.synthesize_links`).
     """
     if isinstance(kind, SynthesisSettings):
         settings = kind
@@ -116,7 +116,7 @@ def synthesize_settings(s: SynthesisSettings, *, progress: bool = False) -> Poli
         raise TypeError(f"settings must be a twolink.synthesis.settings.SynthesisSettings, "
                         f"got {type(s).__name__}")
     if s.links > 2:
-        policy = synthesize_chain(chain(s.links, s.rule, base=s.parameters),
+        policy = synthesize_links(links_parameters(s.links, s.rule, base=s.parameters),
                                   context=s.context, gamma=s.gamma, delta=s.delta,
                                   sweeps=s.sweeps, progress=progress)
         policy.meta.update(s.header())        # the same values: the settings' spelling

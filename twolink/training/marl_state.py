@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink.arm.parameters import chain
+from twolink.arm.parameters import links_parameters
 from twolink.control.residual import residual_torques
 from twolink.training import checkpoint, episodes
 from twolink.training.action_rate import agent_penalties
@@ -157,7 +157,7 @@ class Learner:
         from twolink.control.residual import base_controller, base_gains
 
         rule = config.rule if config.links > 2 else None
-        params = chain(config.links, rule) if config.links > 2 else None
+        params = links_parameters(config.links, rule) if config.links > 2 else None
         self.tau_max = arm_tau_max(config.links, rule)
         self.base = None if config.base == "none" else base_controller(config.base, params)
         self.gains = None if self.base is None else base_gains(config.base, params)

@@ -23,8 +23,8 @@ from twolink.arm.parameters import (
     TABLE_I,
     TS,
     ArmParameters,
-    ChainParameters,
-    as_chain,
+    LinksParameters,
+    as_links,
 )
 from twolink.arm.task import centralized_reward
 from twolink.gl import (  # noqa: F401
@@ -48,10 +48,10 @@ _GOAL_Z = -0.028
 
 
 # --------------------------------------------------------------------------- model
-def tip_positions(x, p: ArmParameters | ChainParameters = TABLE_I) -> np.ndarray:
+def tip_positions(x, p: ArmParameters | LinksParameters = TABLE_I) -> np.ndarray:
     """Joint positions past the shoulder and the tip of states (..., 2N) in the plane:
     shape (..., N, 2), row k the far end of link k + 1 (for two links: elbow, tip)."""
-    c = as_chain(p)
+    c = as_links(p)
     n = c.links
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != 2 * n:
@@ -62,10 +62,10 @@ def tip_positions(x, p: ArmParameters | ChainParameters = TABLE_I) -> np.ndarray
     return np.cumsum(steps, axis=-2)
 
 
-def goal_tip_radius(p: ArmParameters | ChainParameters = TABLE_I) -> float:
+def goal_tip_radius(p: ArmParameters | LinksParameters = TABLE_I) -> float:
     """Largest distance of the tip from its goal (the stretched arm's reach, 0) over the
     5 deg angle band of every joint (its corners)."""
-    c = as_chain(p)
+    c = as_links(p)
     corners = np.meshgrid(*[[-GOAL_ANGLE, GOAL_ANGLE]] * c.links, indexing="ij")
     angles = np.stack([a.ravel() for a in corners], -1)
     tips = tip_positions(np.concatenate([angles, np.zeros_like(angles)], -1), p)[:, -1]
@@ -75,12 +75,12 @@ def goal_tip_radius(p: ArmParameters | ChainParameters = TABLE_I) -> float:
     return float(np.max(np.hypot(along, tips[:, 1])))
 
 
-def build_render_spec(p: ArmParameters | ChainParameters = TABLE_I, *, ghost: bool = False,
+def build_render_spec(p: ArmParameters | LinksParameters = TABLE_I, *, ghost: bool = False,
                       width: int = 640, height: int = 480,
                       samples: int = 0) -> mujoco.MjSpec:
-    """The arm's MjSpec (two links or an N-link chain) plus the goal-region marker and,
+    """The arm's MjSpec (two links or more) plus the goal-region marker and,
     optionally, a ghost arm of as many links."""
-    c = as_chain(p)
+    c = as_links(p)
     n = c.links
     spec = mjcf.build_spec(p)
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, width)
@@ -128,7 +128,7 @@ class Renderer:
     """Frames of the arm at given states, rendered offscreen through EGL.
 
     ``params`` is Table I's arm (the default), other two-link parameters or an N-link
-    :class:`~twolink.arm.parameters.ChainParameters`; states then have 2N components.
+    :class:`~twolink.arm.parameters.LinksParameters`; states then have 2N components.
     ``samples`` is the multisample anti-aliasing level (0 = off: on Mesa's software
     device 4x MSAA makes a frame about three times slower). ``width`` and ``height`` are
     ints from 1 to :data:`twolink.viz.video.MAX_SIZE` pixels, checked before anything is
@@ -140,7 +140,7 @@ class Renderer:
 
     def __init__(self, *, width: int = 640, height: int = 480, ghost: bool = False,
                  overlay: bool = True, samples: int = 0,
-                 params: ArmParameters | ChainParameters = TABLE_I):
+                 params: ArmParameters | LinksParameters = TABLE_I):
         self._renderer = None
         self.width, self.height = pixels(width, "width", MAX_SIZE), pixels(height, "height",
                                                                           MAX_SIZE)

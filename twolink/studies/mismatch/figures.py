@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 
+from twolink._imports import renamed  # noqa: E402
 from twolink.arm.parameters import HORIZON  # noqa: E402
 from twolink.artifacts import atomic_path  # noqa: E402
 from twolink.fqi import fuzzy  # noqa: E402
@@ -169,7 +170,7 @@ def robust_figure(section: dict, settle: dict, path: Path) -> str:
     return _save(fig, path)
 
 
-def chain_markdown(section: dict, command: str) -> str:
+def links_markdown(section: dict, command: str) -> str:
     """The N-link section (:func:`twolink.studies.mismatch.links.measure`) as Markdown: per policy
     and plant the successes with their 95 % interval and the median settle time."""
     from twolink.viz.formatting import format_rate
@@ -196,3 +197,10 @@ def chain_markdown(section: dict, command: str) -> str:
                      + f" | {gap['same_outcome']}/{section['poses']} | "
                      f"{gap['angle_rms']:.3g}, {gap['speed_rms']:.3g} |")
     return "\n".join(lines) + "\n"
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "chain_markdown": "links_markdown"
+})

@@ -1,7 +1,7 @@
 """The N-link section of the mismatch report: the numpy full N-link model against MuJoCo.
 
 For an arm of N >= 3 links there is no simplified model (11); the policies are synthesised
-on the full N-link model (:func:`twolink.arm.dynamics.chain_acceleration`), so the closed-loop
+on the full N-link model (:func:`twolink.arm.dynamics.links_acceleration`), so the closed-loop
 question is whether that model and the MuJoCo arm agree under feedback. Every policy runs
 from the same random poses at rest (:func:`twolink.sim.metrics.random_poses`, one seed) on both
 plants for one horizon; the section holds, per policy and plant, the score of its runs
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twolink.arm.parameters import ChainParameters
+from twolink.arm.parameters import LinksParameters
 from twolink.policy.fuzzy_policy import check_links_match
 from twolink.sim.metrics import (
     random_poses,
@@ -29,7 +29,7 @@ from twolink.sim.rollout import rollout
 PLANTS = ("full", "mujoco")
 
 
-def measure(policies: dict, params: ChainParameters, *, poses: int, seed: int,
+def measure(policies: dict, params: LinksParameters, *, poses: int, seed: int,
             duration: float) -> dict:
     """``policies`` (``{label: Policy}``, all for ``params.links`` links) from ``poses``
     random poses at rest drawn with ``seed``, on the full N-link model and MuJoCo for

@@ -7,7 +7,7 @@ the throughput batch. ``full`` is the committed report (32 random plants per joi
 and per challenge level, all 65 states); ``quick`` is the CI form (5 states per cell,
 fewer sizes, 4 plants per joint size and per level: its margins are coarse). The N-link
 section (``twolink mismatch --links N``) takes from the plan only its number of random
-poses, drawn from :data:`CHAIN_SEED`.
+poses, drawn from :data:`LINKS_SEED`.
 
 The families are the report's axes; every point on them is a
 :class:`twolink.sim.challenges.Challenge` (:func:`family_challenge`), named by its curve,
@@ -27,8 +27,10 @@ Plants and noise come from the challenges' one seeding rule with :data:`SWEEP_SE
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Iterable, Mapping
 
+from twolink._imports import renamed
 from twolink.policy.registry import TWO_LINK
 from twolink.sim.cells import Cell, states_of
 from twolink.sim.challenges import Challenge
@@ -44,7 +46,7 @@ UNITS = {"parameter": "relative change", "joint": "relative change (each paramet
 ROBUST_SEED = 9_061_127
 #: Seed of the N-link section's random poses (:func:`twolink.sim.metrics.random_poses`). Chosen
 #: once for the report and used for nothing else: no construction was tuned on it.
-CHAIN_SEED = 7_311_011
+LINKS_SEED = 7_311_011
 #: Curves of the robustness analysis, in report order: one per parameter, then the rest.
 CURVES = tuple(f"parameter:{n}" for n in PERTURBABLE) + FAMILIES[1:]
 #: Seed of every sweep cell's plants and noise.
@@ -103,7 +105,7 @@ class Plan:
     throughput_samples: int
     throughput_repeats: int
     throughput_policy: str = "centralized_full"
-    chain_poses: int = 64              # random poses at rest of the N-link section
+    links_poses: int = 64              # random poses at rest of the N-link section
 
     def cells(self, policies: Iterable[str]) -> list[Cell]:
         """Every sweep cell, the nominal one first, per policy in the order given."""
@@ -118,6 +120,13 @@ class Plan:
     def sweep_states(self) -> int:
         return len(states_of(self.states))
 
+    @property
+    def chain_poses(self) -> int:
+        """:attr:`links_poses` under its 0.1 name, until the next release."""
+        warnings.warn("Plan.chain_poses is now Plan.links_poses; the old name goes in the "
+                      "next release", DeprecationWarning, stacklevel=2)
+        return self.links_poses
+
 
 PLANS = {p.name: p for p in (
     Plan("full", "mismatch", "full",
@@ -130,7 +139,7 @@ PLANS = {p.name: p for p in (
          {"parameter": (-0.5, 0.5), "joint": (0.2,), "noise": (2.0,), "delay": (1.0,),
           "torque_limit": (-0.5,)},
          joint_draws=4, robust_plants=4, robust_states="quick", robust_seed=ROBUST_SEED,
-         throughput_rows=130, throughput_samples=20, throughput_repeats=2, chain_poses=8),
+         throughput_rows=130, throughput_samples=20, throughput_repeats=2, links_poses=8),
 )}
 
 
@@ -148,3 +157,10 @@ def report_order(policies: Iterable[str]) -> tuple[str, ...]:
     names = list(dict.fromkeys(policies))
     rank = {n: i for i, n in enumerate(TWO_LINK)}
     return tuple(sorted(names, key=lambda n: (rank.get(n, len(rank)), names.index(n))))
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "CHAIN_SEED": "LINKS_SEED"
+})

@@ -1,6 +1,6 @@
 """Table II extended to N = 2..6 links: what each scheme costs and how well it controls.
 
-For every arm of N links (:func:`twolink.arm.parameters.chain`, each link rule) and both
+For every arm of N links (:func:`twolink.arm.parameters.links_parameters`, each link rule) and both
 schemes, the centralized policy (16) and one decentralized agent per joint (18):
 
 * the sizes: Q-values and non-zeros of T (Alg. 1's transition table (12)-(13));
@@ -11,7 +11,7 @@ schemes, the centralized policy (16) and one decentralized agent per joint (18):
   :data:`EVAL_SEED` + N, at the horizon of :func:`horizon` (and at the paper's 5 s
   beside it for N >= 3).
 
-For N >= 3 three more rows stand beside them (:data:`CHAIN_SCHEMES`): the decentralized
+For N >= 3 three more rows stand beside them (:data:`LINKS_SCHEMES`): the decentralized
 agents with :data:`LEVER_LEVELS` torque levels per joint, the same agents read through
 the argmax of Q beyond :data:`LEVER_ARGMAX_DEG` degrees, and the per-joint saturated PD
 of :mod:`twolink.control.links_pd` with the gains it was tuned to on its own seeds (the
@@ -36,17 +36,18 @@ from typing import Optional
 
 import numpy as np
 
+from twolink._imports import renamed
 from twolink.arm.parameters import (
-    CHAIN_HORIZON,
     HORIZON,
     LINK_RULES,
+    LINKS_HORIZON,
     MAX_LINKS,
     MIN_LINKS,
     TABLE_I,
-    as_chain,
-    chain,
+    as_links,
     check_links,
     horizon,  # noqa: F401 (the docstring's horizon)
+    links_parameters,
 )
 from twolink.artifacts import provenance
 from twolink.sim.metrics import Score, random_poses  # noqa: F401 (documented above)
@@ -72,11 +73,11 @@ SCHEMES = ("centralized", "decentralized")
 #: :data:`LEVER_LEVELS` torque levels per joint (plain, and read through the argmax of Q
 #: beyond :data:`LEVER_ARGMAX_DEG` degrees), and the per-joint saturated PD
 #: (:mod:`twolink.control.links_pd`, gains tuned off the evaluation seeds).
-CHAIN_SCHEMES = ("decentralized_levels", "decentralized_argmax", "pd")
+LINKS_SCHEMES = ("decentralized_levels", "decentralized_argmax", "pd")
 #: Every row kind of the table.
-ALL_SCHEMES = SCHEMES + CHAIN_SCHEMES
-#: Horizon for N >= 3 links (:data:`twolink.arm.parameters.CHAIN_HORIZON`).
-LONG_HORIZON = CHAIN_HORIZON
+ALL_SCHEMES = SCHEMES + LINKS_SCHEMES
+#: Horizon for N >= 3 links (:data:`twolink.arm.parameters.LINKS_HORIZON`).
+LONG_HORIZON = LINKS_HORIZON
 #: Random poses per arm by default (about +-5 points of 95 % interval at 95 % success).
 DEFAULT_POSES = 64
 #: Poses and the largest N of ``quick=True``.
@@ -218,7 +219,7 @@ def decentralized_estimate(links: int, rule: str, levels: int = 3) -> dict:
     (:func:`twolink.synthesis.links_decentralized.transition_bytes` of the default
     construction with ``levels`` torque levels per joint)."""
     from twolink.synthesis.links_decentralized import construction, design, transition_bytes
-    p = as_chain(params_of(links, rule))
+    p = as_links(params_of(links, rule))
     return {"peak_bytes": int(transition_bytes(p, construction(p.links, p.rule),
                                                design(levels)))}
 
@@ -238,8 +239,8 @@ def _gib(b: int) -> str:
 
 def params_of(links: int, rule: str):
     """The arm: Table I itself for two links (as the shipped policies use it), else
-    :func:`twolink.arm.parameters.chain`."""
-    return TABLE_I if check_links(links) == 2 else chain(links, rule)
+    :func:`twolink.arm.parameters.links_parameters`."""
+    return TABLE_I if check_links(links) == 2 else links_parameters(links, rule)
 
 
 def evaluate(policy, links: int, rule: str, *, poses: int = DEFAULT_POSES,
@@ -282,7 +283,7 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
     check_rules([rule])
     if scheme not in ALL_SCHEMES:
         raise ValueError(f"unknown scheme {scheme!r}; choose from {', '.join(ALL_SCHEMES)}")
-    if scheme in CHAIN_SCHEMES and links == 2:
+    if scheme in LINKS_SCHEMES and links == 2:
         raise ValueError(f"the {scheme} rows are for three links and more, got 2")
     max_bytes = check_max_bytes(default_max_bytes() if max_bytes is None else max_bytes)
     check_peak_method(peak)
@@ -290,7 +291,7 @@ def measure(links: int, rule: str, scheme: str, *, poses: int = DEFAULT_POSES,
     if scheme == "pd":
         from twolink.control.links_pd import tuned
         row.note = pd_note(links, rule)
-        row.evaluation = evaluate(tuned(chain(links, rule)), links, rule, poses=poses,
+        row.evaluation = evaluate(tuned(links_parameters(links, rule)), links, rule, poses=poses,
                                   seed=seed)
         return row
     if scheme in ("decentralized_levels", "decentralized_argmax"):
@@ -357,3 +358,10 @@ def scaling(links=None, rules=LINK_RULES, *, quick: bool = False,
                "horizon_short": HORIZON, "horizon_long": LONG_HORIZON,
                "load_average": {"before": list(load_before), "after": list(os.getloadavg())}}
     return Scaling(rows, options)
+
+
+#: The names of 0.1 that said *chain*, kept until the next release (with a
+#: DeprecationWarning; twolink._imports.renamed).
+__getattr__ = renamed(__name__, {
+    "CHAIN_SCHEMES": "LINKS_SCHEMES"
+})

@@ -138,12 +138,12 @@ def _constructions(report: dict) -> list:
     if any(r["scheme"] == "decentralized_levels" for r in report["rows"]):
         out.append(f"- **Decentralized, {LEVER_LEVELS} levels**: the same agents with "
                    f"{LEVER_LEVELS} torque levels per joint instead of three (the "
-                   "`levels` option of `synthesize_chain`).")
+                   "`levels` option of `synthesize_links`).")
     if any(r["scheme"] == "decentralized_argmax" for r in report["rows"]):
         out.append(f"- **Decentralized, {LEVER_LEVELS} levels, argmax beyond "
                    f"{LEVER_ARGMAX_DEG:g}°**: the {LEVER_LEVELS}-level agents read "
                    f"through the argmax of Q wherever an agent reads an angle beyond "
-                   f"{LEVER_ARGMAX_DEG:g}° (the `readout` option of `synthesize_chain`, "
+                   f"{LEVER_ARGMAX_DEG:g}° (the `readout` option of `synthesize_links`, "
                    "`twolink.policy.readout`), chosen on the tapered five-link arm's "
                    "development poses (`twolink.studies.scaling.synthesis.LEVER_ARGMAX_DEG`)."
                    " Near ±180° neighbouring bins turn a joint opposite ways and (14) "
@@ -194,8 +194,8 @@ def markdown(report: dict, command: str, figure: str = FILES["figure"]) -> str:
         f"95 % Wilson intervals: settled (every link within 5° and 0.1 rad/s) at least "
         f"1 s before the end. The horizon is {o['horizon_short']:g} s for N = 2 (the "
         f"paper's) and {o['horizon_long']:g} s for N ≥ 3 (a tapered link has half the "
-        "torque of the link before it; copied links make the inner motors turn a heavier "
-        f"chain); the {o['horizon_short']:g} s success is the first seconds of the same "
+        "torque of the link before it; copied links make the inner motors turn heavier "
+        f"outer links); the {o['horizon_short']:g} s success is the first seconds of the same "
         "runs. Median settle time over all poses at the "
         "row's horizon (\"never\" when more than half never settle).",
         f"- **Centralized cap**: {size(o['max_bytes'])} of estimated peak "

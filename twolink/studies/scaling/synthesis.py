@@ -13,7 +13,7 @@ from typing import Optional
 
 from tqdm import tqdm
 
-from twolink.arm.parameters import TABLE_I, chain
+from twolink.arm.parameters import TABLE_I, links_parameters
 from twolink.policy.registry import SHIPPED
 
 #: The torque levels per joint of the ``decentralized_levels`` cells.
@@ -85,20 +85,20 @@ def cell_policy(links: int, rule: str, scheme: str, max_bytes: int):
         from twolink.synthesis.synthesize import synthesize
         return (synthesize(entry.kind, TABLE_I, **entry.synthesis_options()),
                 f"{name} (registry): {entry.description}")
-    p = chain(links, rule)
+    p = links_parameters(links, rule)
     if scheme in ("decentralized", "decentralized_levels", "decentralized_argmax"):
-        from twolink.synthesis.links_decentralized import synthesize_chain
+        from twolink.synthesis.links_decentralized import synthesize_links
         from twolink.policy.readout import Readout
         levels = {"levels": LEVER_LEVELS} if scheme != "decentralized" else {}
         if scheme == "decentralized_argmax":
             levels["readout"] = Readout(argmax_beyond_deg=LEVER_ARGMAX_DEG)
-        policy = synthesize_chain(p, **levels)
+        policy = synthesize_links(p, **levels)
         c = ", ".join(f"{k}={v}" for k, v in policy.meta.get("construction", {}).items())
         c += "".join(f", {k}={v}" for k, v in policy.meta.get("design", {}).items())
         if "readout" in policy.meta:
             c += f", argmax beyond {policy.meta['readout']['argmax_beyond_deg']:g} deg"
         return policy, f"one agent per joint on the full N-link model " \
-                       f"(twolink.synthesis.links_decentralized.synthesize_chain; {c})"
+                       f"(twolink.synthesis.links_decentralized.synthesize_links; {c})"
     from twolink.synthesis.links_centralized import synthesize_centralized
     return synthesize_centralized(p, max_bytes=max_bytes), \
         "the centralized policy (16) on the full N-link model " \

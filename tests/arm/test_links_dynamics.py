@@ -1,4 +1,4 @@
-"""The N-link arm's rigid-body model (dynamics.chain_*) and its sampling (integrate)
+"""The N-link arm's rigid-body model (dynamics.links_*) and its sampling (integrate)
 against MuJoCo, against an independent per-state reference written here, and against
 the two-link model (6)-(9)."""
 import cmath
@@ -22,8 +22,8 @@ from twolink.arm.parameters import (
     MIN_LINKS,
     TABLE_I,
     TS,
-    as_chain,
-    chain,
+    as_links,
+    links_parameters,
 )
 
 ARMS = [(n, rule) for n in range(MIN_LINKS, MAX_LINKS + 1) for rule in LINK_RULES]
@@ -93,13 +93,13 @@ def _ref_acceleration(c, x, tau, locked=None):
 # --------------------------------------------------------------------------- MuJoCo
 @pytest.mark.parametrize("n,rule", ARMS)
 def test_mass_matrix_and_bias_match_mujoco(n, rule, rng):
-    c = chain(n, rule)
+    c = links_parameters(n, rule)
     model = mjcf.build_model(c)
     data = mujoco.MjData(model)
     full = np.zeros((n, n))
     xs = _states(rng, n, 8)
-    mass = dynamics.chain_mass_matrix(c, xs[:, :n])
-    bias = dynamics.chain_bias(c, xs)
+    mass = dynamics.links_mass_matrix(c, xs[:, :n])
+    bias = dynamics.links_bias(c, xs)
     assert mass.shape == (8, n, n) and bias.shape == (8, n)
     for x, m, b in zip(xs, mass, bias):
         data.qpos[:], data.qvel[:] = x[:n], x[n:]
@@ -111,13 +111,13 @@ def test_mass_matrix_and_bias_match_mujoco(n, rule, rng):
 
 @pytest.mark.parametrize("n", [3, 6])
 def test_one_sample_period_matches_mujoco_rk4(n, rng):
-    """sample_step of chain_acceleration and MuJoCo's RK4 with the same substep."""
-    c = chain(n)
+    """sample_step of links_acceleration and MuJoCo's RK4 with the same substep."""
+    c = links_parameters(n)
     model = mjcf.build_model(c)
     data = mujoco.MjData(model)
     xs = _states(rng, n, 5) * np.r_[np.ones(n), 0.5 * np.ones(n)]
     taus = rng.uniform(-1, 1, (5, n)) * c.tau_max
-    ours = sample_step(dynamics.chain_acceleration, c, xs, taus)
+    ours = sample_step(dynamics.links_acceleration, c, xs, taus)
     for x, tau, mine in zip(xs, taus, ours):
         mujoco.mj_resetData(model, data)
         data.qpos[:], data.qvel[:], data.ctrl[:] = x[:n], x[n:], tau
@@ -130,12 +130,12 @@ def test_one_sample_period_matches_mujoco_rk4(n, rng):
 # --------------------------------------------------------------------------- reference
 @pytest.mark.parametrize("n,rule", ARMS)
 def test_against_independent_reference(n, rule, rng):
-    c = chain(n, rule)
+    c = links_parameters(n, rule)
     xs = _states(rng, n, 4)
     taus = rng.uniform(-1, 1, (4, n)) * c.tau_max
-    mass = dynamics.chain_mass_matrix(c, xs[:, :n])
-    bias = dynamics.chain_bias(c, xs)
-    acc = dynamics.chain_acceleration(c, xs, taus)
+    mass = dynamics.links_mass_matrix(c, xs[:, :n])
+    bias = dynamics.links_bias(c, xs)
+    acc = dynamics.links_acceleration(c, xs, taus)
     for x, tau, m, b, a in zip(xs, taus, mass, bias, acc):
         ref = np.array([[v.real for v in row] for row in _ref_mass(c, list(x[:n]))])
         np.testing.assert_allclose(m, ref, rtol=0, atol=1e-10)
@@ -147,10 +147,10 @@ def test_against_independent_reference(n, rule, rng):
                                     (True, True, False), (False, False, True),
                                     (True, False, True)])
 def test_locked_joints_leave_the_solve(locked, rng):
-    c = chain(3, "copied")
+    c = links_parameters(3, "copied")
     xs = _states(rng, 3, 6)
     taus = rng.uniform(-1, 1, (6, 3)) * c.tau_max
-    acc = dynamics.chain_acceleration(c, xs, taus, locked=locked)
+    acc = dynamics.links_acceleration(c, xs, taus, locked=locked)
     held = np.array(locked)
     assert np.all(acc[:, held] == 0.0)
     assert np.all(acc[:, ~held] != 0.0)
@@ -158,15 +158,15 @@ def test_locked_joints_leave_the_solve(locked, rng):
         np.testing.assert_allclose(a, _ref_acceleration(c, x, tau, locked), rtol=1e-10,
                                    atol=1e-10)
     # Locking joints changes the free joints' motion (the inertia they see).
-    free = dynamics.chain_acceleration(c, xs, taus)
+    free = dynamics.links_acceleration(c, xs, taus)
     assert np.abs(free[:, ~held] - acc[:, ~held]).max() > 1e-3
 
 
 def test_locked_six_links_np_bools(rng):
-    c = chain(6)
+    c = links_parameters(6)
     locked = np.array([True, False, True, False, False, True])
     x, tau = _states(rng, 6, 1)[0], rng.uniform(-1, 1, 6) * c.tau_max
-    a = dynamics.chain_acceleration(c, x, tau, locked=locked)
+    a = dynamics.links_acceleration(c, x, tau, locked=locked)
     assert a.shape == (6,) and np.all(a[locked] == 0.0)
     np.testing.assert_allclose(a, _ref_acceleration(c, x, tau, list(locked)), rtol=1e-10,
                                atol=1e-10)
@@ -178,16 +178,16 @@ def test_two_links_equal_full_acceleration(p, rng):
     x = _states(rng, 2, 2000)
     tau = rng.uniform(-1, 1, (2000, 2)) * p.tau_max
     want = dynamics.full_acceleration(p, x, tau)
-    np.testing.assert_allclose(dynamics.chain_acceleration(p, x, tau), want, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(dynamics.chain_acceleration(as_chain(p), x, tau), want,
+    np.testing.assert_allclose(dynamics.links_acceleration(p, x, tau), want, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(dynamics.links_acceleration(as_links(p), x, tau), want,
                                rtol=0, atol=1e-12)
-    np.testing.assert_allclose(dynamics.chain_mass_matrix(p, x[:, :2]),
+    np.testing.assert_allclose(dynamics.links_mass_matrix(p, x[:, :2]),
                                dynamics.mass_matrix(p, x[:, 1]), rtol=0, atol=1e-15)
-    np.testing.assert_allclose(dynamics.chain_bias(p, x), dynamics.coriolis_forces(p, x),
+    np.testing.assert_allclose(dynamics.links_bias(p, x), dynamics.coriolis_forces(p, x),
                                rtol=0, atol=1e-14)
     # Agent 1's frozen link 2 of the paper: ddtheta1 = (tau1 - b1 dtheta1) / M11 at rest.
     rest = x * [1, 1, 1, 0]
-    a = dynamics.chain_acceleration(p, rest, tau, locked=(False, True))
+    a = dynamics.links_acceleration(p, rest, tau, locked=(False, True))
     m11 = p.P1 + p.P2 + 2 * p.P3 * np.cos(x[:, 1])
     np.testing.assert_allclose(a[:, 0], (tau[:, 0] - p.b1 * x[:, 2]) / m11, rtol=1e-13)
 
@@ -223,21 +223,21 @@ def test_two_link_sampling_is_bit_identical(name, rng):
 
 # --------------------------------------------------------------------------- sampling
 def test_n_link_sampling_shapes_wrap_and_saturate(rng):
-    c = chain(3)
+    c = links_parameters(3)
     x = _states(rng, 3, 35).reshape(5, 7, 6)
     tau = rng.uniform(-1, 1, (5, 7, 3)) * c.tau_max
-    out = sample_step(dynamics.chain_acceleration, c, x, tau)
+    out = sample_step(dynamics.links_acceleration, c, x, tau)
     assert out.shape == (5, 7, 6)
     assert np.all((out[..., :3] >= -np.pi) & (out[..., :3] < np.pi))
     # Broadcasting one state against several torques.
-    assert sample_step(dynamics.chain_acceleration, c, x[0, 0], tau[0]).shape == (7, 6)
+    assert sample_step(dynamics.links_acceleration, c, x[0, 0], tau[0]).shape == (7, 6)
     # Torques beyond the limits are clipped to them.
     np.testing.assert_array_equal(
-        sample_step(dynamics.chain_acceleration, c, x, np.sign(tau) * c.tau_max * [3, 50, 1e6]),
-        sample_step(dynamics.chain_acceleration, c, x, np.sign(tau) * c.tau_max))
+        sample_step(dynamics.links_acceleration, c, x, np.sign(tau) * c.tau_max * [3, 50, 1e6]),
+        sample_step(dynamics.links_acceleration, c, x, np.sign(tau) * c.tau_max))
     # Angles wrap through +-pi.
     fast = np.r_[3.1, -3.1, 0.0, 6.2, -6.2, 0.0]
-    end = sample_step(dynamics.chain_acceleration, c, fast, c.tau_max * [1, -1, 1])
+    end = sample_step(dynamics.links_acceleration, c, fast, c.tau_max * [1, -1, 1])
     assert end[0] < 0 < end[1]
     # At the end of a period speeds saturate at +-speed_max (per joint, or overridden).
     x = np.r_[4.0, -4.0, 1.0, 9.0, -9.0, 1.0]
@@ -247,19 +247,19 @@ def test_n_link_sampling_shapes_wrap_and_saturate(rng):
 
 
 def test_n_link_integration_error_is_small(rng):
-    c = chain(4)
+    c = links_parameters(4)
     x = _states(rng, 4, 50) * np.r_[np.ones(4), 0.5 * np.ones(4)]
     tau = rng.uniform(-1, 1, (50, 4)) * c.tau_max
-    err = integration_error(dynamics.chain_acceleration, c, x, tau, reference_substeps=100)
+    err = integration_error(dynamics.links_acceleration, c, x, tau, reference_substeps=100)
     assert len(err["max"]) == len(err["rms"]) == 8
     assert max(err["max"]) < 1e-4
 
 
 # --------------------------------------------------------------------------- bad input
 def test_bad_input_is_refused():
-    c = chain(3)
+    c = links_parameters(3)
     x, tau = np.zeros(6), np.zeros(3)
-    acc = dynamics.chain_acceleration
+    acc = dynamics.links_acceleration
     with pytest.raises(ValueError, match=r"x must have shape \(\.\.\., 6\) for a 3-link arm"):
         acc(c, np.zeros(4), tau)
     with pytest.raises(ValueError, match=r"tau must have shape \(\.\.\., 3\)"):
@@ -275,9 +275,9 @@ def test_bad_input_is_refused():
     with pytest.raises(ValueError, match="locked holds every joint"):
         acc(c, x, tau, locked=(True, True, True))
     with pytest.raises(ValueError, match=r"theta must have shape \(\.\.\., 3\)"):
-        dynamics.chain_mass_matrix(c, np.zeros(6))
+        dynamics.links_mass_matrix(c, np.zeros(6))
     with pytest.raises(ValueError, match=r"x must have shape \(\.\.\., 4\) for a 2-link"):
-        dynamics.chain_bias(TABLE_I, x)
+        dynamics.links_bias(TABLE_I, x)
     with pytest.raises(ValueError, match=r"states must have shape \(\.\.\., 6\)"):
         sample_step(acc, c, np.zeros(4), tau)
     with pytest.raises(ValueError, match=r"torques must have shape \(\.\.\., 3\)"):
@@ -288,7 +288,7 @@ def test_bad_input_is_refused():
 
 # --------------------------------------------------------------------------- own motor
 def test_own_motor_speed_is_torque_over_damping_within_the_speed_limit():
-    c = chain(6, "tapered")
+    c = links_parameters(6, "tapered")
     speed = task.own_motor_speed(c)
     assert speed.shape == (6,)
     np.testing.assert_allclose(speed, np.minimum(np.array(c.tau_max) / np.array(c.dampings),
@@ -303,7 +303,7 @@ def test_a_joint_turned_by_its_own_motor_with_the_rest_held_stays_under_the_boun
     """The bound on the model itself: joint 6 of the tapered six-link arm at full torque
     from rest, joints 1-5 locked, for 3 s: it approaches tau/b from below and has turned
     less than (tau/b) t."""
-    c = chain(6, "tapered")
+    c = links_parameters(6, "tapered")
     bound = task.own_motor_speed(c)[-1]
     locked = (True,) * 5 + (False,)
     tau = np.zeros(6)
@@ -312,7 +312,7 @@ def test_a_joint_turned_by_its_own_motor_with_the_rest_held_stays_under_the_boun
     x[:5] = [0.3, -1.0, 2.0, 0.5, -0.7]                          # any held pose
 
     def accel(p, s, t):
-        return dynamics.chain_acceleration(p, s, t, locked=locked)
+        return dynamics.links_acceleration(p, s, t, locked=locked)
     steps = int(round(3.0 / TS))
     for _ in range(steps):
         x = sample_step(accel, c, x, tau)
@@ -322,7 +322,7 @@ def test_a_joint_turned_by_its_own_motor_with_the_rest_held_stays_under_the_boun
 
 
 def test_own_motor_seconds_per_joint_and_bad_angles():
-    c = chain(5, "tapered")
+    c = links_parameters(5, "tapered")
     a = np.deg2rad([[10.0, -20.0, 30.0, 150.0, -150.0], [0, 0, 0, 0, 360.0 + 90.0]])
     t = task.own_motor_seconds(c, a)
     assert t.shape == (2, 5)

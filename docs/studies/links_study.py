@@ -7,8 +7,8 @@ scaling table is not used here): success = settled in every link's goal band 1 s
 the end, at 5 s and at 8 s, with counts and 95 % Wilson intervals; also the median settle
 time and the synthesis time.
 
-    .venv/bin/python docs/studies/chain_study.py --links 3 --rule tapered --seeds 500 501
-    .venv/bin/python docs/studies/chain_study.py --links 3 --lock-inner none --json
+    .venv/bin/python docs/studies/links_study.py --links 3 --rule tapered --seeds 500 501
+    .venv/bin/python docs/studies/links_study.py --links 3 --lock-inner none --json
 """
 from __future__ import annotations
 
@@ -20,15 +20,15 @@ import time
 import numpy as np
 
 from twolink.arm.parameters import (
-    CHAIN_HORIZON,
     HORIZON,
     LINK_RULES,
+    LINKS_HORIZON,
     MAX_LINKS,
     MIN_LINKS,
-    chain,
+    links_parameters,
 )
 from twolink.arm.task import in_goal_band
-from twolink.synthesis import links_decentralized as chain_agents
+from twolink.synthesis import links_decentralized as decentralized
 from twolink.sim.metrics import random_poses, settle_time, success
 from twolink.sim.plants import make_plant
 from twolink.sim.rollout import rollout
@@ -37,7 +37,7 @@ from twolink.viz.formatting import format_rate
 #: The development seeds this study may draw poses from.
 DEV_SEEDS = range(500, 600)
 #: The horizons measured: the paper's 5 s and the N >= 3 horizon 8 s.
-HORIZONS = (HORIZON, CHAIN_HORIZON)
+HORIZONS = (HORIZON, LINKS_HORIZON)
 
 
 def evaluate(policy, p, seeds, count: int) -> dict:
@@ -73,23 +73,23 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[500, 501],
                     help="development seeds (500-599)")
     ap.add_argument("--count", type=int, default=64, help="poses per seed")
-    ap.add_argument("--context", choices=chain_agents.CONTEXTS)
+    ap.add_argument("--context", choices=decentralized.CONTEXTS)
     ap.add_argument("--speed-context", choices=("yes", "no"))
-    ap.add_argument("--extra-speed-bins", choices=chain_agents.EXTRA_BINS)
-    ap.add_argument("--lock-inner", choices=chain_agents.LOCKS)
-    ap.add_argument("--beyond", choices=chain_agents.BEYOND)
+    ap.add_argument("--extra-speed-bins", choices=decentralized.EXTRA_BINS)
+    ap.add_argument("--lock-inner", choices=decentralized.LOCKS)
+    ap.add_argument("--beyond", choices=decentralized.BEYOND)
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
     bad = [s for s in args.seeds if s not in DEV_SEEDS]
     if bad:
         ap.error(f"seeds {bad} are not development seeds (500-599)")
-    p = chain(args.links, args.rule)
+    p = links_parameters(args.links, args.rule)
     options = {"context": args.context, "extra_speed_bins": args.extra_speed_bins,
                "lock_inner": args.lock_inner, "beyond": args.beyond,
                "speed_context": None if args.speed_context is None
                else args.speed_context == "yes"}
     t0 = time.perf_counter()
-    policy = chain_agents.synthesize_chain(p, progress=not args.json, **options)
+    policy = decentralized.synthesize_links(p, progress=not args.json, **options)
     seconds = time.perf_counter() - t0
     result = {"links": args.links, "rule": args.rule, "seeds": args.seeds,
               "construction": policy.meta["construction"], "synthesis_s": seconds,

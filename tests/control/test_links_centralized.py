@@ -9,7 +9,7 @@ from reference_fqi import fuzzy_q_iteration_reference
 
 from twolink.arm import dynamics
 from twolink.arm.integrate import sample_step
-from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, chain
+from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, links_parameters
 from twolink.arm.task import centralized_reward
 from twolink.synthesis.links_centralized import (
     actions,
@@ -38,7 +38,7 @@ def _reference(p, g):
     fqi.transition_matrix, and Alg. 1's synchronous sweeps as printed with scipy:
     Q' = rho + gamma T max_u Q until max |Q' - Q| <= delta. Returns (T, Q, sweeps)."""
     acts = actions(p)
-    accel = dynamics.full_acceleration if p.links == 2 else dynamics.chain_acceleration
+    accel = dynamics.full_acceleration if p.links == 2 else dynamics.links_acceleration
     params = p.as_arm() if p.links == 2 else p
     nxt = sample_step(accel, params, g.centers()[:, None, :], acts[None, :, :])
     t = transition_matrix(g, nxt)
@@ -55,7 +55,7 @@ def _reference(p, g):
 
 @pytest.mark.parametrize("links", [2, 3])
 def test_factored_sweep_equals_a_plain_sparse_t(links):
-    p = chain(links, "copied")
+    p = links_parameters(links, "copied")
     g = _coarse(links)
     t_ref, q_ref, sweeps = _reference(p, g)
     table, rewards, _ = factored_problem(p, g)
@@ -72,7 +72,7 @@ def test_factored_sweep_equals_a_plain_sparse_t(links):
 def test_two_links_follow_alg1_as_printed():
     """The factored sweep against the plain loop of Alg. 1 with memberships from (13)
     (tests/reference_fqi.py), every centre integrated as it is."""
-    p = chain(2)
+    p = links_parameters(2)
     g = _coarse(2)
     acts = actions(p)
     nxt = sample_step(dynamics.full_acceleration, p.as_arm(), g.centers()[:, None, :],
@@ -105,7 +105,7 @@ def test_two_links_give_the_shipped_centralized_full(tmp_path):
 
 
 def test_the_problem_of_three_links():
-    p = chain(3)
+    p = links_parameters(3)
     acts = actions(p)
     assert acts.shape == (27, 3)
     np.testing.assert_array_equal(acts[:3], [[-0.2, -0.1, -0.05], [-0.2, -0.1, 0.0],
@@ -132,7 +132,7 @@ def test_refused_over_the_cap_with_the_estimate():
                                          r"\(Q-table 30 GiB for 4\.03e\+09 Q-values, T 571 GiB "
                                          r"factored, 11\.3 TiB as a plain sparse matrix; up to "
                                          r"[\d.]+ days of CPU\), over the cap of ") as err:
-        synthesize_centralized(chain(4))
+        synthesize_centralized(links_parameters(4))
     assert "\n" not in str(err.value)
     assert check_size(3, max_bytes=2**31) == estimate(3)
     with pytest.raises(ValueError, match="centralized 2-link synthesis needs about"):
@@ -147,7 +147,7 @@ def test_refused_over_the_cap_with_the_estimate():
     (lambda: synthesize_centralized(TABLE_I, delta=0.0), r"delta must lie in \(0, 0.5\)"),
     (lambda: synthesize_centralized({"links": 3}), "p must be ArmParameters or"),
     (lambda: synthesize_centralized(TABLE_I, threads=0), "threads must be a positive"),
-    (lambda: factored_problem(chain(3), grid(2)), "a 3-link grid needs axes"),
+    (lambda: factored_problem(links_parameters(3), grid(2)), "a 3-link grid needs axes"),
 ])
 def test_bad_input_is_one_clear_line(call, message):
     with pytest.raises(ValueError, match=message):

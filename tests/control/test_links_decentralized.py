@@ -2,18 +2,18 @@
 import numpy as np
 import pytest
 
-from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, TS, chain
-from twolink.synthesis import links_decentralized as chain_agents
+from twolink.arm.parameters import DELTA, GAMMA, TABLE_I, TS, links_parameters
+from twolink.synthesis import links_decentralized as decentralized
 from twolink.synthesis.links_decentralized import (
-    CHAIN_DEFAULT,
-    CHAIN_DEFAULTS,
+    LINKS_DEFAULT,
+    LINKS_DEFAULTS,
     TWO_LINK_DEFAULT,
     Construction,
     agent_grid,
     agent_problem,
     construction,
     locked_joints,
-    synthesize_chain,
+    synthesize_links,
     transition_bytes,
 )
 from twolink.synthesis.synthesize import synthesize
@@ -23,7 +23,7 @@ from twolink.policy.registry import SHIPPED, TWO_LINK
 
 def test_two_links_give_the_shipped_frozen_agents_bit_for_bit():
     shipped = Policy.load(SHIPPED["decentralized_full"].file)
-    fresh = synthesize_chain(TABLE_I)
+    fresh = synthesize_links(TABLE_I)
     assert fresh.meta["construction"] == TWO_LINK_DEFAULT.as_dict()
     assert [a.name for a in fresh.agents] == ["agent2", "agent1"]
     for a, b in zip(fresh.agents, shipped.agents):
@@ -34,15 +34,15 @@ def test_two_links_give_the_shipped_frozen_agents_bit_for_bit():
 
 def test_two_links_give_the_propagated_full_model_agents_bit_for_bit():
     ref = synthesize("decentralized", TABLE_I, model="full", context="propagated")
-    fresh = synthesize_chain(chain(2), context="propagated")
+    fresh = synthesize_links(links_parameters(2), context="propagated")
     for a, b in zip(fresh.agents, ref.agents):
         assert a.grid == b.grid
         np.testing.assert_array_equal(a.q, b.q)
 
 
 def test_three_link_agents_read_their_own_link_and_the_outer_neighbour():
-    p = chain(3)
-    c = CHAIN_DEFAULT
+    p = links_parameters(3)
+    c = LINKS_DEFAULT
     names = {i: agent_grid(i, p, c).names for i in (3, 2, 1)}
     assert names == {3: ("theta3", "dtheta3"),
                      2: ("theta2", "dtheta2", "theta3", "dtheta3", "tau3"),
@@ -53,8 +53,8 @@ def test_three_link_agents_read_their_own_link_and_the_outer_neighbour():
     assert sorted(np.rad2deg(grid.axes[1].centers).round(6))[3:6] == [-6.0, 0.0, 6.0]
     assert agent_grid(1, p, c).shape == (12, 7, 12, 9, 3)
     assert agent_grid(3, p, c).shape == (12, 7)
-    assert agent_grid(3, chain(4), c).shape == (12, 9, 12, 9, 3)
-    assert agent_grid(2, chain(4), c).shape == (12, 7, 12, 9, 3)
+    assert agent_grid(3, links_parameters(4), c).shape == (12, 9, 12, 9, 3)
+    assert agent_grid(2, links_parameters(4), c).shape == (12, 7, 12, 9, 3)
     assert agent_grid(2, p, construction(3, extra_speed_bins="none")).shape == (12, 7, 12, 7, 3)
     assert agent_grid(2, p, construction(3, speed_context=False)).names == \
         ("theta2", "dtheta2", "theta3", "tau3")
@@ -66,8 +66,8 @@ def test_three_link_agents_read_their_own_link_and_the_outer_neighbour():
     assert locked_joints(3, 4, construction(4, lock_inner="middle")) == (True, True, False, False)
     assert locked_joints(4, 4, construction(4, lock_inner="all")) == (True, True, True, False)
     # copied links: no speed in the context by default
-    assert construction(3, "copied") == CHAIN_DEFAULTS["copied"]
-    assert agent_grid(2, chain(3, "copied"), CHAIN_DEFAULTS["copied"]).names == \
+    assert construction(3, "copied") == LINKS_DEFAULTS["copied"]
+    assert agent_grid(2, links_parameters(3, "copied"), LINKS_DEFAULTS["copied"]).names == \
         ("theta2", "dtheta2", "theta3", "tau3")
     assert construction(2, "copied") == TWO_LINK_DEFAULT
 
@@ -85,8 +85,8 @@ def test_shipped_three_link_policy_shapes_and_provenance():
                            "agent1": 12 * 7 * 12 * 9 * 3 * 3}
     meta = pol.meta
     assert meta["links"] == 3 and meta["rule"] == "tapered" and meta["model"] == "full"
-    assert meta["parameters"] == chain(3).as_dict()
-    assert meta["construction"] == CHAIN_DEFAULT.as_dict()
+    assert meta["parameters"] == links_parameters(3).as_dict()
+    assert meta["construction"] == LINKS_DEFAULT.as_dict()
     assert meta["context"] == entry.context == "propagated"
     assert (meta["gamma"], meta["delta"], meta["ts"]) == (GAMMA, DELTA, TS)
     assert meta["substeps"] > 0 and "twolink_version" in meta
@@ -95,21 +95,21 @@ def test_shipped_three_link_policy_shapes_and_provenance():
         assert a.info["converged"]
     u = pol(np.array([[1.0, -2.0, 0.5, 0.0, 0.0, 0.0], [0.0] * 6]))
     assert u.shape == (2, 3)
-    assert np.all(np.abs(u) <= chain(3).tau_max + 1e-12)
+    assert np.all(np.abs(u) <= links_parameters(3).tau_max + 1e-12)
     np.testing.assert_array_equal(u[1], 0.0)       # at the goal, at rest: no torque
 
 
-def test_the_middle_agent_holds_its_inner_link_and_feels_the_heavier_chain():
+def test_the_middle_agent_holds_its_inner_link_and_feels_the_heavier_outer_links():
     """Agent 2 of three links: with joint 1 locked link 1 does not move, and joint 2's
     effective inertia tau2 / ddtheta2 is larger than in the free reading (where link 1
-    recoils and the outer chain seems light)."""
-    p = chain(3, "copied")
+    recoils and the outer links seem light)."""
+    p = links_parameters(3, "copied")
     x = np.zeros((1, 1, 6))
     x[..., 1] = 0.4                                   # theta2
     tau = np.zeros((1, 3, 3))
     tau[0, :, 1] = [-p.tau_max[1], 0.0, p.tau_max[1]]
-    locked = chain_agents._transitions(p, x, tau, (True, False, False), 3)
-    free = chain_agents._transitions(p, x, tau, (False, False, False), 3)
+    locked = decentralized._transitions(p, x, tau, (True, False, False), 3)
+    free = decentralized._transitions(p, x, tau, (False, False, False), 3)
     np.testing.assert_array_equal(locked[..., [0, 3]], 0.0)      # theta1, dtheta1
     assert np.all(np.abs(free[0, [0, 2], 3]) > 1e-3)              # free link 1 recoils
     push = TS ** 2 / 2
@@ -119,11 +119,11 @@ def test_the_middle_agent_holds_its_inner_link_and_feels_the_heavier_chain():
 
 
 def test_the_propagated_context_runs_the_outer_agents():
-    p = chain(3)
+    p = links_parameters(3)
     c = construction(3, extra_speed_bins="none", speed_context=False)
     with pytest.raises(ValueError, match="agent 2: the propagated context needs the 1 outer"):
         agent_problem(2, p, c)
-    a3 = chain_agents.solve(agent_problem(3, p, c))
+    a3 = decentralized.solve(agent_problem(3, p, c))
     pr = agent_problem(2, p, c, [a3])
     assert pr.next_points.shape == (12 * 7 * 12 * 3, 3, 4)
     assert pr.rewards.shape == (12 * 7 * 12 * 3, 3)
@@ -134,7 +134,7 @@ def test_the_propagated_context_runs_the_outer_agents():
     tau = np.zeros((len(centers), 3, 3))
     tau[:, :, 1] = pr.actions[:, 0]
     tau[:, :, 2] = centers[:, 3:]
-    reached = chain_agents._transitions(p, x, tau, (True, False, False), 3)
+    reached = decentralized._transitions(p, x, tau, (True, False, False), 3)
     np.testing.assert_array_equal(pr.next_points[..., 3], a3.act(reached[..., [2, 5]])[..., 0])
     np.testing.assert_array_equal(pr.next_points[..., :3], reached[..., [1, 4, 2]])
     np.testing.assert_array_equal(reached[..., [0, 3]], 0.0)
@@ -147,10 +147,10 @@ def test_the_propagated_context_runs_the_outer_agents():
 
 
 def test_memory_estimate_and_refusals():
-    assert transition_bytes(chain(6), CHAIN_DEFAULT) < chain_agents.MAX_BYTES
+    assert transition_bytes(links_parameters(6), LINKS_DEFAULT) < decentralized.MAX_BYTES
     with pytest.raises(ValueError, match=r"^the 3-link agents' transitions take about \d+ MiB, "
                                          r"over the 1 MiB a decentralized synthesis may use$"):
-        synthesize_chain(chain(3), max_bytes=2**20)
+        synthesize_links(links_parameters(3), max_bytes=2**20)
     with pytest.raises(ValueError, match="unknown context 'sideways'; choose one of frozen, "
                                          "propagated"):
         construction(3, context="sideways")
@@ -158,11 +158,11 @@ def test_memory_estimate_and_refusals():
                                          "middle, near, all$"):
         Construction(lock_inner="some")
     with pytest.raises(ValueError, match="gamma must lie in \\(0, 1\\), got 1.5"):
-        synthesize_chain(chain(3), gamma=1.5)
+        synthesize_links(links_parameters(3), gamma=1.5)
     with pytest.raises(ValueError, match="delta must be positive, got nan"):
-        synthesize_chain(chain(3), delta=float("nan"))
+        synthesize_links(links_parameters(3), delta=float("nan"))
     with pytest.raises(ValueError, match="unknown extra_speed_bins"):
-        synthesize_chain(chain(3), extra_speed_bins="many")
+        synthesize_links(links_parameters(3), extra_speed_bins="many")
     with pytest.raises(ValueError, match="speed_context must be True or False"):
         Construction(speed_context="yes")
     with pytest.raises(ValueError, match=r"unknown construction option\(s\) \['speed'\]"):
@@ -184,20 +184,20 @@ def test_memory_estimate_and_refusals():
     with pytest.raises(ValueError, match="a 3-link arm takes none of them"):
         synthesize("decentralized", links=3, robust="worst", draws=2, spread=0.1)
     with pytest.raises(ValueError, match="agent 4: an arm of 3 links has agents 1 to 3"):
-        agent_problem(4, chain(3), CHAIN_DEFAULT)
+        agent_problem(4, links_parameters(3), LINKS_DEFAULT)
 
 
-def test_a_chain_policy_records_its_read_out_and_acts_by_it():
-    """synthesize_chain(readout=...) keeps the agents and records the read-out: beyond the
+def test_an_n_link_policy_records_its_read_out_and_acts_by_it():
+    """synthesize_links(readout=...) keeps the agents and records the read-out: beyond the
     argmax angle the agents act by the largest interpolated Q."""
-    from twolink.arm.parameters import chain
-    from twolink.synthesis.links_decentralized import synthesize_chain
+    from twolink.arm.parameters import links_parameters
+    from twolink.synthesis.links_decentralized import synthesize_links
     from twolink.policy.fuzzy_policy import greedy_indices
     from twolink.policy.readout import Readout
 
-    p = chain(3, "copied")
-    plain = synthesize_chain(p)
-    read = synthesize_chain(p, readout=Readout(argmax_beyond_deg=20.0))
+    p = links_parameters(3, "copied")
+    plain = synthesize_links(p)
+    read = synthesize_links(p, readout=Readout(argmax_beyond_deg=20.0))
     assert read.meta["readout"] == {"speed_dead_zone": 0.0, "angle_dead_zone_deg": 0.0,
                                     "argmax_beyond_deg": 20.0}
     assert "readout" not in plain.meta
@@ -208,4 +208,4 @@ def test_a_chain_policy_records_its_read_out_and_acts_by_it():
     q = agent3.q_values(x[:, [2, 5]])
     assert read(x)[0, 2] == agent3.actions[greedy_indices(q, agent3.tie_tolerance)][0, 0]
     with pytest.raises(TypeError, match="readout must be a twolink.policy.readout.Readout"):
-        synthesize_chain(p, readout={"argmax_beyond_deg": 20.0})
+        synthesize_links(p, readout={"argmax_beyond_deg": 20.0})

@@ -1,4 +1,4 @@
-"""The N-link rule (twolink.arm.parameters.chain) and the N-link MJCF built from it."""
+"""The N-link rule (twolink.arm.parameters.links_parameters) and the N-link MJCF built from it."""
 import dataclasses
 import math
 
@@ -14,10 +14,10 @@ from twolink.arm.parameters import (
     TABLE_I,
     TAPER,
     ArmParameters,
-    ChainParameters,
-    as_chain,
-    chain,
+    LinksParameters,
+    as_links,
     check_links,
+    links_parameters,
     state_names,
 )
 from twolink.resources import model_file
@@ -25,9 +25,9 @@ from twolink.resources import model_file
 
 @pytest.mark.parametrize("rule", LINK_RULES)
 def test_two_links_are_table_i_exactly(rule):
-    c = chain(2, rule)
+    c = links_parameters(2, rule)
     assert c.as_arm() == TABLE_I
-    assert as_chain(TABLE_I) == dataclasses.replace(c, rule="tapered")
+    assert as_links(TABLE_I) == dataclasses.replace(c, rule="tapered")
     assert c.lengths == (0.1, 0.1) and c.masses == (1.25, 1.0)
     assert c.inertias == (0.004, 0.003) and c.dampings == (0.1, 0.02)
     np.testing.assert_array_equal(c.tau_max, TABLE_I.tau_max)
@@ -36,16 +36,16 @@ def test_two_links_are_table_i_exactly(rule):
 
 def test_round_trips():
     scaled = TABLE_I.scaled(m2=1.3, l1=0.8)
-    assert as_chain(scaled).as_arm() == scaled
+    assert as_links(scaled).as_arm() == scaled
     for n in range(MIN_LINKS, MAX_LINKS + 1):
         for rule in LINK_RULES:
-            c = chain(n, rule)
-            assert ChainParameters.from_dict(c.as_dict()) == c
+            c = links_parameters(n, rule)
+            assert LinksParameters.from_dict(c.as_dict()) == c
             assert c.as_dict()["links"] == n
 
 
 def test_tapered_rule_halves_mass_inertia_and_torque():
-    c = chain(4, "tapered")
+    c = links_parameters(4, "tapered")
     assert TAPER == 0.5
     assert c.masses == (1.25, 1.0, 0.5, 0.25)
     assert c.inertias == (0.004, 0.003, 0.0015, 0.00075)
@@ -56,7 +56,7 @@ def test_tapered_rule_halves_mass_inertia_and_torque():
 
 
 def test_copied_rule_repeats_link_two():
-    c = chain(5, "copied")
+    c = links_parameters(5, "copied")
     assert c.masses == (1.25,) + (1.0,) * 4
     assert c.inertias == (0.004,) + (0.003,) * 4
     assert c.torque_limits == (0.2,) + (0.1,) * 4
@@ -74,31 +74,31 @@ def test_check_links_refuses(bad):
         check_links(bad)
 
 
-def test_chain_refusals():
+def test_links_refusals():
     with pytest.raises(ValueError, match="unknown link rule 'bent'"):
-        chain(3, "bent")
+        links_parameters(3, "bent")
     with pytest.raises(ValueError, match="links must be a whole number"):
-        chain(7)
+        links_parameters(7)
     with pytest.raises(ValueError, match="masses of link 2 must be positive and finite"):
-        dataclasses.replace(chain(3), masses=(1.0, float("nan"), 1.0))
+        dataclasses.replace(links_parameters(3), masses=(1.0, float("nan"), 1.0))
     with pytest.raises(ValueError, match="inertias needs 3 values"):
-        dataclasses.replace(chain(3), inertias=(1.0, 1.0))
+        dataclasses.replace(links_parameters(3), inertias=(1.0, 1.0))
     with pytest.raises(ValueError, match="a 3-link arm has no two-link ArmParameters"):
-        chain(3).as_arm()
+        links_parameters(3).as_arm()
     with pytest.raises(ValueError, match="links says 4 but the parameters describe 3"):
-        ChainParameters.from_dict(dict(chain(3).as_dict(), links=4))
-    assert isinstance(chain(2).as_arm(), ArmParameters)
+        LinksParameters.from_dict(dict(links_parameters(3).as_dict(), links=4))
+    assert isinstance(links_parameters(2).as_arm(), ArmParameters)
 
 
-def test_two_link_chain_gives_the_committed_model():
-    assert mjcf.model_xml(chain(2)) == model_file().read_text()
-    assert mjcf.model_xml(chain(2, "copied")) == mjcf.model_xml(TABLE_I)
+def test_two_links_give_the_committed_model():
+    assert mjcf.model_xml(links_parameters(2)) == model_file().read_text()
+    assert mjcf.model_xml(links_parameters(2, "copied")) == mjcf.model_xml(TABLE_I)
 
 
 @pytest.mark.parametrize("rule", LINK_RULES)
 @pytest.mark.parametrize("n", range(MIN_LINKS, MAX_LINKS + 1))
 def test_n_link_model(n, rule):
-    c = chain(n, rule)
+    c = links_parameters(n, rule)
     m = mjcf.build_model(c)
     assert (m.nq, m.nv, m.nu, m.nbody) == (n, n, n, n + 1)
     assert tuple(m.joint(k).name for k in range(n)) == mjcf.joint_names(n)

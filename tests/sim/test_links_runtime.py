@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from twolink.arm import mjcf
-from twolink.arm.parameters import TABLE_I, TS, chain
+from twolink.arm.parameters import TABLE_I, TS, links_parameters
 from twolink.arm.task import agent_reward, centralized_reward, in_goal_band
 from twolink.fqi.fuzzy import Axis, Grid
 from twolink.policy.fuzzy_policy import Agent, Policy, check_links_match, load_policy
@@ -63,7 +63,7 @@ def _states(rng, n, rows):
 
 @pytest.mark.parametrize("n,rule", [(3, "tapered"), (4, "copied")])
 def test_mujoco_plant_equals_mj_step_loop(rng, n, rule):
-    p = chain(n, rule)
+    p = links_parameters(n, rule)
     x, tau = _states(rng, n, 6), rng.uniform(-0.3, 0.3, (6, n))
     with MujocoPlant(p, nthread=2) as plant:
         assert plant.links == n and plant.model.nq == n
@@ -73,16 +73,16 @@ def test_mujoco_plant_equals_mj_step_loop(rng, n, rule):
 
 
 def test_per_row_mujoco_plant_of_three_links(rng):
-    plist = [chain(3), chain(3, "copied")]
+    plist = [links_parameters(3), links_parameters(3, "copied")]
     x, tau = _states(rng, 3, 2), rng.uniform(-0.3, 0.3, (2, 3))
     with MujocoPlant(plist, nthread=1) as plant:
         out = plant.step(x, tau)
         with pytest.raises(ValueError, match="a 4-link parameter set for a plant of 3 links"):
-            plant.set_row_params(0, chain(4))
+            plant.set_row_params(0, links_parameters(4))
     for i, p in enumerate(plist):
         np.testing.assert_array_equal(out[i], _step_loop(p, x[[i]], tau[[i]])[0])
     with pytest.raises(ValueError, match="same number of links, got 2, 3"):
-        MujocoPlant([TABLE_I, chain(3)])
+        MujocoPlant([TABLE_I, links_parameters(3)])
 
 
 def test_full_model_agrees_with_mujoco_for_three_links(rng):
@@ -92,7 +92,7 @@ def test_full_model_agrees_with_mujoco_for_three_links(rng):
     # 2.9e-15, N = 6 5.3e-15); 1e-12 leaves room for another BLAS or libm, while a
     # modelling difference shows far above it (1 % more inertia or damping on link 3
     # moves this batch by 3e-2).
-    p = chain(3)
+    p = links_parameters(3)
     x, tau = _states(rng, 3, 200), rng.uniform(-0.3, 0.3, (200, 3))
     with make_plant("full", p) as full, make_plant("mujoco", p, nthread=2) as mj:
         assert full.links == mj.links == 3
@@ -101,20 +101,20 @@ def test_full_model_agrees_with_mujoco_for_three_links(rng):
     assert np.abs(d).max() < 1e-12
 
 
-def test_two_link_chain_runs_the_table_i_code(rng):
+def test_two_links_run_the_table_i_code(rng):
     x, tau = _states(rng, 2, 20), rng.uniform(-0.3, 0.3, (20, 2))
     for name in ("simplified", "full", "mujoco"):
-        with make_plant(name, chain(2)) as a, make_plant(name, TABLE_I) as b:
+        with make_plant(name, links_parameters(2)) as a, make_plant(name, TABLE_I) as b:
             assert a.params == TABLE_I
             np.testing.assert_array_equal(a.step(x, tau), b.step(x, tau))
 
 
 def test_plants_refuse_what_they_cannot_run():
     with pytest.raises(ValueError, match=r"model \(11\) is the paper's two-link simplification"):
-        make_plant("simplified", chain(3))
+        make_plant("simplified", links_parameters(3))
     with pytest.raises(ValueError, match="gravity is modelled for two links only"):
-        ModelPlant("full", chain(3), gravity=True)
-    with make_plant("full", chain(3)) as plant:
+        ModelPlant("full", links_parameters(3), gravity=True)
+    with make_plant("full", links_parameters(3)) as plant:
         with pytest.raises(ValueError, match=r"state must have 6 components \[theta1, theta2, "
                                              r"theta3, dtheta1, dtheta2, dtheta3\]"):
             plant.step(np.zeros(4), np.zeros(3))
@@ -122,7 +122,8 @@ def test_plants_refuse_what_they_cannot_run():
                                              r"tau3\], got shape \(2,\)"):
             plant.step(np.zeros(6), np.zeros(2))
     with pytest.raises(ValueError, match=r"x0 has a speed of magnitude 70 rad/s"):
-        check_states([0, 0, 0, 0, 0, 70.0], what="x0", speed_max=chain(3).speed_max, links=3)
+        check_states([0, 0, 0, 0, 0, 70.0], what="x0", speed_max=links_parameters(3).speed_max,
+                     links=3)
     with pytest.raises(ValueError, match="links must be a whole number from 2 to 6"):
         check_torques(np.zeros(7), links=7)
 
@@ -230,7 +231,7 @@ def test_random_poses_shape_range_determinism_and_cap():
 def test_three_link_rollout_on_mujoco_has_the_documented_shapes():
     policy = _three_link_policy()
     x0 = random_poses(3, 4, 0)
-    with make_plant("mujoco", chain(3), nthread=1) as plant:
+    with make_plant("mujoco", links_parameters(3), nthread=1) as plant:
         traj = rollout(policy, plant, x0, duration=0.5)
     assert traj.x.shape == (4, 11, 6) and traj.u.shape == (4, 10, 3)
     assert traj.r.shape == (4, 10) and traj.r_links.shape == (4, 10, 3)
