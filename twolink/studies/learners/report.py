@@ -181,7 +181,10 @@ def figure(data: dict, path, ceiling: dict | None = None):
                 ax.plot([p["steps"] / 1e6 for p in r["curve"]],
                         [100 * p["rate"] for p in r["curve"]], color=colour, lw=0.6,
                         alpha=0.5)
-            ax.plot([], [], color=colour, lw=2, label=name)
+            steps = [p["steps"] for p in runs[0]["curve"]]
+            if all([p["steps"] for p in r["curve"]] == steps for r in runs):
+                mean = np.mean([[p["rate"] for p in r["curve"]] for r in runs], axis=0)
+                ax.plot(np.asarray(steps) / 1e6, 100 * mean, color=colour, lw=1.8)
         if (links, rule) in ceiling:
             ax.axhline(100 * ceiling[(links, rule)], color="k", ls="--", lw=0.8)
         ax.set_title(f"N = {links} ({rule})")
