@@ -56,7 +56,7 @@ def test_a_foreign_curve_is_one_line(fake):
 
 
 def test_the_shipped_challenge_agents_name_their_chosen_seed():
-    for name in ("ppo_medium", "ppo_hard"):
+    for name in ("ppo_medium", "ppo_hard", "mappo_medium"):
         c = learning_cost(name)
         files = [json.loads((ROOT / p).read_text()) for p in LEARNED[name].curves]
         assert c["steps"] == sum(f["steps"] for f in files) > 2_000_000

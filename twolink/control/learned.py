@@ -49,6 +49,13 @@ LEARNED = {
                                     "(docs/studies/challenge_agents.py)",
                         curves=tuple(f"renders/challenge_agents/ppo_hard_seed{s}.json"
                                      for s in (1, 2, 3))),
+    "mappo_medium": Learned(
+        "renders/challenge_agents/mappo_medium.marl.pt", kind="decentralized",
+        description="MAPPO trained under medium: one actor per joint, each observing the whole "
+                    "arm (global), history 3, action rate 1, the best of seeds 1-3 on training "
+                    "plants (local observations did not learn: the training guide)",
+        curves=tuple(f"renders/challenge_agents/mappo_2links_global_medium_h3_ar1_seed{s}.json"
+                     for s in ("1", "2", "3_steps1.2e6"))),
 }
 #: Name -> the agent's file, relative to the repository root.
 LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
@@ -152,7 +159,11 @@ def learning_cost(name: str) -> dict | None:
                                   f"curve ({type(exc).__name__}: {exc})") from None
     chosen = None
     agent = _file_of(name)
-    if agent is not None and agent.suffix == ".zip":
+    if agent is not None and agent.name.endswith(".marl.pt"):
+        from twolink.control.marl_agent import read_marl_file
+
+        chosen = read_marl_file(agent)[0].get("seed")
+    elif agent is not None and agent.suffix == ".zip":
         from twolink.control.agent_meta import AGENT_MEMBER
         from twolink.control.sb3_agent import read_save
 
