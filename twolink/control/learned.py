@@ -56,6 +56,11 @@ LEARNED = {
                     "plants (local observations did not learn: the training guide)",
         curves=tuple(f"renders/challenge_agents/mappo_2links_global_medium_h3_ar1_seed{s}.json"
                      for s in ("1", "2", "3_steps1.2e6"))),
+    "ppo_pd_6link_tapered": Learned(
+        "renders/learners/agents/ppo_pd_6link_tapered.zip", links=6, rule="tapered",
+        description="PPO as a residual over the per-joint PD on 6 tapered links, the "
+                    "learners study's ppo-pd recipe, seed 0, 2 M steps (twolink train --base pd)",
+        curves=("renders/learners/agents/ppo_pd_6link_tapered.json",)),
 }
 #: Name -> the agent's file, relative to the repository root.
 LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
