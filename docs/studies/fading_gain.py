@@ -28,22 +28,21 @@ from pathlib import Path
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-from fuzzy_design import (  # noqa: E402
-    CHALLENGE_PLANTS,
-    CHALLENGE_POSES,
-    PLANT_SEED,
-    POSES,
-    ratio_grid,
-)
 
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.control.fading import Fade, FadingGain  # noqa: E402
 from twolink.policy.fuzzy_policy import load_policy  # noqa: E402
 from twolink.policy.registry import SHIPPED, TWO_LINK  # noqa: E402
 from twolink.sim.evaluation import evaluate  # noqa: E402
+from twolink.studies.fuzzy_design.tuning_set import (  # noqa: E402
+    CHALLENGE_PLANTS,
+    CHALLENGE_POSES,
+    PLANT_SEED,
+    POSES,
+    ratio_grid,
+)
 
 SCHEMA, VERSION = "twolink.fading_gain", 1
 #: The fades tried: (exit_deg, exit_speed) x floor x fade_samples.

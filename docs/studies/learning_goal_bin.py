@@ -18,7 +18,7 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from twolink.synthesis.learning import Learner, _greedy, evaluate  # noqa: E402
+from twolink.synthesis.learning import Learner, evaluate, greedy_index  # noqa: E402
 from twolink.synthesis.learning_setup import LearnConfig  # noqa: E402
 from twolink.policy.fuzzy_policy import Agent, Policy, load_policy  # noqa: E402
 from twolink.sim.plants import MujocoPlant  # noqa: E402
@@ -60,7 +60,7 @@ def main(argv=None) -> None:
     cfg = LearnConfig(learner="decentralized", steps=256 * 25 * args.blocks, arms=256,
                       seed=args.seed, update=args.update, alpha=args.alpha)
     with Learner(cfg, init=init) as learner:
-        g0 = [_greedy(a.theta) for a in learner.agents]
+        g0 = [greedy_index(a.theta) for a in learner.agents]
         a2 = learner.agents[0]
         print(f"from (6), {args.update}, alpha {args.alpha}: agent 2 goal bin "
               f"{np.round(a2.theta[_goal_bin(a2)], 2)}")
@@ -70,13 +70,13 @@ def main(argv=None) -> None:
             e = learner.evaluate()
             parts = []
             for a, g in zip(learner.agents, g0):
-                flipped = _greedy(a.theta) != g
+                flipped = greedy_index(a.theta) != g
                 parts.append(f"{a.name} {flipped.sum()} flipped ({(flipped & _near_goal(a)).sum()} "
                              f"near goal)")
             q = a2.theta[_goal_bin(a2)]
             print(f"{learner.steps_done:>7} steps {e.successes:>2}/65  {'; '.join(parts)}; "
                   f"agent 2 goal bin {np.round(q, 2)} (spread {np.ptp(q):.2f}, greedy "
-                  f"{_greedy(q)})", flush=True)
+                  f"{greedy_index(q)})", flush=True)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from twolink.synthesis.learning import Learner, _greedy, evaluate  # noqa: E402
+from twolink.synthesis.learning import Learner, evaluate, greedy_index  # noqa: E402
 from twolink.synthesis.learning_setup import LearnConfig  # noqa: E402
 from twolink.policy.fuzzy_policy import load_policy  # noqa: E402
 
@@ -37,7 +37,7 @@ class OwnGreedy:
                "dtheta2": flat[:, 3]}
         for a in self.agents:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
-            out = a.actions[_greedy(np.einsum("nk,nku->nu", w, a.theta[idx]))]
+            out = a.actions[greedy_index(np.einsum("nk,nku->nu", w, a.theta[idx]))]
             for k, name in enumerate(a.outputs):
                 sig[name] = out[:, k]
         return np.stack([sig["tau1"], sig["tau2"]], -1).reshape(x.shape[:-1] + (2,))

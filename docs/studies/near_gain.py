@@ -31,14 +31,17 @@ from pathlib import Path
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from fuzzy_design import CHALLENGE_PLANTS, CHALLENGE_POSES, PLANT_SEED, POSES  # noqa: E402
 
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.policy.fuzzy_policy import Policy, load_policy  # noqa: E402
 from twolink.policy.registry import SHIPPED, TWO_LINK  # noqa: E402
 from twolink.sim.evaluation import evaluate  # noqa: E402
+from twolink.studies.fuzzy_design.tuning_set import (  # noqa: E402
+    CHALLENGE_PLANTS,
+    CHALLENGE_POSES,
+    PLANT_SEED,
+    POSES,
+)
 
 SCHEMA, VERSION = "twolink.near_gain", 1
 #: The grid: A, the angle (deg) of full torque again, and g, the gain at the goal.

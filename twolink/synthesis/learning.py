@@ -140,7 +140,7 @@ class Learner:
                 a.theta *= config.init_scale
             self.init_label = str(init.meta.get("source", init.kind))
         self.theta_bar = [a.theta.copy() for a in self.agents] if config.average else None
-        self.kept = [_greedy(q) for q in self._read()] if config.hysteresis else None
+        self.kept = [greedy_index(q) for q in self._read()] if config.hysteresis else None
         self.rng = np.random.default_rng(config.seed)
         n = config.arms
         self.x = self._random_poses(n)
@@ -199,14 +199,14 @@ class Learner:
             idx, w = a.grid.memberships(np.stack([sig[k] for k in a.grid.names], -1))
             nu = len(a.actions)
             if fuzzy_update:                          # each active bin its own action
-                j = _greedy(a.theta[idx])
+                j = greedy_index(a.theta[idx])
                 explore = (self.rng.random(idx.shape if per_bin else len(x)) < eps)
                 explore = explore if per_bin else explore[:, None]
                 j = np.where(explore, self.rng.integers(0, nu, idx.shape), j)
                 out = np.einsum("nk,nko->no", w, a.actions[j])
             else:                                     # one action per arm, from Q(x, .)
                 q = np.einsum("nk,nku->nu", w, a.theta[idx])
-                j1 = _greedy(q)
+                j1 = greedy_index(q)
                 explore = self.rng.random(len(x)) < eps
                 j1 = np.where(explore, self.rng.integers(0, nu, len(x)), j1)
                 out = a.actions[j1]
@@ -226,11 +226,11 @@ class Learner:
             if self.config.update in _FUZZY_ACTING:
                 rows = a.theta[idx]                                       # (n, K, N_U)
                 values.append(np.einsum("nk,nk->n", w, rows.max(axis=-1)))
-                out = np.einsum("nk,nko->no", w, a.actions[_greedy(rows)])
+                out = np.einsum("nk,nko->no", w, a.actions[greedy_index(rows)])
             else:
                 q = np.einsum("nk,nku->nu", w, a.theta[idx])
                 values.append(q.max(axis=1))
-                out = a.actions[_greedy(q)]
+                out = a.actions[greedy_index(q)]
             for k, name in enumerate(a.outputs):
                 sig[name] = out[:, k]
         return values
@@ -255,7 +255,7 @@ class Learner:
                 bar += beta * (a.theta - bar)
         if self.kept is not None:
             for kept, q in zip(self.kept, self._read()):
-                g = _greedy(q)
+                g = greedy_index(q)
                 rows = np.arange(len(kept))
                 beaten = q[rows, g] > q[rows, kept] + self.config.hysteresis
                 kept[beaten] = g[beaten]
@@ -278,7 +278,7 @@ class Learner:
         patched = {}
         for a, q, kept in zip(self.agents, read, self.kept or [None] * len(read)):
             if kept is not None:           # the kept action raised just above the row's best
-                rows = np.flatnonzero(_greedy(q) != kept)
+                rows = np.flatnonzero(greedy_index(q) != kept)
                 patched[a.name] = {"rows": rows.tolist(), "values": pack(q[rows])}
                 q[rows, kept[rows]] = q[rows].max(axis=1) + 4 * TIE_TOLERANCE
         agents = [Agent(a.name, a.grid, a.actions, q, a.outputs,
@@ -428,7 +428,7 @@ def update_theta(theta: np.ndarray, idx: np.ndarray, w: np.ndarray, j: np.ndarra
     return theta
 
 
-def _greedy(q: np.ndarray) -> np.ndarray:
+def greedy_index(q: np.ndarray) -> np.ndarray:
     """argmax over the last axis, ties to the first action (as policy (14))."""
     return np.argmax(q >= q.max(axis=-1, keepdims=True) - TIE_TOLERANCE, axis=-1)
 
