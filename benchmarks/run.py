@@ -75,7 +75,9 @@ def run(mode: str = "quick", sections=SECTIONS, *, progress=print) -> dict:
                 repeats=cfg["repeats"], sweep_repeats=cfg["sweep_repeats"],
                 full_setup=cfg["full_setup"])
         elif section == "scaling":
-            r, summary[section] = synthesis.bench_scaling(cfg["central"], cfg["decentral"])
+            from benchmarks import synthesis_scaling
+            r, summary[section] = synthesis_scaling.bench_scaling(cfg["central"],
+                                                                  cfg["decentral"])
         elif section == "rollouts":
             r, summary[section] = rollouts.bench_rollouts(batch=cfg["batch"],
                                                           repeats=cfg["repeats"])

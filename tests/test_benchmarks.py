@@ -10,7 +10,16 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))   # benchmarks/ is no package dep
 
-from benchmarks import rollouts, run, synthesis
+from benchmarks import (
+    rollouts,
+    run,
+    synthesis,
+    synthesis_common,
+    synthesis_peers,
+    synthesis_problem,
+    synthesis_robust,
+    synthesis_scaling,
+)
 from benchmarks.common import Row
 
 
@@ -29,7 +38,7 @@ def _positive_finite(rows, allow_zero=("agreement",)):
 
 @pytest.mark.parametrize("name", ["centralized", "agent1"])
 def test_peers_solve_the_same_mdp_and_agree(name):
-    rows, summary = synthesis.bench_problem(name, repeats=1)
+    rows, summary = synthesis_problem.bench_problem(name, repeats=1)
     by = _by_name(rows)
     sec = f"synthesis: {name}"
     for peer in ("quantecon", "mdptoolbox"):
@@ -54,8 +63,9 @@ def test_peers_solve_the_same_mdp_and_agree(name):
         # one- and two-thread rows stay beside it.
         assert summary["threads"] == 1
         assert "1 thread" in by[(sec, "ours: time per sweep")].note
-        if synthesis.MAX_THREADS > 1:
-            assert (sec, f"factored, {synthesis.MAX_THREADS} threads: time per sweep") in by
+        if synthesis_common.MAX_THREADS > 1:
+            threads = synthesis_common.MAX_THREADS
+            assert (sec, f"factored, {threads} threads: time per sweep") in by
         assert summary["sweep_bytes"] < summary["fixed_sweep_bytes"]
         assert summary["equivalent_gbs"] == pytest.approx(
             summary["fixed_sweep_bytes"] / summary["per_sweep"]["ours"] / 1e9)
@@ -75,7 +85,7 @@ def test_synthesize_end_to_end_rows_split_the_total():
 
 
 def test_sweep_bandwidth_rows_are_bytes_over_time():
-    rows, summary = synthesis.bench_problem("agent2", repeats=1)
+    rows, summary = synthesis_problem.bench_problem("agent2", repeats=1)
     by = _by_name(rows)
     sec = "synthesis: agent2"
     moved = summary["sweep_bytes"]
@@ -87,49 +97,66 @@ def test_sweep_bandwidth_rows_are_bytes_over_time():
 
 def test_sweep_bytes_count_the_table_and_the_vectors():
     from twolink.fqi.tables import transition_table
-    p = synthesis.BUILDERS["agent2"](1)
+    p = synthesis_common.BUILDERS["agent2"](1)
     t = transition_table(p.grid, p.next_points)
     rows, n_x = t.shape
-    assert synthesis.sweep_bytes(t) == rows * t.index.shape[1] * (4 + 8) + 24 * rows + 16 * n_x
+    assert synthesis_problem.sweep_bytes(t) == \
+        rows * t.index.shape[1] * (4 + 8) + 24 * rows + 16 * n_x
 
 
 def test_package_threads_follow_the_summed_sweep_work():
     from twolink.fqi.factored import PARALLEL_MIN_WORK, factored_table, sweep_work
-    p = synthesis.PACKAGE["centralized"][0]()
+    p = synthesis_common.PACKAGE["centralized"][0]()
     t = factored_table(p.grid, p.next_points)
     assert sweep_work(t) < PARALLEL_MIN_WORK
-    assert synthesis.package_threads(t) == synthesis.package_threads([t]) == 1
-    assert synthesis.package_threads([t] * 8) == synthesis.MAX_THREADS
+    assert synthesis_common.package_threads(t) == synthesis_common.package_threads([t]) == 1
+    assert synthesis_common.package_threads([t] * 8) == synthesis_common.MAX_THREADS
 
 
 def test_worst_case_rows_and_models():
-    models = synthesis.worst_case_models(8)
+    models = synthesis_robust.worst_case_models(8)
     assert len({(m.m1, m.m2, m.b1) for m in models}) == 8
-    rows, summary = synthesis.bench_worst_case(2, repeats=1)
+    rows, summary = synthesis_robust.bench_worst_case(2, repeats=1)
     names = {r.name for r in rows}
     assert {"total robust synthesis (worst)", "sweeps to convergence (worst)",
             "sweep bandwidth", "total robust synthesis (mean)"} <= names
     assert summary["k"] == 2 and summary["iterations"] > 0
     assert summary["threads"] == 1                       # 2 x 0.64 M gathered values
     assert {f"factored, {n}: sweeps (worst)" for n in ("1 thread", "2 threads")
-            if n == "1 thread" or synthesis.MAX_THREADS > 1} <= names
+            if n == "1 thread" or synthesis_common.MAX_THREADS > 1} <= names
     assert {"fixed layout: total robust synthesis (worst)", "fixed layout agreement max|dQ|",
             "fixed / factored total"} <= names
     assert summary["max_dq"] <= 1e-12 and summary["greedy_bins_differ"] == 0
     _positive_finite(rows)
 
 
+def test_robust_synthesis_rows_hold_the_fixed_layout_against_synthesize():
+    """The robust ``synthesize()`` section (K models drawn as the package draws them,
+    :func:`twolink.synthesis.problems.parameter_draws`): its parts within the call, the
+    fixed-width layout's Q equal to ``synthesize()``'s."""
+    rows, summary = synthesis_robust.bench_robust_synthesis((2,), repeats=1)
+    s = summary[2]
+    assert s["iterations"] > 0 and s["threads"] in (1, synthesis_common.MAX_THREADS)
+    assert s["model_seconds"] + s["table_seconds"] + s["sweep_seconds"] <= s["total"]
+    assert s["fixed"]["iterations"] == s["iterations"]
+    assert s["fixed"]["max_dq"] <= 1e-12 and s["fixed"]["greedy_bins_differ"] == 0
+    sec = "synthesis: robust synthesis, centralized on (6), worst case over K = 2"
+    assert {(sec, "total synthesize()"), (sec, "fixed layout: total (problems + table + sweeps)")
+            } <= set(_by_name(rows))
+    _positive_finite(rows)
+
+
 def test_mdptoolbox_full_setup_gives_the_same_values():
-    p = synthesis.BUILDERS["agent2"](1)
+    p = synthesis_common.BUILDERS["agent2"](1)
     from twolink.fqi.tables import transition_matrix
     t = transition_matrix(p.grid, p.next_points)
-    fast = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=False)()
-    full = synthesis.mdptoolbox_solver(t, p.rewards, 30, full_setup=True)()
+    fast = synthesis_peers.mdptoolbox_solver(t, p.rewards, 30, full_setup=False)()
+    full = synthesis_peers.mdptoolbox_solver(t, p.rewards, 30, full_setup=True)()
     np.testing.assert_array_equal(fast[0], full[0])
 
 
 def test_scaling_runs_what_fits_and_predicts_the_rest():
-    rows, records = synthesis.bench_scaling((1,), (1, 2), estimate_to=3)
+    rows, records = synthesis_scaling.bench_scaling((1,), (1, 2), estimate_to=3)
     names = {r.name for r in rows}
     assert {"centralized 1x bins: time", "decentralized 2x bins: time",
             "centralized 2x bins: predicted memory", "centralized 3x bins: Q size"} <= names

@@ -1,5 +1,7 @@
 """The package's shape: the layer contract, no import cycles, no private names imported
-across modules, a shallow top level and small modules."""
+across modules, a shallow top level and small modules; and the scripts beside it (the
+benchmarks, the development studies, the docs generator) small too, the benchmarks and
+studies using only the package's public modules and names."""
 import ast
 import subprocess
 import sys
@@ -8,6 +10,11 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "twolink"
+#: The scripts outside the package that the size rule covers too.
+SCRIPT_DIRS = ("benchmarks", "docs/studies", "docs/generator")
+#: The scripts that may import only the package's public modules and names.
+PUBLIC_USERS = ("benchmarks", "docs/studies")
+MAX_LINES = 500
 pytest.importorskip("importlinter")
 
 
@@ -96,8 +103,61 @@ def test_the_package_is_shallow_and_its_modules_small():
     assert len(top) <= 8, top
     kernels = {p for p in PACKAGE.rglob("_*kernel.py")}
     long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py") if p not in kernels
-            for n in [len(p.read_text().splitlines())] if n > 500}
+            for n in [len(p.read_text().splitlines())] if n > MAX_LINES}
     assert long == {}
+
+
+def _scripts(folders) -> list:
+    root = PACKAGE.parent
+    return sorted(p for d in folders for p in (root / d).rglob("*.py"))
+
+
+def test_the_scripts_are_small_too():
+    """The size rule of the package holds for the benchmarks, the development studies
+    and the docs generator: their reusable parts live in the package (e.g.
+    :mod:`twolink.studies.fuzzy_design`) or in modules of one concept each."""
+    scripts = _scripts(SCRIPT_DIRS)
+    assert len(scripts) > 30 and any(p.name == "synthesis.py" for p in scripts)
+    long = {str(p.relative_to(PACKAGE.parent)): n for p in scripts
+            for n in [len(p.read_text().splitlines())] if n > MAX_LINES}
+    assert long == {}
+
+
+def _private_uses(name: str, path: Path, modules: dict) -> list:
+    """The twolink imports of a script that reach past the public API: a private module
+    (a ``_x`` anywhere in its dotted path) or a private name (``from m import _x``)."""
+    bad = []
+    for target, imported in _imports(name, path, modules):
+        full = target if imported is None else f"{target}.{imported}"
+        if any(p.startswith("_") and not p.startswith("__") for p in full.split(".")):
+            bad.append(f"{name} imports {full}")
+    return bad
+
+
+def test_the_benchmarks_and_studies_use_only_the_public_package():
+    """benchmarks/ and docs/studies/ are users of the package: no private module
+    (``twolink.fqi._kernel``) and no private name (``from twolink.x import _y``)."""
+    modules = _modules()
+    scripts = _scripts(PUBLIC_USERS)
+    root = PACKAGE.parent
+    names = {p: ".".join(p.relative_to(root).with_suffix("").parts) for p in scripts}
+    assert sum(len(_imports(n, p, modules)) for p, n in names.items()) > 100
+    bad = [b for p, n in names.items() for b in _private_uses(n, p, modules)]
+    assert bad == []
+
+
+def test_the_script_contract_catches_a_private_import(tmp_path):
+    """The check of the scripts' imports finds each way of reaching a private part."""
+    script = tmp_path / "study.py"
+    script.write_text("import twolink.fqi._kernel\n"
+                      "from twolink.fqi import _factored_kernel\n"
+                      "from twolink.synthesis.learning import Learner, _hidden\n"
+                      "from twolink.commands._grammar import RULES\n"
+                      "from twolink.policy.fuzzy_policy import greedy_indices\n")
+    assert _private_uses("study", script, _modules()) == [
+        "study imports twolink.fqi._kernel", "study imports twolink.fqi._factored_kernel",
+        "study imports twolink.synthesis.learning._hidden",
+        "study imports twolink.commands._grammar.RULES"]
 
 
 def test_every_subpackage_is_installed():
