@@ -21,7 +21,7 @@ from twolink.control.catalogue import (
     read_catalogue_file,
     shipped_entries,
 )
-from twolink.control.learned import LEARNED_AGENTS
+from twolink.control.learned import LEARNED, LEARNED_AGENTS
 from twolink.control.catalogue import links_pd_name
 from twolink.control.links_pd import TUNED
 from twolink.policy.registry import SHIPPED
@@ -44,7 +44,8 @@ def test_the_shipped_entries_are_every_registry_once():
     assert sorted(bench) == sorted(BENCHMARK) and len(bench) <= 12
     assert {e.name for e in entries(tag="paper")} == {n for n, p in SHIPPED.items() if p.paper}
     assert {e.name for e in entries(tag="n-link")} == {n for n, p in SHIPPED.items()
-                                                       if p.links > 2} | links_pd
+                                                       if p.links > 2} | links_pd | {
+        n for n, a in LEARNED.items() if a.links > 2}
     assert lookup("lqr").kind == "centralized" and lookup("pd").kind == "decentralized"
     assert [e.name for e in entries(links=3)] == ["decentralized_3link", "pd_3link_copied",
                                                    "pd_3link_tapered"]

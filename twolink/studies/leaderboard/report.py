@@ -131,7 +131,7 @@ def learning_lines(report: dict) -> list:
              "training plants (never the leaderboard's), the row's agent the best of them.",
              "", "| controller | seeds (final score on training plants) | env steps | "
              "CPU | wall | CPU per env step |", "|---|---|---|---|---|---|"]
-    for name, c in learning.items():
+    for name, c in sorted(learning.items()):
         seeds = ", ".join(f"{s['seed']} ({s['successes']}/{s['n']}"
                           f"{', chosen' if s['seed'] == c.get('chosen_seed') else ''})"
                           for s in c["seeds"])
