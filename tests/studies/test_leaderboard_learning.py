@@ -56,7 +56,10 @@ def test_a_foreign_curve_is_one_line(fake):
 
 
 def test_the_shipped_challenge_agents_name_their_chosen_seed():
-    for name in ("ppo_medium", "ppo_hard", "mappo_medium"):
+    import importlib.util
+
+    multi = ("mappo_medium",) if importlib.util.find_spec("torch") else ()   # a .marl.pt
+    for name in ("ppo_medium", "ppo_hard", *multi):
         c = learning_cost(name)
         files = [json.loads((ROOT / p).read_text()) for p in LEARNED[name].curves]
         assert c["steps"] == sum(f["steps"] for f in files) > 2_000_000
