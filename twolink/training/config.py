@@ -92,6 +92,22 @@ EVALUATION_SEEDS = (LEADERBOARD_SEED, EVAL_SEED)
 EVAL_PLANTS = 8
 
 
+def check_challenge_run(challenge, links: int, seed: int) -> None:
+    """One-line ValueErrors for a run under ``challenge`` (None: no check): an unknown
+    level, an arm of other than two links, or a training seed among
+    :data:`EVALUATION_SEEDS`."""
+    if challenge is None:
+        return
+    choice(challenge, "challenge level", tuple(LEVELS))
+    if links != 2:
+        raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
+                         f"this run has {links} links")
+    if seed in EVALUATION_SEEDS:
+        raise ValueError(f"seed {seed} is an evaluation seed (the leaderboard's and "
+                         f"evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
+                         f"training seeds must differ from the evaluation seeds")
+
+
 def train_stream(seed: int) -> int:
     """The seed of a challenge run's arms (arm i: this + i): a 32-bit word of
     ``SeedSequence([seed, TRAIN_STREAM])``."""
@@ -152,18 +168,10 @@ class TrainConfig:
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
-        if self.challenge is not None:
-            choice(self.challenge, "challenge level", tuple(LEVELS))
-            if self.links != 2:
-                raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
-                                 f"this run has {self.links} links")
-            if self.plant != "mujoco":
-                raise ValueError("a challenge draws a new plant every episode: train it on "
-                                 "--plant mujoco")
-            if self.seed in EVALUATION_SEEDS:
-                raise ValueError(f"seed {self.seed} is an evaluation seed (the leaderboard's "
-                                 f"and evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
-                                 f"training seeds must differ from the evaluation seeds")
+        check_challenge_run(self.challenge, self.links, self.seed)
+        if self.challenge is not None and self.plant != "mujoco":
+            raise ValueError("a challenge draws a new plant every episode: train it on "
+                             "--plant mujoco")
 
     def hyperparameters(self) -> dict:
         """The algorithm's :data:`HYPERPARAMETERS` with this run's arms and rollout length

@@ -67,10 +67,9 @@ from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import write_json
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
-from twolink.sim.challenges import LEVELS
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
-    EVALUATION_SEEDS, LEADERBOARD_SEED, MAX_ENVS, MAX_STEPS, MAX_THREADS, train_stream
+    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, train_stream
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -157,15 +156,7 @@ class MarlConfig:
         check_base(self.base, self.links)
         check_history(self.history)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
-        if self.challenge is not None:
-            choice(self.challenge, "challenge level", tuple(LEVELS))
-            if self.links != 2:
-                raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
-                                 f"this run has {self.links} links")
-            if self.seed in EVALUATION_SEEDS:
-                raise ValueError(f"seed {self.seed} is an evaluation seed (the leaderboard's "
-                                 f"and evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
-                                 f"training seeds must differ from the evaluation seeds")
+        check_challenge_run(self.challenge, self.links, self.seed)
 
     def arm_seed(self) -> int:
         """The seed of the arms' first reset (arm i: this + i): ``seed``, or under a
