@@ -33,22 +33,22 @@ class Learned:
     curves: tuple = ()
 
 
+def _challenge_ppo(level: str) -> Learned:
+    """The PPO agent of ``docs/studies/challenge_agents.py`` for ``level``: seeds 1-3
+    trained, the best on the training side's plants shipped."""
+    return Learned(f"renders/challenge_agents/ppo_{level}.zip",
+                   description=f"PPO trained under {level}: history 3, action rate 1, the best "
+                               f"of seeds 1-3 on training plants "
+                               f"(docs/studies/challenge_agents.py)",
+                   curves=tuple(f"renders/challenge_agents/ppo_{level}_seed{s}.json"
+                                for s in (1, 2, 3)))
+
+
 #: The shipped learned agents, by name.
 LEARNED = {
     "ppo_seed0": Learned("renders/deep_rl/ppo_seed0.zip",
                          description="PPO trained on the nominal arm (renders/deep_rl/)"),
-    "ppo_medium": Learned("renders/challenge_agents/ppo_medium.zip",
-                          description="PPO trained under medium: history 3, action rate 1, "
-                                      "the best of seeds 1-3 on training plants "
-                                      "(docs/studies/challenge_agents.py)",
-                          curves=tuple(f"renders/challenge_agents/ppo_medium_seed{s}.json"
-                                       for s in (1, 2, 3))),
-    "ppo_hard": Learned("renders/challenge_agents/ppo_hard.zip",
-                        description="PPO trained under hard: history 3, action rate 1, "
-                                    "the best of seeds 1-3 on training plants "
-                                    "(docs/studies/challenge_agents.py)",
-                        curves=tuple(f"renders/challenge_agents/ppo_hard_seed{s}.json"
-                                     for s in (1, 2, 3))),
+    **{f"ppo_{level}": _challenge_ppo(level) for level in ("medium", "hard")},
     "mappo_medium": Learned(
         "renders/challenge_agents/mappo_medium.marl.pt", kind="decentralized",
         description="MAPPO trained under medium: one actor per joint, each observing the whole "
