@@ -26,12 +26,14 @@ from twolink.training.config import (
     EVALUATION_SEEDS,
     DEVICES,
     EVAL_EVERY,
+    GAMMA_RANGE,
     HYPERPARAMETERS,
     MARL_ALGOS,
     MAX_STEPS,
     PLANTS,
     TrainConfig,
     check_algo,
+    check_gamma,
 )
 from twolink.viz.formatting import format_rate
 
@@ -117,6 +119,11 @@ def add_parser(sub):
                         "action from every reward while training (0 to 100; default 0: off), "
                         "against torques that chatter under delays and noise (ippo: each "
                         "agent's own change; mappo: the team reward, the mean over agents)")
+    p.add_argument("--gamma", default=None, metavar="G",
+                   help=f"the discount factor, {GAMMA_RANGE[0]:g} to {GAMMA_RANGE[1]:g} "
+                        f"(default {HYPERPARAMETERS['ppo']['gamma']:g} for every algorithm: "
+                        f"an effective horizon of 50 samples, 2.5 s); closer to 1 values "
+                        f"what pays off later in the episode")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -152,8 +159,17 @@ def given_options(args) -> dict:
              "history": _count(args.history, "--history", 1, MAX_HISTORY),
              "observe": args.observe,
              "base": None if args.base is None else choice(args.base, "--base", BASES),
-             "action_rate": None if args.action_rate is None else _rate(args.action_rate)}
+             "action_rate": None if args.action_rate is None else _rate(args.action_rate),
+             "gamma": None if args.gamma is None else _gamma(args.gamma)}
     return {k: v for k, v in given.items() if v is not None}
+
+
+def _gamma(text) -> float:
+    try:
+        return check_gamma(float(text))
+    except ValueError:
+        raise ValueError(f"--gamma must be a number from {GAMMA_RANGE[0]:g} to "
+                         f"{GAMMA_RANGE[1]:g}, got {text!r}") from None
 
 
 def _rate(text) -> float:

@@ -69,6 +69,8 @@ HYPERPARAMETERS = {
                 gamma=0.98, gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, vf_coef=0.5,
                 max_grad_norm=0.5, net_arch=[256, 256]),
 }
+#: The discount factors a run may take instead of its algorithm's (``--gamma``).
+GAMMA_RANGE = (0.5, 1.0)
 #: Environment steps between evaluations by default, per algorithm.
 EVAL_EVERY = {"sac": 10_000, "ppo": 50_000}
 #: Most environment steps a run may ask for, arms per batch, torch threads.
@@ -108,6 +110,21 @@ def check_challenge_run(challenge, links: int, seed: int) -> None:
                          f"training seeds must differ from the evaluation seeds")
 
 
+def check_gamma(gamma) -> float:
+    """``gamma`` as a float if it is a discount factor a run may take, from
+    :data:`GAMMA_RANGE`'s low end up to 1; else one line. The default of every algorithm is
+    its :data:`HYPERPARAMETERS` entry (0.98: an effective horizon of 50 samples, 2.5 s)."""
+    low, high = GAMMA_RANGE
+    try:
+        value = float(gamma)
+    except (TypeError, ValueError):
+        raise ValueError(f"gamma must be a number from {low:g} to {high:g}, "
+                         f"got {gamma!r}") from None
+    if isinstance(gamma, bool) or not low <= value <= high:
+        raise ValueError(f"gamma must be a number from {low:g} to {high:g}, got {gamma!r}")
+    return value
+
+
 def train_stream(seed: int) -> int:
     """The seed of a challenge run's arms (arm i: this + i): a 32-bit word of
     ``SeedSequence([seed, TRAIN_STREAM])``."""
@@ -145,6 +162,7 @@ class TrainConfig:
     history: int = 1
     base: str = "none"
     action_rate: float = 0.0
+    gamma: float | None = None
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -168,17 +186,21 @@ class TrainConfig:
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
+        if self.gamma is not None:
+            object.__setattr__(self, "gamma", check_gamma(self.gamma))
         check_challenge_run(self.challenge, self.links, self.seed)
         if self.challenge is not None and self.plant != "mujoco":
             raise ValueError("a challenge draws a new plant every episode: train it on "
                              "--plant mujoco")
 
     def hyperparameters(self) -> dict:
-        """The algorithm's :data:`HYPERPARAMETERS` with this run's arms and rollout length
-        (PPO's minibatch held to at most one rollout)."""
+        """The algorithm's :data:`HYPERPARAMETERS` with this run's arms, rollout length
+        and discount (PPO's minibatch held to at most one rollout)."""
         hp = dict(HYPERPARAMETERS[self.algo])
         if self.envs is not None:
             hp["n_envs"] = self.envs
+        if self.gamma is not None:
+            hp["gamma"] = self.gamma
         if self.algo == "ppo":
             if self.n_steps is not None:
                 hp["n_steps"] = self.n_steps
@@ -212,7 +234,7 @@ class TrainConfig:
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
-                "device", "threads", "challenge", "history", "base", "action_rate")
+                "device", "threads", "challenge", "history", "base", "action_rate", "gamma")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

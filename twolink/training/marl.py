@@ -69,7 +69,7 @@ from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
-    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, train_stream
+    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, train_stream
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -131,11 +131,12 @@ class MarlConfig:
     challenge: str | None = None
     history: int = 1
     action_rate: float = 0.0
+    gamma: float | None = None
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
-                "action_rate")
+                "action_rate", "gamma")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -156,6 +157,8 @@ class MarlConfig:
         check_base(self.base, self.links)
         check_history(self.history)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
+        if self.gamma is not None:
+            object.__setattr__(self, "gamma", check_gamma(self.gamma))
         check_challenge_run(self.challenge, self.links, self.seed)
 
     def arm_seed(self) -> int:
@@ -164,11 +167,13 @@ class MarlConfig:
         return self.seed if self.challenge is None else train_stream(self.seed)
 
     def hyperparameters(self) -> dict:
-        """:data:`HYPERPARAMETERS` with this run's arms and rollout length (the minibatch
-        held to at most one rollout)."""
+        """:data:`HYPERPARAMETERS` with this run's arms, rollout length and discount (the
+        minibatch held to at most one rollout)."""
         hp = dict(HYPERPARAMETERS, hidden=list(HYPERPARAMETERS["hidden"]))
         if self.envs is not None:
             hp["n_envs"] = self.envs
+        if self.gamma is not None:
+            hp["gamma"] = self.gamma
         if self.n_steps is not None:
             hp["n_steps"] = self.n_steps
         hp["batch_size"] = min(hp["batch_size"], hp["n_steps"] * hp["n_envs"])
@@ -222,15 +227,16 @@ def config_from_options(given: dict) -> dict:
 
 
 def run_name(config: MarlConfig) -> str:
-    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>]_seed<S>`` (PPO's
+    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>]_seed<S>`` (PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
+    discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"_seed{config.seed}")
+            f"{discount}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:
