@@ -81,9 +81,9 @@ def _argument_rows(parser, prog: str):
 
 
 def _grammar_section(parser) -> str:
-    """The grammar every command follows (:data:`twolink.commands._grammar.RULES`) and the
+    """The grammar every command follows (:data:`twolink.commands.grammar.RULES`) and the
     old spellings that still parse, with a warning, for one release."""
-    from twolink.commands._grammar import DEPRECATED, RULES
+    from twolink.commands.grammar import DEPRECATED, RULES
 
     rows = [(f"`twolink {c}`", f"`{old}`", new.replace("(", "").replace(")", ""))
             for c, old, new in sorted(DEPRECATED)]

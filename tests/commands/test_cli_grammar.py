@@ -1,4 +1,4 @@
-"""One command-line grammar (twolink.commands._grammar): every command spells an option
+"""One command-line grammar (twolink.commands.grammar): every command spells an option
 with one meaning, and every old spelling still parses, with one warning line, into what
 the new spelling gives."""
 import argparse
@@ -6,7 +6,7 @@ import argparse
 import pytest
 
 from twolink.cli import COMMANDS, build_parser
-from twolink.commands._grammar import DEPRECATED
+from twolink.commands.grammar import DEPRECATED
 
 
 def _subparsers():

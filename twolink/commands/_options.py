@@ -117,7 +117,7 @@ def add_challenge_options(p) -> None:
     p.add_argument("--compensate", action="store_true",
                    help="drive the policy through the run-time delay predictor and state "
                         "observer (twolink.sim.estimation) for the challenge's delays and noise")
-    from twolink.commands._grammar import deprecated
+    from twolink.commands.grammar import deprecated
 
     deprecated(p, p.prog.split()[-1], "--angle-noise", "--angle-noise-deg", dest="angle_noise",
                type=float)

@@ -25,7 +25,7 @@ import math
 
 from twolink.arm.parameters import LINK_RULES, MAX_LINKS, MIN_LINKS
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import deprecated
+from twolink.commands.grammar import deprecated
 from twolink.sim.challenges import LEVELS
 from twolink.sim.controller import MAX_TIMEOUT, MIN_TIMEOUT
 from twolink.sim.metrics import MAX_POSES

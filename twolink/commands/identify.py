@@ -15,7 +15,7 @@ from twolink.arm import parameter_file
 from twolink.arm.parameters import TS
 from twolink.artifacts import check_outputs, make_folders, output_file, provenance
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import add_out
+from twolink.commands.grammar import add_out
 from twolink.commands._options import seed_option
 from twolink.sim import excitation, identify
 

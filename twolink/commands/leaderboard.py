@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import deprecated
+from twolink.commands.grammar import deprecated
 from twolink.sim.challenges import LEVELS
 
 #: --quick: every 13th state of the evaluation set, 4 plants, levels none and medium.

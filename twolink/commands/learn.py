@@ -13,7 +13,7 @@ from pathlib import Path
 
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import add_out
+from twolink.commands.grammar import add_out
 from twolink.commands._options import seed_option
 from twolink.synthesis.learning import Learner, evaluate, stays_above, steps_to_reach
 from twolink.synthesis.learning_setup import (

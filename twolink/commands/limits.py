@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import deprecated
+from twolink.commands.grammar import deprecated
 from twolink.commands._options import X0_HELP
 
 MODEL_CHOICES = ("full", "simplified", "both")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from twolink.artifacts import staged_set, write_json, write_text
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import deprecated
+from twolink.commands.grammar import deprecated
 from twolink.commands._options import (
     add_arm_options,
     arm_of,

@@ -5,7 +5,7 @@ from __future__ import annotations
 from twolink.arm import mjcf
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import deprecated
+from twolink.commands.grammar import deprecated
 from twolink.commands._options import add_arm_options, arm_of
 from twolink.resources import MODEL_FILE, model_file, source_checkout
 

@@ -22,7 +22,7 @@ import numpy as np
 from twolink.arm.parameters import HORIZON, TS
 from twolink.artifacts import check_outputs, make_folders, output_file
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import add_out
+from twolink.commands.grammar import add_out
 from twolink.commands._controllers import add_controller_option
 from twolink.commands._controllers import controllers_of as command_controllers
 from twolink.commands._options import (

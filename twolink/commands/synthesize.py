@@ -28,7 +28,7 @@ from twolink.arm.parameters import DELTA, GAMMA, GOAL_SPEED, TABLE_I
 from twolink.arm.task import MAX_LEVELS, PAPER_LEVELS
 from twolink.artifacts import check_outputs, output_file
 from twolink.commands import SUMMARIES
-from twolink.commands._grammar import add_out, deprecated
+from twolink.commands.grammar import add_out, deprecated
 from twolink.commands._options import add_arm_options, arm_of
 from twolink.synthesis.problems import (
     CONTEXTS,
