@@ -377,42 +377,69 @@ def test_the_scaling_page_shows_the_reach_study_beside_the_table(tmp_path, monke
 
 def test_the_scaling_page_counts_successes_by_own_motor_time(tmp_path, monkeypatch):
     """The own-motor section: per class of own-motor time the poses and each controller's
-    successes with intervals, the poses over the deadline named with their joint and
-    the reach study's answers for them, and whether the totals equal the table's."""
+    successes with intervals (a learned agent's column "—" on an arm it was not run on),
+    the poses over the deadline named with their joint and the reach study's answers for
+    them, whether the table's controllers' totals equal its rows, and the successes at
+    the longer horizons on all poses and on those over the deadline."""
     import json
 
     gen = _generator()
-    from generator import results_scaling as rs
+    from generator import results_own_motor as ro
 
     report = json.loads((ROOT / "renders/scaling/scaling.json").read_text())
     monkeypatch.setattr(gen.common, "ROOT", tmp_path)
-    assert rs._own_motor_block(report) == ""                 # no study data: no section
+    assert ro.own_motor_block(report) == ""                 # no study data: no section
     own = [1.0, 2.0, 4.0, 6.0, 8.0, 9.0]
     run = {"links": 6, "rule": "tapered", "poses": 6, "own_motor_s": own,
-           "slowest_joint": [1, 2, 6, 6, 6, 6],
+           "slowest_joint": [1, 2, 6, 6, 6, 6], "learned": ["agent_6"],
            "success": {"decentralized": [1, 1, 0, 1, 0, 0],
-                       "decentralized_levels": [1, 1, 1, 1, 1, 0], "pd": [1, 0, 0, 0, 0, 0]}}
-    path = tmp_path / rs.OWN_MOTOR
+                       "decentralized_levels": [1, 1, 1, 1, 1, 0], "pd": [1, 0, 0, 0, 0, 0],
+                       "agent_6": [1, 1, 1, 1, 0, 0]},
+           "later": {"12": {"decentralized": [1, 1, 1, 1, 0, 0],
+                            "decentralized_levels": [1, 1, 1, 1, 1, 0],
+                            "pd": [1, 1, 1, 1, 0, 0], "agent_6": [1, 1, 1, 1, 1, 0]},
+                     "16": {"decentralized": [1, 1, 1, 1, 0, 0],
+                            "decentralized_levels": [1, 1, 1, 1, 1, 1],
+                            "pd": [1, 1, 1, 1, 1, 1], "agent_6": [1, 1, 1, 1, 1, 1]}}}
+    other = {"links": 5, "rule": "tapered", "poses": 2, "own_motor_s": [1.0, 2.0],
+             "slowest_joint": [1, 5], "learned": [], "later": {},
+             "success": {k: [1, 0] for k in ("decentralized", "decentralized_levels", "pd")}}
+    path = tmp_path / ro.OWN_MOTOR
     path.parent.mkdir(parents=True)
-    path.write_text(json.dumps({"schema": "twolink.links_own_motor", "version": 1,
-                                "runs": [run]}))
+    path.write_text(json.dumps({"schema": "twolink.links_own_motor", "version": 2,
+                                "runs": [other, run]}))
     reach = {"links": 6, "rule": "tapered", "poses": 5, "reachable": 5, "hold": 2,
              "deadline_s": 7.0, "answers": [{"reachable": True, "seconds": 1.0}] * 5}
-    (tmp_path / rs.REACH).write_text(json.dumps({"schema": "twolink.links_reach",
-                                                 "version": 1, "runs": [reach]}))
-    text = rs._own_motor_block(report)
-    rows = [[c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()
+    (tmp_path / "renders/links_reach/reach.json").write_text(json.dumps(
+        {"schema": "twolink.links_reach", "version": 1, "runs": [reach]}))
+    text = ro.own_motor_block(report)
+    first = text.split("### Failed, or settled late?")[0]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in first.splitlines()
             if line.startswith("| 6 | tapered |")]
     assert [r[2:4] for r in rows] == [["≤ 3 s", "2"], ["3–5 s", "1"], ["5–7 s", "1"],
                                       ["> 7 s", "2"]]
     assert rows[0][4].startswith("2/2 = 100.0 %") and rows[0][6].startswith("1/2 = 50.0 %")
-    assert rows[3][5].startswith("1/2 = 50.0 %")
+    assert rows[3][5].startswith("1/2 = 50.0 %") and rows[3][7] == "0/2 = 0.0 % [0, 66]"
+    five = [line for line in text.splitlines() if line.startswith("| 5 | tapered | ≤ 3 s")]
+    assert five[0].rstrip(" |").endswith("| —")             # agent_6 not run at N = 5
     assert ("tapered N = 6: 2 of 6 poses are over 7 s (set by joint 6); the controllers "
-            "settle 0, 1, 0 of them") in text
+            "settle 0, 1, 0, 0 of them (decentralized, 5 levels, per-joint PD, `agent_6`)") in text
     assert "of the first 5, which the reach study solved, 1 are over 7 s and 1 of those " \
            "are reachable" in text
-    assert "(totals differ from the table's rows)" in text
+    assert "(the table's controllers' totals differ from its rows)" in text
     assert "at N = 6 joint 6 turns at most 0.312 rad/s" in text
+    later = {r[2]: r[3:] for r in ([c.strip() for c in line.strip("|").split("|")]
+                                   for line in text.split("### Failed, or settled late?")[1]
+                                   .splitlines() if line.startswith("| 6 | tapered |"))}
+    assert later["`agent_6`"][:3] == ["4/6 = 66.7 % [30, 90]", "5/6 = 83.3 % [44, 97]",
+                                      "6/6 = 100.0 % [61, 100]"]
+    assert later["`agent_6`"][3:] == ["0/2", "1/2", "2/2"]
+    assert later["per-joint PD"][3:] == ["0/2", "0/2", "2/2"]
+    assert not any(line.startswith("| 5 | tapered | decentralized |")
+                   for line in text.splitlines())            # no later data at N = 5
+    assert ("`agent_6` (tapered N = 6) settles 4 of the 4 poses whose own-motor time is at "
+            "most 7 s by 8 s, and 0 of the 2 beyond it; by 16 s it settles 6 of 6. What it "
+            "misses at 8 s it settles later") in text
 
 
 def test_the_fuzzy_designs_page_shows_the_near_goal_gain_choices_and_parts(tmp_path,
@@ -452,3 +479,41 @@ def test_the_fuzzy_designs_page_shows_the_near_goal_gain_choices_and_parts(tmp_p
     assert "`decentralized_locked` most under its noise (+140 of 256)" in text
     assert ["`decentralized_locked`", "delays alone", "200/256", "250/256",
             "256/256"] in rows
+
+
+def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
+    """The levers section: per curve under renders/learners/levers/ its train command,
+    its final curve point, its fresh score where a .fresh.json sits beside it, its CPU
+    per step; a curve that is not one is refused in one line naming the file."""
+    import json
+
+    gen = _generator()
+    from generator import results_learners as rl
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    assert rl.levers_block() == ""                            # no lever runs: no section
+    folder = tmp_path / rl.LEVERS
+    folder.mkdir(parents=True)
+    config = {"algo": "ppo", "base": "pd", "gamma": 0.995, "history": 1, "action_rate": 0.0,
+              "links": 6, "rule": "tapered", "steps": 2000000, "seed": 0}
+    curve = {"config": config, "cpu_s": 700.0, "steps": 2000000,
+             "curve": [{"successes": 12, "n": 64, "steps": 0},
+                       {"successes": 50, "n": 64, "steps": 2000000}]}
+    (folder / "ppo-pd-g0.995_6t_seed0.json").write_text(json.dumps(curve))
+    (folder / "other_6t_seed0.json").write_text(json.dumps(dict(curve, config=dict(
+        config, algo="mappo", observe="local", gamma=None))))
+    (folder / "ppo-pd-g0.995_6t_seed0.fresh.json").write_text(json.dumps(
+        {"successes": 200, "n": 256}))
+    rows = {r[0]: r for r in ([c.strip() for c in line.strip("|").split("|")]
+                              for line in rl.levers_block().splitlines()
+                              if line.startswith("| `"))}
+    assert rows["`ppo-pd-g0.995_6t_seed0`"][1:] == [
+        "`twolink train --links 6 --rule tapered --algo ppo --base pd --gamma 0.995 "
+        "--steps 2000000 --seed 0`", "50/64 = 78.1 % [67, 86] at 2.00 M steps",
+        "200/256 = 78.1 % [73, 83]", "350 µs"]
+    assert rows["`other_6t_seed0`"][1].endswith("--algo mappo --observe local --base pd "
+                                                 "--steps 2000000 --seed 0`")
+    assert rows["`other_6t_seed0`"][3] == "—"
+    (folder / "broken.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"broken.json: not a twolink train curve"):
+        rl.levers_block()

@@ -164,7 +164,7 @@ SCHEMAS = {
     "renders/identification/identification.json": ("twolink.identification_study", 1),
     "renders/learners/learners.json": ("twolink.learners", 1),
     "renders/links_reach/reach.json": ("twolink.links_reach", 1),
-    "renders/links_reach/own_motor.json": ("twolink.links_own_motor", 1),
+    "renders/links_reach/own_motor.json": ("twolink.links_own_motor", 2),
     "renders/fuzzy_design/near_gain.json": ("twolink.near_gain", 1),
     "renders/fuzzy_design/fading_gain.json": ("twolink.fading_gain", 1),
     "renders/iteration_norms/iteration_norms.json": ("twolink.iteration_norms", 1),

@@ -18,6 +18,12 @@ TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses"
             (4, "copied"), True, 0.90))
 #: Training cost target at N = 6: CPU microseconds per environment step.
 COST_TARGET_US = 150.0
+#: Runs outside the plan that test one lever: each ``<id>.json`` is the run's curve
+#: (``twolink train``'s ``curve.json``), ``<id>.fresh.json`` its final agent's ``twolink
+#: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored.
+LEVERS = "renders/learners/levers"
+#: The options of ``twolink train`` a lever run's config spells out (beside the arm).
+LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "history", "action_rate", "steps", "seed")
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -86,6 +92,60 @@ def _transfer(rows: list) -> str:
     return "\n".join(out) if arms else "Not yet run: no learner trained on the model."
 
 
+def _lever_command(config: dict) -> str:
+    """The ``twolink train`` command line of a lever run's config."""
+    words = ["twolink train", f"--links {config['links']}"]
+    if config["links"] > 2:
+        words.append(f"--rule {config['rule']}")
+    defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None}
+    for key in LEVER_OPTIONS:
+        value = config.get(key)
+        if value is None or defaults.get(key, object()) == value:
+            continue
+        words.append(f"--{key.replace('_', '-')} {value:g}" if isinstance(value, float)
+                     else f"--{key.replace('_', '-')} {value}")
+    return " ".join(words)
+
+
+def levers_block() -> str:
+    """The lever runs of :data:`LEVERS`: each run's command, its final curve point (64
+    poses of the table) and its final agent on the fresh poses where scored."""
+    import json
+
+    from twolink.viz.formatting import format_rate
+
+    from . import common
+
+    folder = common.ROOT / LEVERS
+    runs = sorted(p for p in folder.glob("*.json") if not p.name.endswith(".fresh.json")) \
+        if folder.is_dir() else []
+    if not runs:
+        return ""
+    out = ["## Levers tried outside the plan\n\n",
+           f"Each run's curve is `{LEVERS}/<run>.json`; its final agent on the 256 fresh poses "
+           "(seed 4180000 + N), where scored, is `<run>.fresh.json` (`twolink evaluate AGENT "
+           "--links N --poses 256 --seed 4180000 --json`).\n\n",
+           "| run | command | final curve point (64 table poses) | fresh poses at 8 s | "
+           "CPU per step |\n|---|---|---|---|---|\n"]
+    for path in runs:
+        try:
+            run = json.loads(path.read_text())
+            last = run["curve"][-1]
+            config = run["config"]
+            cpu = 1e6 * run["cpu_s"] / run["steps"]
+        except (ValueError, KeyError, TypeError, ZeroDivisionError, IndexError) as exc:
+            raise ValueError(f"{path}: not a twolink train curve ({exc})") from None
+        fresh_path = path.with_name(path.stem + ".fresh.json")
+        fresh = "—"
+        if fresh_path.is_file():
+            f = json.loads(fresh_path.read_text())
+            fresh = format_rate(f["successes"], f["n"])
+        out.append(f"| `{path.stem}` | `{_lever_command(config)}` | "
+                   f"{format_rate(last['successes'], last['n'])} at "
+                   f"{last['steps'] / 1e6:.2f} M steps | {fresh} | {cpu:.0f} µs |\n")
+    return "".join(out) + "\n"
+
+
 def learners_page(data: dict) -> str:
     from twolink.studies.learners.plan import plan
     from twolink.studies.learners.report import rows, table
@@ -117,6 +177,7 @@ def learners_page(data: dict) -> str:
         table(rs) if rs else "No run has finished yet.", "\n\n",
         "## Targets\n\n", "\n".join(_targets(rs)), "\n\n",
         "## Transfer: trained on the model, run on MuJoCo\n\n", _transfer(rs), "\n\n",
+        levers_block(),
         "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",
         "Thin lines: one seed each, success of the deterministic policy on the curve's 64 "
         "poses of the scaling table; dashed: the ceiling.\n"])

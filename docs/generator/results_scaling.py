@@ -7,17 +7,11 @@ where they exist.
 from __future__ import annotations
 
 from .common import SCHEMAS, _cell, _gib, _int, _load, _overlap, _stamp
+from .results_own_motor import own_motor_block
 from .targets import scaling_targets
 
 #: The reach study's data (:mod:`twolink.limits.links`).
 REACH = "renders/links_reach/reach.json"
-#: The own-motor study's data (``docs/studies/links_own_motor.py``).
-OWN_MOTOR = "renders/links_reach/own_motor.json"
-#: Own-motor time classes of the poses, in seconds (the last bound is the deadline, 7 s).
-OWN_MOTOR_EDGES = (3.0, 5.0, 7.0)
-#: The own-motor study's controllers, by scaling row name, and their column titles.
-OWN_MOTOR_COLUMNS = (("decentralized", "decentralized"), ("decentralized_levels", "5 levels"),
-                     ("decentralized_argmax", "5 levels, argmax"), ("pd", "per-joint PD"))
 
 
 def _reach_block(report: dict) -> str:
@@ -64,88 +58,6 @@ def _reach_block(report: dict) -> str:
         if every else
         "Where a pose was not found reachable, no controller is known to settle it by 8 s; "
         "the rates above are to be read against the reachable share.") + "\n\n")
-    return "".join(out)
-
-
-def _own_motor_block(report: dict) -> str:
-    """The own-motor study: each controller's successes by the poses' own-motor time,
-    the poses over the deadline named with the reach study's answers for them."""
-    import numpy as np
-
-    from twolink.arm.task import own_motor_speed
-    from twolink.arm.parameters import links_parameters
-    from twolink.viz.formatting import format_rate
-
-    data = _load(OWN_MOTOR, SCHEMAS[OWN_MOTOR])
-    if data is None or not data["runs"]:
-        return ""
-    reach = _load(REACH, SCHEMAS[REACH]) or {"runs": []}
-    reached = {(r["links"], r["rule"]): r for r in reach["runs"]}
-    rows = {(r["scheme"], r["rule"], r["links"]): r for r in report["rows"]}
-    columns = [c for c in OWN_MOTOR_COLUMNS if all(c[0] in r["success"] for r in data["runs"])]
-    edges = (0.0,) + OWN_MOTOR_EDGES + (np.inf,)
-    deadline = OWN_MOTOR_EDGES[-1]
-    names = ([f"≤ {edges[1]:g} s"]
-             + [f"{a:g}–{b:g} s" for a, b in zip(edges[1:-2], edges[2:-1])]
-             + [f"> {deadline:g} s"])
-    out = ["## What a joint's own motor can do\n\n",
-           "With every other joint held, joint i turns about a fixed axis and its motion "
-           "reduces to J_i θ̈_i = τ_i − b_i θ̇_i, so from rest it never turns faster than "
-           "τ_i max / b_i (`twolink.arm.task.own_motor_speed`). Tapered links halve the "
-           "torque per link and keep link 2's damping: "
-           + "; ".join(f"at N = {n} joint {n} turns at most "
-                       f"{own_motor_speed(links_parameters(n, 'tapered'))[-1]:.3g} rad/s"
-                       for n in sorted({r["links"] for r in data["runs"]
-                                        if r["rule"] == "tapered"}))
-           + ". A pose's *own-motor time* is the largest over its joints of |θ_i| over that "
-           "speed (`own_motor_seconds`), a lower bound on the time its slowest joint needs "
-           f"on its own. Above {deadline:g} s (settled 1 s before the end of 8 s) a pose can "
-           "succeed only if the other joints' motion turns that joint too. "
-           "`python docs/studies/links_own_motor.py --links N --rule R` runs the table's "
-           "controllers again on the table's poses and records each pose's success beside "
-           "its own-motor time:\n\n",
-           "| N | links | own-motor time | poses | "
-           + " | ".join(t for _, t in columns) + " |\n|---|---|---|---|"
-           + "---|" * len(columns) + "\n"]
-    notes = []
-    for run in data["runs"]:
-        n, rule = run["links"], run["rule"]
-        own = np.asarray(run["own_motor_s"])
-        cls = np.digitize(own, edges[1:-1], right=True)
-        for c, name in enumerate(names):
-            m = cls == c
-            if not m.any():
-                continue
-            cells = [format_rate(int(np.asarray(run["success"][k])[m].sum()), int(m.sum()))
-                     for k, _ in columns]
-            out.append(f"| {n} | {rule} | {name} | {int(m.sum())} | " + " | ".join(cells)
-                       + " |\n")
-        late = own > deadline
-        slow = np.asarray(run["slowest_joint"])[late]
-        line = (f"{rule} N = {n}: {int(late.sum())} of {run['poses']} poses are over "
-                f"{deadline:g} s")
-        if late.any():
-            joints = sorted(set(slow.tolist()))
-            line += (" (set by joint " + " or ".join(map(str, joints)) + "); the controllers "
-                     "settle " + ", ".join(
-                         f"{int(np.asarray(run['success'][k])[late].sum())}" for k, _ in
-                         columns) + " of them (" + ", ".join(
-                         t for _, t in columns) + ")")
-            r = reached.get((n, rule))
-            if r:
-                k = r["poses"]
-                hit = late[:k]
-                ok = sum(a["reachable"] for a, h in zip(r["answers"], hit) if h)
-                line += (f"; of the first {k}, which the reach study solved, {int(hit.sum())} "
-                         f"are over {deadline:g} s and {ok} of those are reachable")
-        same = all(
-            (key := (scheme, rule, n)) in rows and rows[key]["status"] == "run"
-            and rows[key]["evaluation"]["horizons"]["8"]["successes"]
-            == sum(run["success"][scheme]) and run["poses"] == rows[key]["evaluation"]["poses"]
-            for scheme, _ in columns)
-        notes.append(line + (" (totals equal the table's rows)" if same else
-                             " (totals differ from the table's rows)") + ".")
-    out.append("\n" + "\n".join(f"- {t}" for t in notes) + "\n\n")
     return "".join(out)
 
 
@@ -324,7 +236,7 @@ def scaling_page(report: dict) -> str:
     from .results_learners import learners_block
 
     block = (_scaling_findings(report) + _reach_block(report) + learners_block()
-             + _own_motor_block(report) + block)
+             + own_motor_block(report) + block)
     at = text.find("\nMachine: ")
     text = text + "\n" + block if at < 0 else text[:at + 1] + block + text[at + 1:]
     return "".join([

@@ -3,17 +3,21 @@
 ``python docs/studies/links_own_motor.py --links N [--rule tapered|copied] [--json FILE]``
 runs the scaling table's N-link controllers (the default decentralized agents, the
 5-level agents plain and read through the argmax of Q, and the tuned per-joint PD, built
-as ``twolink scaling`` builds them) on
-the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 8 s on MuJoCo, and
-records beside each pose's success its own-motor time: the largest over the joints of
+as ``twolink scaling`` builds them) and the catalogue's learned agents of that arm
+(tag ``learned``, e.g. ``ppo_pd_6link_tapered``) on
+the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 16 s on MuJoCo, and
+records each pose's success at 8 s (the table's horizon) and at the longer horizons of
+:data:`LATER` (the same rollout cut there, :func:`twolink.sim.pose_scoring.truncated`:
+settled 1 s before the cut), beside its own-motor time: the largest over the joints of
 :func:`twolink.arm.task.own_motor_seconds`, the time joint i's own motor needs at the
 least to turn it home with every other joint held (its speed stays below tau_i max / b_i).
 A pose whose own-motor time exceeds 7 s (settled 1 s before the end of 8 s) can be
 settled in time only if the other joints' motion turns that joint too; a controller whose
 joints act each on their own reading does not plan that. The runs merge into the JSON file
 (one per arm; an arm measured again replaces its run); the docs generator writes the
-result into ``docs/results/scaling.md``. About 2 min per arm on this machine (the 5-level
-agents' synthesis is most of it).
+result into ``docs/results/scaling.md``. About 3 min per arm on this machine (the 5-level
+agents' synthesis is most of it). Version 1 files (8 s only, no learned agents) are
+refused: run the arms again.
 """
 from __future__ import annotations
 
@@ -31,24 +35,38 @@ import numpy as np  # noqa: E402
 from twolink.arm.task import own_motor_seconds  # noqa: E402
 from twolink.arm.parameters import LINK_RULES, LINKS_HORIZON, links_parameters  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
+from twolink.control import catalogue  # noqa: E402
 from twolink.control.links_pd import tuned  # noqa: E402
 from twolink.sim.metrics import random_poses, success  # noqa: E402
+from twolink.sim.pose_scoring import truncated  # noqa: E402
 from twolink.sim.plants import make_plant  # noqa: E402
 from twolink.sim.rollout import rollout  # noqa: E402
 from twolink.studies.scaling.measure import EVAL_SEED  # noqa: E402
 from twolink.studies.scaling.synthesis import cell_policy  # noqa: E402
 from twolink.validate import whole  # noqa: E402
 
-SCHEMA, VERSION = "twolink.links_own_motor", 1
+SCHEMA, VERSION = "twolink.links_own_motor", 2
 #: The scaling table's poses per arm.
 POSES = 256
 #: The controllers, by the scaling table's row names.
 CONTROLLERS = ("decentralized", "decentralized_levels", "decentralized_argmax", "pd")
+#: Horizons (s) beyond the table's 8 s at which every pose's success is also recorded:
+#: does a controller fail a pose or only settle it late?
+LATER = (12.0, 16.0)
 DEFAULT_JSON = Path("renders/links_reach/own_motor.json")
 
 
+def learned(links: int, rule: str) -> tuple:
+    """The names of the catalogue's learned agents of this arm (tag ``learned``)."""
+    return tuple(e.name for e in catalogue.entries(tag="learned", links=links)
+                 if e.rule == rule)
+
+
 def controller(links: int, rule: str, scheme: str):
-    """The scaling table's controller of row ``scheme`` for this arm."""
+    """The scaling table's controller of row ``scheme`` for this arm, or the catalogue's
+    agent of that name."""
+    if scheme not in CONTROLLERS:
+        return catalogue.load(scheme)
     if scheme == "pd":
         return tuned(links_parameters(links, rule))
     return cell_policy(links, rule, scheme, 2 * 2**30)[0]
@@ -64,15 +82,20 @@ def measure(links: int, rule: str, poses: int = POSES) -> dict:
     out = {"links": links, "rule": rule, "poses": poses, "seed": EVAL_SEED + links,
            "horizon_s": LINKS_HORIZON,
            "own_motor_s": [round(float(v), 4) for v in own.max(axis=1)],
-           "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {}}
-    for scheme in CONTROLLERS:
+           "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {},
+           "later": {f"{h:g}": {} for h in LATER}, "learned": list(learned(links, rule))}
+    for scheme in CONTROLLERS + tuple(out["learned"]):
         print(f"  {scheme}: building", flush=True)
         policy = controller(links, rule, scheme)
         with make_plant("mujoco", p) as plant:
-            traj = rollout(policy, plant, x0, duration=LINKS_HORIZON)
-        ok = success(traj)
+            traj = rollout(policy, plant, x0, duration=max(LATER))
+        ok = success(truncated(traj, LINKS_HORIZON))
         out["success"][scheme] = [int(v) for v in ok]
-        print(f"  {scheme}: {int(ok.sum())}/{poses} settled", flush=True)
+        for h in LATER:
+            out["later"][f"{h:g}"][scheme] = [int(v) for v in success(truncated(traj, h))]
+        print(f"  {scheme}: {int(ok.sum())}/{poses} settled by {LINKS_HORIZON:g} s, "
+              + ", ".join(f"{sum(out['later'][f'{h:g}'][scheme])} by {h:g} s"
+                          for h in LATER), flush=True)
     out["seconds"] = round(time.perf_counter() - t0, 1)
     return out
 

@@ -35,9 +35,14 @@ def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path,
     own = own_motor_seconds(links_parameters(3, "tapered"), x0[:, :3])
     np.testing.assert_allclose(run["own_motor_s"], own.max(axis=1), atol=1e-4)
     assert run["slowest_joint"] == [int(j) + 1 for j in own.argmax(axis=1)]
+    assert run["learned"] == [] and study.learned(6, "tapered") == ("ppo_pd_6link_tapered",)
     assert sorted(run["success"]) == sorted(study.CONTROLLERS)
     assert "decentralized_argmax" in study.CONTROLLERS
     assert all(len(v) == 3 and set(v) <= {0, 1} for v in run["success"].values())
+    assert sorted(run["later"]) == ["12", "16"]
+    for by in run["later"].values():                     # settled by 8 s: still by 12, 16 s
+        assert sorted(by) == sorted(study.CONTROLLERS)
+        assert all(a <= b for k in by for a, b in zip(run["success"][k], by[k]))
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["pd"] == sum(run["success"]["pd"])
     other = dict(run, rule="copied")                     # another arm's run is kept
@@ -65,5 +70,5 @@ def test_a_foreign_file_is_refused_and_left_alone(study, tmp_path, capsys):
     out.write_text(json.dumps({"schema": "twolink.links_reach", "version": 1, "runs": []}))
     before = out.read_text()
     assert study.main(["--links", "3", "--json", str(out)]) == 2
-    assert "is not a twolink.links_own_motor version 1 file" in capsys.readouterr().err
+    assert "is not a twolink.links_own_motor version 2 file" in capsys.readouterr().err
     assert out.read_text() == before
