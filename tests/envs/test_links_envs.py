@@ -273,7 +273,7 @@ def test_each_agent_acts_on_its_own_sequential_observation(policy3, reference):
     (dict(links=3, rule="straight"), "unknown link rule 'straight'"),
     (dict(links=3, x0=[0.0] * 4), r"x0 must have 6 components \[theta1, theta2, theta3"),
     (dict(links=3, x0="paper"), "two-link arm's"),
-    (dict(links=3, x0="here"), r"x0 must be 'random' or a state \(6,\)"),
+    (dict(links=3, x0="here"), r"x0 must be 'random', 'slow', 'mixed' or a state \(6,\)"),
     (dict(links=3, angle_noise=0.1), "angle_noise is a two-link option"),
     (dict(links=3, perturbation={"m2": 0.1}, speed_noise=0.1),
      "perturbation, speed_noise are two-link options"),

@@ -28,6 +28,7 @@ from twolink.training.config import (
     EVAL_EVERY,
     GAMMA_RANGE,
     HYPERPARAMETERS,
+    START_OPTIONS,
     MARL_ALGOS,
     MAX_STEPS,
     PLANTS,
@@ -124,6 +125,12 @@ def add_parser(sub):
                         f"(default {HYPERPARAMETERS['ppo']['gamma']:g} for every algorithm: "
                         f"an effective horizon of 50 samples, 2.5 s); closer to 1 values "
                         f"what pays off later in the episode")
+    p.add_argument("--start", choices=START_OPTIONS, default=None,
+                   help="the training episodes' initial poses: random (default: uniform "
+                        "angles at rest), slow (only poses whose slowest joint its own motor "
+                        "cannot bring home 1 s before the episode's end, so the other joints "
+                        "must turn it; six tapered links) or mixed (half of each); the "
+                        "curve is evaluated on uniform poses (ppo, sac)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -160,7 +167,8 @@ def given_options(args) -> dict:
              "observe": args.observe,
              "base": None if args.base is None else choice(args.base, "--base", BASES),
              "action_rate": None if args.action_rate is None else _rate(args.action_rate),
-             "gamma": None if args.gamma is None else _gamma(args.gamma)}
+             "gamma": None if args.gamma is None else _gamma(args.gamma),
+             "start": args.start}
     return {k: v for k, v in given.items() if v is not None}
 
 

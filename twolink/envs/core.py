@@ -129,9 +129,12 @@ def check_task(task: str) -> str:
 
 
 def check_x0(x0, links: int = 2):
-    """``'paper'`` (two links only), ``'random'`` or a copy of one finite state (2N,);
-    else a TypeError naming x0 for a value that is neither a word nor numbers (a dict),
-    or a ValueError for another word or a bad state."""
+    """``'paper'`` (two links only), ``'random'``, ``'slow'`` or ``'mixed'`` (more than
+    two links: :mod:`twolink.envs.starts`) or a copy of one finite state (2N,); else a
+    TypeError naming x0 for a value that is neither a word nor numbers (a dict), or a
+    ValueError for another word or a bad state."""
+    from twolink.envs.starts import STARTS
+
     n = check_links(links)
     if isinstance(x0, str):
         if n == 2 and x0 not in INITIAL_STATES:
@@ -139,8 +142,9 @@ def check_x0(x0, links: int = 2):
         if n > 2 and x0 == "paper":
             raise ValueError(f"x0='paper' is the two-link arm's {list(PAPER_X0)}; an arm of "
                              f"{n} links starts from 'random' or a state ({2 * n},)")
-        if n > 2 and x0 != "random":
-            raise ValueError(f"x0 must be 'random' or a state ({2 * n},), got {x0!r}")
+        if n > 2 and x0 != "random" and x0 not in STARTS:
+            raise ValueError(f"x0 must be 'random', 'slow', 'mixed' or a state ({2 * n},), "
+                             f"got {x0!r}")
         return x0
     numbers(x0, "x0")                    # a TypeError naming x0 for a dict, None, ...
     x0 = check_states(x0, what="x0", links=n)
@@ -289,12 +293,18 @@ def default_x0(links: int = 2) -> str:
     return "paper" if check_links(links) == 2 else "random"
 
 
-def initial_state(x0, random, links: int = 2) -> np.ndarray:
+def initial_state(x0, random, links: int = 2, params=None) -> np.ndarray:
     """The episode's first state for a checked ``x0`` option: the paper's [-1, -3, 0, 0],
     angles uniform in [-pi, pi) at rest (one draw of ``links`` angles from ``random``, a
-    ``RandomState`` or ``Generator``), or the given state."""
+    ``RandomState`` or ``Generator``), a pose beyond the own motors' reach of the arm
+    ``params`` (``'slow'``, ``'mixed'``: :func:`twolink.envs.starts.start_pose`), or the
+    given state."""
     if isinstance(x0, str) and x0 == "random":
         return np.concatenate([random.uniform(-np.pi, np.pi, links), np.zeros(links)])
+    if isinstance(x0, str) and x0 != "paper":
+        from twolink.envs.starts import start_pose
+
+        return start_pose(x0, params, random)
     return np.array(PAPER_X0 if isinstance(x0, str) else x0, dtype=float)
 
 

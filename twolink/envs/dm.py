@@ -134,6 +134,9 @@ class ArmTask(base.Task):
         self._x0 = check_x0(x0, self.links)
         if not isinstance(self._x0, str):
             check_x0_speeds(self._x0, params.speed_max)
+        from twolink.envs.starts import check_slow_starts
+
+        check_slow_starts(self._x0, params)
         # The true state's bounds (its angles and speeds), or unbounded under noise.
         self._bound = state_bounds(params.speed_max)
         # One row of the perturbations of twolink.sim.perturbations, drawing from the task's
@@ -158,7 +161,7 @@ class ArmTask(base.Task):
     def initialize_episode(self, physics):
         """Set x0: the paper's, random angles at rest, or the given one; the delays and
         reading faults start afresh."""
-        set_data(physics.data, initial_state(self._x0, self.random, self.links))
+        set_data(physics.data, initial_state(self._x0, self.random, self.links, self.params))
         physics.data.ctrl[:] = 0.0
         self._sensors.restart([0])
         self._delay.restart([0])

@@ -35,6 +35,7 @@ from twolink.envs.core import (
     state_bounds,
     wrap_angles,
 )
+from twolink.envs.starts import check_slow_starts
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import ModelPlant, MujocoPlant, check_states
 from twolink.validate import choice, is_real, is_whole, numbers, real, real_array
@@ -113,6 +114,7 @@ class Arms:
         # changes them; a dict of changes may).
         self.speed_max = np.maximum(params.speed_max, fixed.speed_max)
         self.x0 = _check_x0(default_x0(n) if x0 is None else x0, self.speed_max, n)
+        check_slow_starts(self.x0, params)
         for name, value in (("angle_noise", angle_noise), ("speed_noise", speed_noise),
                             ("delay", delay)):
             if not is_real(value):
@@ -210,6 +212,7 @@ class Arms:
         n = self.links
         if isinstance(x0, str) or (not isinstance(x0, dict) and np.ndim(x0) == 1):
             x0 = _check_x0(x0, self.speed_max, n)
+            check_slow_starts(x0, self.params)
             return [x0] * self.rows
         numbers(x0, "x0")                # a TypeError naming x0 for a dict, None, ...
         x0 = check_states(x0, what="x0", links=n)
@@ -227,7 +230,7 @@ class Arms:
             self.sensors.set_generator(i, rng)
             if self._size:
                 self.plant.set_row_params(i, self._draw(rng))
-            self.x[i] = initial_state(x0, rng, self.links)
+            self.x[i] = initial_state(x0, rng, self.links, self.params)
             self.k[i] = 0
             self.last_out[i] = -1 if in_goal_band(self.x[i]) else 0
         self._delay.restart(rows)

@@ -182,6 +182,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
         # Where the plant saturates speeds: Table I's limits (a size or a challenge never
         # changes them; a dict of changes may).
         self._speed_max = np.maximum(params.speed_max, fixed.speed_max)
+        self._base, self._perturbation = params, perturbation
         self._x0 = self._check_x0(x0)
         sensors = Sensors(angle_noise, speed_noise, rngs=[None])
         ActuationDelay(None, delay)
@@ -190,7 +191,6 @@ class ParallelArm(pettingzoo.ParallelEnv):
                                           delay=delay)
         if self._challenge is not None:
             sensors = self._challenge.sensors(rngs=[None])
-        self._base, self._perturbation = params, perturbation
         self._noise_std = (float(angle_noise), float(speed_noise))
         self._delay = delay if self._challenge is None else self._challenge.action_delay
         self.render_mode = render_mode
@@ -223,9 +223,12 @@ class ParallelArm(pettingzoo.ParallelEnv):
     # ------------------------------------------------------------------ spaces
     def _check_x0(self, x0):
         """A checked ``x0`` option; a given state wrapped and within the speed limit."""
+        from twolink.envs.starts import check_slow_starts
+
         x0 = check_x0(x0, self.links)
         if not isinstance(x0, str):
             check_x0_speeds(x0, self._speed_max)
+        check_slow_starts(x0, self._base)
         return x0
 
     def observation_space(self, agent):
@@ -245,7 +248,7 @@ class ParallelArm(pettingzoo.ParallelEnv):
         ch = self._challenge
         params = (ch.plant(self._rng, self._base) if ch is not None
                   else perturbed_params(self._base, self._perturbation, self._rng))
-        x = initial_state(x0, self._rng, self.links)
+        x = initial_state(x0, self._rng, self.links, self._base)
         if self._plant is None or params != self.params:
             self._close_plant()
             self._plant = MujocoPlant(params, nthread=1)

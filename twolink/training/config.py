@@ -71,6 +71,10 @@ HYPERPARAMETERS = {
 }
 #: The discount factors a run may take instead of its algorithm's (``--gamma``).
 GAMMA_RANGE = (0.5, 1.0)
+#: ``--start``: the training episodes' initial poses (the env's ``x0``): uniform angles at
+#: rest, or more of the poses beyond the own motors' reach (:mod:`twolink.envs.starts`).
+#: The curve's evaluation stays on uniform poses.
+START_OPTIONS = ("random", "mixed", "slow")
 #: Environment steps between evaluations by default, per algorithm.
 EVAL_EVERY = {"sac": 10_000, "ppo": 50_000}
 #: Most environment steps a run may ask for, arms per batch, torch threads.
@@ -163,6 +167,7 @@ class TrainConfig:
     base: str = "none"
     action_rate: float = 0.0
     gamma: float | None = None
+    start: str = "random"
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -188,6 +193,12 @@ class TrainConfig:
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
+        choice(self.start, "start", START_OPTIONS)
+        if self.start != "random":
+            from twolink.arm.parameters import links_parameters
+            from twolink.envs.starts import check_slow_starts
+
+            check_slow_starts(self.start, links_parameters(self.links, self.rule), "start")
         check_challenge_run(self.challenge, self.links, self.seed)
         if self.challenge is not None and self.plant != "mujoco":
             raise ValueError("a challenge draws a new plant every episode: train it on "
@@ -227,14 +238,16 @@ class TrainConfig:
     def env_options(self) -> dict:
         """The options of :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` for this run."""
         return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
-                    plant=PLANTS[self.plant], nthread=1, challenge=self.challenge)
+                    plant=PLANTS[self.plant], nthread=1, challenge=self.challenge,
+                    x0=self.start)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
-                "device", "threads", "challenge", "history", "base", "action_rate", "gamma")
+                "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
+                "start")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

@@ -217,14 +217,15 @@ def agent_name(config: TrainConfig) -> str:
 
 
 def run_name(config: TrainConfig) -> str:
-    """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>]_seed<S>``: the
-    run's default folder and its agent's stem."""
+    """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]_seed<S>``:
+    the run's default folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
-    return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}"
+    start = f"_{config.start}" if config.start != "random" else ""
+    return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
             f"_seed{config.seed}")
 
 
