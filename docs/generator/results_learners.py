@@ -23,7 +23,8 @@ COST_TARGET_US = 150.0
 #: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored.
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
-LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "history", "action_rate", "steps", "seed")
+LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "history", "action_rate", "steps",
+                 "seed")
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -97,7 +98,8 @@ def _lever_command(config: dict) -> str:
     words = ["twolink train", f"--links {config['links']}"]
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
-    defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None}
+    defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
+                "start": "random"}
     for key in LEVER_OPTIONS:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
