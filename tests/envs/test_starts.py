@@ -42,13 +42,21 @@ def test_mixed_draws_half_slow_plus_the_uniform_share():
 
 
 def test_the_vector_env_starts_every_arm_beyond_the_deadline():
+    from twolink.envs.gym import TwoLinkVectorEnv
+
+    env = TwoLinkVectorEnv(32, links=6, x0="slow")
+    env.reset(seed=3)
+    assert np.all(_own(env.states) > 7.0)
+    env.close()
+    sb3 = pytest.importorskip("stable_baselines3")             # the training env too
+    assert sb3
     from twolink.envs.sb3 import TwoLinkSB3VecEnv
 
-    env = TwoLinkSB3VecEnv(32, links=6, x0="slow", observation="cos_sin",
+    env = TwoLinkSB3VecEnv(32, links=6, x0="mixed", observation="cos_sin",
                            actions="normalized", reward="shaped", nthread=1)
     env.seed(3)
     env.reset()
-    assert np.all(_own(env.states) > 7.0)
+    assert 0.5 < np.mean(_own(env.states) > 7.0) < 0.9
 
 
 @pytest.mark.parametrize("links, rule", [(5, "tapered"), (4, "copied"), (3, "tapered")])
@@ -60,10 +68,10 @@ def test_arms_without_slow_poses_refuse_them(links, rule):
 
 
 def test_the_two_link_env_refuses_the_words():
-    from twolink.envs.sb3 import TwoLinkSB3VecEnv
+    from twolink.envs.gym import TwoLinkEnv
 
     with pytest.raises(ValueError, match="x0 must be 'paper', 'random' or a state"):
-        TwoLinkSB3VecEnv(1, x0="mixed")
+        TwoLinkEnv(x0="mixed")
 
 
 def test_the_training_config_names_and_checks_the_start():
@@ -86,3 +94,16 @@ def test_bad_starts_are_one_line_exit_2_nothing_written(tmp_path, capsys, argv, 
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
     assert not out.exists()
+
+
+def test_the_multi_agent_and_dm_envs_start_beyond_the_deadline_too():
+    from twolink.envs.pettingzoo import parallel_env
+
+    env = parallel_env(links=6, x0="slow")
+    env.reset(seed=4)
+    assert _own(env.state()) > 7.0
+    with pytest.raises(ValueError, match="x0='mixed': no pose of this 5-link arm"):
+        parallel_env(links=5, x0="mixed")
+    dm = pytest.importorskip("twolink.envs.dm")
+    ts = dm.load("centralized", links=6, x0="slow", seed=2).reset()
+    assert ts.observation["state"].shape == (12,) and _own(ts.observation["state"]) > 7.0
