@@ -93,6 +93,10 @@ def test_pd_entries_carry_the_tuned_gains():
     (["pd", "--poses", "8"], "--poses needs --links N"),
     (["pd", "--poses", "8", "--plant", "model"], "--poses, --plant need --links N"),
     (["pd_9link_tapered", "--links", "3"], "unknown controller 'pd_9link_tapered'"),
+    (["pd_3link_tapered", "--links", "3", "--horizon", "1"], "--horizon must be from 2 to 60"),
+    (["pd_3link_tapered", "--links", "3", "--horizon", "nan"], "--horizon must be from 2 to 60"),
+    (["pd_3link_tapered", "--links", "3", "--horizon", "8.01"], "whole samples of 0.05 s"),
+    (["pd", "--horizon", "12"], "--horizon needs --links N"),
 ])
 def test_bad_input_is_one_line_exit_2(argv, words, capsys):
     assert main(["evaluate", *argv]) == 2
@@ -131,3 +135,22 @@ def test_two_links_on_the_protocol_and_the_two_link_evaluate_unchanged(capsys):
     plain = _json(capsys, "pd", "--quick")
     assert (plain["challenge"], plain["states"], plain["seed"], plain["plants"]) == \
         ("none", 5, 2026, 1)
+
+
+def test_a_longer_horizon_scores_the_same_poses_run_on(capsys):
+    """--horizon 16 runs the same draw for 16 s: success there is the 16 s rollout's (as
+    the own-motor study cuts it), and the per-joint PD of six tapered links, which settles
+    few poses by 8 s, settles more by 16 s."""
+    from twolink.envs.core import arm
+    from twolink.sim.pose_scoring import poses_for
+
+    at8 = _json(capsys, "pd_6link_tapered", "--links", "6", "--poses", "6", "--seed", "5")
+    at16 = _json(capsys, "pd_6link_tapered", "--links", "6", "--poses", "6", "--seed", "5",
+                 "--horizon", "16")
+    assert (at8["horizon"], at16["horizon"]) == (8.0, 16.0)
+    assert at16["poses_seed"] == at8["poses_seed"] and at16["n"] == 6
+    with make_plant("mujoco", arm(links=6, rule="tapered")) as plant:
+        traj = rollout(catalogue.load("pd_6link_tapered"), plant, poses_for(6, 6, 5),
+                       duration=16.0)
+    assert at16["successes"] == int(success(traj).sum())
+    assert at16["successes"] > at8["successes"]

@@ -16,7 +16,8 @@ tapered or copied), drawn from seed S + N (default S: the scaling table's 200611
 for the arm's horizon (5 s for two links, 8 s beyond) on MuJoCo, success = settled in the
 goal band 1 s before the end; it prints k/n with the Wilson interval and the median
 settle time, the numbers of the scaling table's row of that controller. The two-link
-options (--challenge, --compensate, --plants, --states) do not apply there.
+options (--challenge, --compensate, --plants, --states) do not apply there; --horizon S runs
+each pose S seconds instead (a pose failed at 8 s may only be late).
 """
 from __future__ import annotations
 
@@ -38,7 +39,9 @@ DEFAULT_POSES = 64
 POSE_SEED = 20061122
 #: Options of the two-link evaluation that ``--links`` does not take, and vice versa.
 TWO_LINK_OPTIONS = ("challenge", "compensate", "plants", "states", "worst_case")
-LINKS_OPTIONS = ("rule", "poses", "plant")
+LINKS_OPTIONS = ("rule", "poses", "plant", "horizon")
+#: ``--horizon`` (with --links): the seconds a run may take, beyond the 1 s a success holds.
+HORIZON_RANGE = (2.0, 60.0)
 #: ``--plant`` (with --links): what the poses run on -> :func:`twolink.sim.plants.make_plant`'s
 #: name; the spelling of ``twolink train --plant``.
 EVAL_PLANTS = {"mujoco": "mujoco", "model": "full"}
@@ -89,12 +92,18 @@ def add_parser(sub):
                    help="with --links: run the poses on MuJoCo (default) or on the "
                         "rigid-body model (6) that `twolink train --plant model` trains "
                         "on; the two scores of one agent are its transfer gap")
+    p.add_argument("--horizon", type=float, default=None, metavar="SECONDS",
+                   help=f"with --links: run each pose this long instead of the arm's "
+                        f"horizon (5 s for two links, 8 s beyond), success settled 1 s "
+                        f"before the end ({HORIZON_RANGE[0]:g} to {HORIZON_RANGE[1]:g} s): "
+                        f"does a controller fail a pose, or settle it late?")
     return p
 
 
 def links_result(controller: str, *, links: int, rule: str | None = None,
                  poses: int = DEFAULT_POSES, seed: int = POSE_SEED,
-                 timeout: float | None = None, plant: str = "mujoco") -> dict:
+                 timeout: float | None = None, plant: str = "mujoco",
+                 horizon: float | None = None) -> dict:
     """The JSON of ``twolink evaluate --links N``: ``controller`` (a catalogue name,
     policy file, ``module:callable`` or ``file.py:callable`` for N links) scored by
     :func:`twolink.sim.pose_scoring.score_on_poses`, the scaling table's scorer, on
@@ -105,8 +114,9 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
     :data:`MAX_POSES` or a seed outside 0 .. 2**63 - 1 - N. ``plant``: ``mujoco`` (the
     MJCF arm, default) or ``model`` (the rigid-body model (6) that ``twolink train --plant
     model`` trains on), :data:`EVAL_PLANTS`; the gap between the two is a model-trained
-    agent's transfer gap."""
-    from twolink.arm.parameters import check_links, horizon
+    agent's transfer gap. ``horizon``: seconds per run instead of the arm's (within
+    :data:`HORIZON_RANGE`, whole samples)."""
+    from twolink.arm.parameters import TS, check_links, horizon as horizon_of
     from twolink.control.controllers import resolve_controller
     from twolink.envs.core import arm
     from twolink.sim.controller import check_timeout, checked
@@ -127,6 +137,15 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
         raise ValueError(f"--seed must be a whole number from 0 to {2**63 - 1 - n} (poses "
                          f"are drawn from seed + N), got {seed}")
     timeout = check_timeout(timeout, "--timeout")
+    end_s = None
+    if horizon is not None:
+        low, high = HORIZON_RANGE
+        if isinstance(horizon, bool) or not isinstance(horizon, (int, float)) \
+                or not low <= horizon <= high \
+                or abs(horizon / TS - round(horizon / TS)) > 1e-9:
+            raise ValueError(f"--horizon must be from {low:g} to {high:g} s in whole samples "
+                             f"of {TS:g} s, got {horizon!r}")
+        end_s = float(horizon)
     if plant not in EVAL_PLANTS:
         raise ValueError(f"--plant must be one of {', '.join(EVAL_PLANTS)}, got {plant!r}")
     from twolink.control.catalogue import catalogue
@@ -146,7 +165,7 @@ def links_result(controller: str, *, links: int, rule: str | None = None,
         raise ValueError(f"{c.name} controls an arm of {own} links; give --links {own} "
                          f"(got --links {n})")
     c = checked(c, name=c.name, links=n, timeout=timeout)
-    end = horizon(n)
+    end = horizon_of(n) if end_s is None else end_s
     drawn, scores = score_on_poses(c, params, poses=int(poses), seed=seed, durations=(end,),
                                    plant=EVAL_PLANTS[plant])
     return {"controller": c.name, "links": n, "rule": rule_of(params), "plant": plant,
@@ -232,7 +251,8 @@ def run_links(args) -> int:
                      poses=DEFAULT_POSES if args.poses is None else args.poses,
                      seed=POSE_SEED if args.seed is None else args.seed,
                      timeout=args.timeout,
-                     plant="mujoco" if args.plant is None else args.plant)
+                     plant="mujoco" if args.plant is None else args.plant,
+                     horizon=args.horizon)
     if args.json:
         print(json.dumps(r, indent=2))
         return 0
