@@ -504,16 +504,18 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
         config, algo="mappo", observe="local", gamma=None))))
     (folder / "ppo-pd-g0.995_6t_seed0.fresh.json").write_text(json.dumps(
         {"successes": 200, "n": 256}))
+    (folder / "ppo-pd-g0.995_6t_seed0.fresh16.json").write_text(json.dumps(
+        {"successes": 256, "n": 256}))
     rows = {r[0]: r for r in ([c.strip() for c in line.strip("|").split("|")]
                               for line in rl.levers_block().splitlines()
                               if line.startswith("| `"))}
     assert rows["`ppo-pd-g0.995_6t_seed0`"][1:] == [
         "`twolink train --links 6 --rule tapered --algo ppo --base pd --gamma 0.995 "
         "--steps 2000000 --seed 0`", "50/64 = 78.1 % [67, 86] at 2.00 M steps",
-        "200/256 = 78.1 % [73, 83]", "350 µs"]
+        "200/256 = 78.1 % [73, 83]", "256/256 = 100.0 % [99, 100]", "350 µs"]
     assert rows["`other_6t_seed0`"][1].endswith("--algo mappo --observe local --base pd "
                                                  "--steps 2000000 --seed 0`")
-    assert rows["`other_6t_seed0`"][3] == "—"
+    assert rows["`other_6t_seed0`"][3:5] == ["—", "—"]
     (folder / "broken.json").write_text("{}")
     with pytest.raises(ValueError, match=r"broken.json: not a twolink train curve"):
         rl.levers_block()

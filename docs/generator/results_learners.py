@@ -20,7 +20,8 @@ TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses"
 COST_TARGET_US = 150.0
 #: Runs outside the plan that test one lever: each ``<id>.json`` is the run's curve
 #: (``twolink train``'s ``curve.json``), ``<id>.fresh.json`` its final agent's ``twolink
-#: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored.
+#: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored, and
+#: ``<id>.fresh16.json`` the same with ``--horizon 16`` (failed, or settled late?).
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "history", "action_rate", "steps",
@@ -119,16 +120,17 @@ def levers_block() -> str:
     from . import common
 
     folder = common.ROOT / LEVERS
-    runs = sorted(p for p in folder.glob("*.json") if not p.name.endswith(".fresh.json")) \
+    runs = sorted(p for p in folder.glob("*.json") if ".fresh" not in p.name) \
         if folder.is_dir() else []
     if not runs:
         return ""
     out = ["## Levers tried outside the plan\n\n",
            f"Each run's curve is `{LEVERS}/<run>.json`; its final agent on the 256 fresh poses "
            "(seed 4180000 + N), where scored, is `<run>.fresh.json` (`twolink evaluate AGENT "
-           "--links N --poses 256 --seed 4180000 --json`).\n\n",
+           "--links N --poses 256 --seed 4180000 --json`), and `<run>.fresh16.json` the "
+           "same poses run for 16 s (`--horizon 16`).\n\n",
            "| run | command | final curve point (64 table poses) | fresh poses at 8 s | "
-           "CPU per step |\n|---|---|---|---|---|\n"]
+           "fresh poses by 16 s | CPU per step |\n|---|---|---|---|---|---|\n"]
     for path in runs:
         try:
             run = json.loads(path.read_text())
@@ -137,14 +139,15 @@ def levers_block() -> str:
             cpu = 1e6 * run["cpu_s"] / run["steps"]
         except (ValueError, KeyError, TypeError, ZeroDivisionError, IndexError) as exc:
             raise ValueError(f"{path}: not a twolink train curve ({exc})") from None
-        fresh_path = path.with_name(path.stem + ".fresh.json")
-        fresh = "—"
-        if fresh_path.is_file():
-            f = json.loads(fresh_path.read_text())
-            fresh = format_rate(f["successes"], f["n"])
+        fresh = []
+        for suffix in (".fresh.json", ".fresh16.json"):
+            f_path = path.with_name(path.stem + suffix)
+            f = json.loads(f_path.read_text()) if f_path.is_file() else None
+            fresh.append("—" if f is None else format_rate(f["successes"], f["n"]))
         out.append(f"| `{path.stem}` | `{_lever_command(config)}` | "
                    f"{format_rate(last['successes'], last['n'])} at "
-                   f"{last['steps'] / 1e6:.2f} M steps | {fresh} | {cpu:.0f} µs |\n")
+                   f"{last['steps'] / 1e6:.2f} M steps | {' | '.join(fresh)} | "
+                   f"{cpu:.0f} µs |\n")
     return "".join(out) + "\n"
 
 
