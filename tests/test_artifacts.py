@@ -67,11 +67,12 @@ def test_outputs_never_resolve_into_the_shipped_files(tmp_path):
     import subprocess
     import sys
 
+    from twolink.policy.registry import SHIPPED
     from twolink.resources import model_file, shipped_policy_dir
 
     link = tmp_path / "dir"
     link.symlink_to(shipped_policy_dir(), target_is_directory=True)
-    shipped = shipped_policy_dir() / "centralized.npz"
+    shipped = SHIPPED["centralized"].file
     before = shipped.read_bytes()
     for argv in (["synthesize", "centralized", "-o", str(link / "centralized.npz"), "--force"],
                  ["mjcf", "-o", str(model_file())]):

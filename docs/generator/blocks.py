@@ -8,7 +8,7 @@ from __future__ import annotations
 from .blocks_agents import context_readings, context_sweeps
 from .blocks_guides import (baselines_table, centralized_3link_block, compensation_table,
                             leaderboard_headline, link_mismatch_table, policies_table,
-                            ranking_rule, sb3_agent_summary)
+                            ranking_rule, sb3_agent_summary, tables_table)
 from .blocks_mismatch import mismatch_findings
 from .common import _cell, _table
 from .nav import nav_blocks
@@ -34,7 +34,7 @@ def blocks(pages: dict) -> dict:
                       "policies": policies_table(tuned=False),
                       "leaderboard": leaderboard_headline()},
         "docs/index.md": {"commands": commands_table("")},
-        "docs/guides/synthesis.md": {"policies": policies_table()},
+        "docs/guides/synthesis.md": {"policies": policies_table(), "tables": tables_table()},
         "docs/guides/compensation.md": {"compensation": compensation_table()},
         "docs/guides/controllers.md": {"baselines": baselines_table()},
         "docs/guides/leaderboard.md": {"ranking": ranking_rule()},

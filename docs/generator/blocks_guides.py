@@ -2,6 +2,8 @@
 leaderboard, the SB3 agent's run record and the N-link runs:
 
 * :func:`policies_table`: the shipped-policy table (README.md, the synthesis guide);
+* :func:`tables_table`: the stored Q-tables under ``policies/`` and the policies reading
+  each (the synthesis guide);
 * :func:`leaderboard_headline`: the leaderboard headline of README.md;
 * :func:`compensation_table`: the compensation guide's table;
 * :func:`baselines_table`: the classical baselines of the controllers guide;
@@ -60,6 +62,20 @@ def policies_table(link_prefix: str = "", tuned: bool = True) -> str:
     return (table + f"\n\nand {len(names)} designs chosen on tuning seeds (more torque levels, "
             "other bins, read-outs; each in the [synthesis guide]"
             f"({link_prefix}docs/guides/synthesis.md)'s table): " + ", ".join(names) + ".")
+
+
+def tables_table() -> str:
+    """The committed files under ``policies/``, one per stored Q-table (named by its
+    synthesis settings, :func:`twolink.policy.registry.table_stem`), with the shipped
+    policies that read it (the first one's read-out is the file's own)."""
+    from twolink.policy.registry import SHIPPED
+
+    readers: dict = {}
+    for p in SHIPPED.values():
+        readers.setdefault(p.table, []).append(f"`{p.name}`")
+    return _table(("file", "policies reading it"),
+                  [(f"`policies/{t}.npz`", ", ".join(names))
+                   for t, names in readers.items()])
 
 
 def leaderboard_headline() -> str:

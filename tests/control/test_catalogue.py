@@ -152,10 +152,12 @@ def test_the_command_says_an_unknown_tag_in_one_line_within_a_second(tmp_path):
 
 
 def test_a_read_out_entry_is_data_over_a_stored_table():
-    """decentralized_locked_gain is decentralized_locked's file read through a gain."""
+    """decentralized_locked_gain is decentralized_locked's table read through a gain: the
+    catalogue names the table by its synthesis settings."""
     e = lookup("decentralized_locked_gain")
     assert e.entry == "twolink.policy.fuzzy_policy:policy_with_readout"
-    assert e.data["table"] == "decentralized_locked" and e.data["readout"]["near_gain"] == 0.3
+    assert e.data["table"] == "decentralized_full_propagated_levels7_link1-locked"
+    assert e.data["readout"]["near_gain"] == 0.3
     gain, base = e.load(), lookup("decentralized_locked").load()
     x = np.array([[0.3, -0.2, 0.0, 0.0], [1.0, -2.0, 0.5, 0.0]])   # 17 deg: inside 60 deg
     assert np.allclose(gain(x)[0, 0], base(x)[0, 0] * (0.3 + 0.7 * 0.3 / np.radians(60)))

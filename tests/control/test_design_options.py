@@ -265,7 +265,8 @@ def test_the_gain_designs_are_their_base_with_a_near_goal_gain(gain, base):
     assert g == b and SHIPPED[gain].tuned
     assert rg.near_gain < 1 and (rg.speed_dead_zone, rg.argmax_beyond_deg) == \
         (rb.speed_dead_zone, rb.argmax_beyond_deg) and rb.near_gain == 1
-    assert SHIPPED[gain].table == base and SHIPPED[gain].file == SHIPPED[base].file
+    assert SHIPPED[gain].table == SHIPPED[base].table and SHIPPED[base].table_owner == base
+    assert SHIPPED[gain].file == SHIPPED[base].file
     pg, pb = load_policy(gain), load_policy(base)
     assert all(a.q is c.q or np.array_equal(a.q, c.q) for a, c in zip(pg.agents, pb.agents))
-    assert pg.readout == rg and pb.readout == rb and pg.meta["table"] == base
+    assert pg.readout == rg and pb.readout == rb and pg.meta["table"] == SHIPPED[base].table

@@ -190,7 +190,7 @@ def test_ship_rebuilds_a_robust_policy_bit_for_bit(tmp_path, monkeypatch, capsys
     monkeypatch.setattr(twolink.resources, "shipped_policy_dir", lambda: tmp_path)
     monkeypatch.setattr(synthesize_command, "source_checkout", lambda: tmp_path)
     assert main(["synthesize", "--ship", "centralized_robust", "--json"]) == 0
-    written = Policy.load(tmp_path / "centralized_robust.npz")
+    written = Policy.load(tmp_path / "centralized_full_worst8-0.2-seed2006.npz")
     np.testing.assert_array_equal(written.agents[0].q, original.agents[0].q)
     assert written.agents[0].info["iterations"] == original.agents[0].info["iterations"]
     assert written.meta["robust"] == original.meta["robust"]

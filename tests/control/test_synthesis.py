@@ -56,23 +56,26 @@ def test_ship_rewrites_a_registry_policy_into_the_checkout(tmp_path, monkeypatch
     monkeypatch.setattr(twolink.resources, "shipped_policy_dir", lambda: tmp_path)
     monkeypatch.setattr(synthesize_command, "source_checkout", lambda: tmp_path)
     assert main(["synthesize", "--ship", "decentralized_full", "--json"]) == 0
-    written = Policy.load(tmp_path / "decentralized_full.npz")
+    written = Policy.load(tmp_path / "decentralized_full_frozen.npz")
     original = Policy.load(_real_file("decentralized_full"))
     assert written.meta["model"] == "full" and written.meta["context"] == "frozen"
     for a, b in zip(written.agents, original.agents):
         np.testing.assert_array_equal(a.q, b.q)
-    assert json.loads(capsys.readouterr().out)[0]["path"].endswith("decentralized_full.npz")
+    assert json.loads(capsys.readouterr().out)[0]["path"].endswith(
+        "decentralized_full_frozen.npz")
+    assert [p.name for p in tmp_path.iterdir()] == ["decentralized_full_frozen.npz"]
 
 
 def _checkout_copy(tmp_path, monkeypatch, files: dict):
-    """A policies/ folder in tmp_path standing for the checkout's: ``{name: source}``."""
+    """A policies/ folder in tmp_path standing for the checkout's: ``{file name: shipped
+    entry whose file it copies}``."""
     import shutil
 
     import twolink.resources
     folder = tmp_path / "policies"
     folder.mkdir()
     for name, source in files.items():
-        shutil.copyfile(_real_file(source), folder / f"{name}.npz")
+        shutil.copyfile(_real_file(source), folder / name)
     monkeypatch.setattr(twolink.resources, "shipped_policy_dir", lambda: folder)
     monkeypatch.setattr(synthesize_command, "source_checkout", lambda: tmp_path)
     return folder
@@ -82,12 +85,13 @@ def test_a_reship_of_an_unchanged_policy_keeps_the_file_byte_for_byte(tmp_path, 
                                                                       capsys):
     """The fresh synthesis equals the committed Q-tables bit for bit, so the file (its
     timings and provenance included) is left as it is: git status stays clean."""
-    folder = _checkout_copy(tmp_path, monkeypatch, {"decentralized": "decentralized"})
-    before = (folder / "decentralized.npz").read_bytes()
-    stat = (folder / "decentralized.npz").stat()
+    file = "decentralized_simplified_frozen.npz"
+    folder = _checkout_copy(tmp_path, monkeypatch, {file: "decentralized"})
+    before = (folder / file).read_bytes()
+    stat = (folder / file).stat()
     assert main(["synthesize", "--ship", "decentralized"]) == 0
-    assert (folder / "decentralized.npz").read_bytes() == before
-    assert (folder / "decentralized.npz").stat().st_mtime_ns == stat.st_mtime_ns
+    assert (folder / file).read_bytes() == before
+    assert (folder / file).stat().st_mtime_ns == stat.st_mtime_ns
     assert "kept " in capsys.readouterr().out
 
 
@@ -96,10 +100,11 @@ def test_a_reship_of_changed_q_tables_rewrites_the_file(tmp_path, monkeypatch, c
     from twolink.policy.fuzzy_policy import same_tables
 
     other = Policy.load(_real_file("decentralized_propagated"))
-    folder = _checkout_copy(tmp_path, monkeypatch, {"decentralized": "decentralized"})
+    file = "decentralized_simplified_frozen.npz"
+    folder = _checkout_copy(tmp_path, monkeypatch, {file: "decentralized"})
     monkeypatch.setattr(synthesize_command, "synthesize", lambda kind, **k: other)
     assert main(["synthesize", "--ship", "decentralized", "--json"]) == 0
-    assert same_tables(Policy.load(folder / "decentralized.npz"), other)
+    assert same_tables(Policy.load(folder / file), other)
     assert not same_tables(Policy.load(_real_file("decentralized")), other)
     assert "unchanged" not in json.loads(capsys.readouterr().out)[0]
 
@@ -108,20 +113,23 @@ def test_a_reship_of_a_read_out_entry_keeps_its_stored_table(tmp_path, monkeypat
     """decentralized_locked_gain is decentralized_locked's Q-tables read through a gain:
     --ship of it re-synthesises the table (read-out and all of decentralized_locked) and
     writes no file of its own."""
-    folder = _checkout_copy(tmp_path, monkeypatch,
-                            {"decentralized_locked": "decentralized_locked"})
-    before = (folder / "decentralized_locked.npz").read_bytes()
+    file = "decentralized_full_propagated_levels7_link1-locked.npz"
+    folder = _checkout_copy(tmp_path, monkeypatch, {file: "decentralized_locked"})
+    before = (folder / file).read_bytes()
     assert main(["synthesize", "--ship", "decentralized_locked_gain", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert [o["path"] for o in out] == [str(folder / "decentralized_locked.npz")]
+    assert [o["path"] for o in out] == [str(folder / file)]
     assert out[0]["unchanged"] is True
-    assert sorted(p.name for p in folder.iterdir()) == ["decentralized_locked.npz"]
-    assert (folder / "decentralized_locked.npz").read_bytes() == before
+    assert sorted(p.name for p in folder.iterdir()) == [file]
+    assert (folder / file).read_bytes() == before
 
 
 def test_no_two_shipped_files_hold_the_same_tables():
-    """A Q-table is stored once: every read-out variant names its table instead."""
+    """A Q-table is stored once, in the file its synthesis settings name: every read-out
+    variant names its table instead, and the table loads by that name without a read-out."""
     from twolink.policy.fuzzy_policy import load_policy
+    from twolink.policy.readout import Readout
+    from twolink.policy.registry import table_stem
     from twolink.resources import shipped_policy_dir
 
     files = sorted(shipped_policy_dir().glob("*.npz"))
@@ -132,15 +140,37 @@ def test_no_two_shipped_files_hold_the_same_tables():
         key = tuple(np.ascontiguousarray(a.q, dtype="<f8").tobytes() for a in pol.agents)
         assert key not in digests, (path.stem, digests.get(key))
         digests[key] = path.stem
+        assert table_stem({"kind": pol.kind, **_table_settings(pol.meta)}) == path.stem
+        bare = load_policy(path.stem)       # centralized_full: the entry of that name
+        assert bare.readout == Readout() and bare.meta.get("table", path.stem) == path.stem
+        assert all(np.array_equal(a.q, b.q) for a, b in zip(bare.agents, pol.agents))
     for name, entry in SHIPPED.items():
         pol = load_policy(name)
         assert pol.readout == entry.readout()
-        assert pol.meta.get("table", name) == entry.table
+        owner = entry.table_owner == name
+        assert pol.meta.get("table") == (None if owner else entry.table)
+
+
+def _table_settings(meta: dict) -> dict:
+    """The table settings a policy file's header records (read back independently of the
+    registry: what the file holds, named as :func:`table_stem` names them)."""
+    robust = meta.get("robust")
+    out = {"model": meta["model"], "links": meta.get("links", 2),
+           "sweeps": meta.get("sweeps", "synchronous"),
+           **({"context": meta["context"]} if "context" in meta else {}),
+           **({"rule": meta["rule"]} if "rule" in meta else {}),
+           **{k: meta[k] for k in ("levels", "bins", "agent2_link1") if k in meta}}
+    if robust:
+        out.update(robust=robust["mode"], draws=robust["draws"], spread=robust["spread"],
+                   seed=robust["seed"])
+    return out
 
 
 def _real_file(name):
+    """The committed file of the shipped entry ``name`` (whatever shipped_policy_dir is
+    patched to)."""
     from twolink.resources import _package_dir
-    return _package_dir("twolink._policies") / f"{name}.npz"
+    return _package_dir("twolink._policies") / SHIPPED[name].file.name
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -82,7 +82,7 @@ def test_settings_round_trip_through_as_dict_and_json(name):
     assert data["gamma"] == GAMMA and data["delta"] == DELTA
 
 
-@pytest.mark.parametrize("name", [n for n, e in SHIPPED.items() if e.table == n])
+@pytest.mark.parametrize("name", [n for n, e in SHIPPED.items() if e.table_owner == n])
 def test_every_shipped_header_reads_back_as_its_registry_settings(name):
     """The header fields come from the settings with the names and values the shipped
     files have: every one of header()'s fields is in the committed file, equal (the

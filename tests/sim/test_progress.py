@@ -46,9 +46,8 @@ def test_a_command_logs_its_progress_when_stderr_is_a_file(tmp_path, monkeypatch
     from twolink.cli import main
     from twolink.synthesis import links_decentralized
     from twolink.policy.fuzzy_policy import load_policy
-    from twolink.resources import shipped_policy_dir
 
-    shipped = iter(load_policy(shipped_policy_dir() / "decentralized_3link.npz").agents)
+    shipped = iter(load_policy("decentralized_3link").agents)
     monkeypatch.setattr(links_decentralized, "agent_problem", lambda *a: None)
     monkeypatch.setattr(links_decentralized, "solve", lambda *a, **k: next(shipped))
     log = tmp_path / "log.txt"

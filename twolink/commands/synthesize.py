@@ -11,9 +11,11 @@ mean (:func:`twolink.synthesis.synthesize.synthesize`). ``--params FILE`` takes 
 parameter file (:mod:`twolink.arm.parameter_file`); ``--model identified`` is the full model (6)
 with them. ``--ship NAME`` (repeatable, or ``all``) re-synthesises a shipped policy of
 :data:`twolink.policy.registry.SHIPPED` into the source checkout's ``policies/``, with everything
-its registry entry records. ``--links N`` (with ``--rule``) synthesises the agents of an
-N-link arm (:mod:`twolink.synthesis.links_decentralized`) into ``./decentralized_<N>link[_<rule>].npz``; the
-centralized policy of N >= 3 links is refused before any work, with its estimate
+its registry entry records: the file of its table, ``policies/<table>.npz`` named by the
+synthesis settings (:func:`twolink.policy.registry.table_stem`). ``--links N`` (with
+``--rule``) synthesises the agents of an N-link arm
+(:mod:`twolink.synthesis.links_decentralized`) into ``./decentralized_<N>link[_<rule>].npz``;
+the centralized policy of N >= 3 links is refused before any work, with its estimate
 (:func:`twolink.synthesis.links_centralized.check_size`): over the memory cap, or over what a policy
 file may hold.
 """
@@ -349,8 +351,8 @@ def _jobs(args) -> list[tuple[SynthesisSettings, Path]]:
                              "--near-gain, --near-deg, --agent2-link1, -o or --force with "
                              "it")
         names = list(SHIPPED) if "all" in args.ship else list(dict.fromkeys(args.ship))
-        # A read-out entry ships as the stored Q-tables it reads (its registry table).
-        entries = [SHIPPED[t] for t in dict.fromkeys(shipped(n).table for n in names)]
+        # A read-out entry ships as the stored Q-tables it reads: its table's owner entry.
+        entries = [SHIPPED[o] for o in dict.fromkeys(shipped(n).table_owner for n in names)]
         if source_checkout() is None:
             raise RuntimeError("--ship writes into policies/ of a source checkout, and this "
                                "twolink is an installed package; use -o FILE instead")

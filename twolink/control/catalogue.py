@@ -132,9 +132,9 @@ def _shipped_policies() -> list:
         tags += ["tuned"] if p.tuned else []
         tags += ["n-link"] if p.links > 2 else []
         tags += ["benchmark"] if p.name in BENCHMARK else []
-        if p.table == p.name:
+        if p.table_owner == p.name:
             entry, data = "twolink.policy.fuzzy_policy:load_policy", {"name_or_path": p.name}
-        else:                       # a read-out over another entry's stored Q-tables
+        else:                       # a read-out over a stored table, named by its settings
             entry = "twolink.policy.fuzzy_policy:policy_with_readout"
             data = {"table": p.table, "readout": p.readout().as_dict()}
         out.append(Entry(name=p.name, kind=p.kind, links=p.links,

@@ -438,15 +438,21 @@ def policy_with_readout(table: str | os.PathLike, readout) -> Policy:
 
 
 def load_policy(name_or_path: str | os.PathLike) -> Policy:
-    """A shipped policy by name (e.g. ``centralized``) or a policy file by path."""
+    """A shipped policy by name (e.g. ``centralized``: its table read through its
+    read-out), a shipped table by its name (:attr:`ShippedPolicy.table
+    <twolink.policy.registry.ShippedPolicy.table>`, e.g. ``centralized_simplified``: the
+    Q-tables with no read-out) or a policy file by path."""
     text = str(name_or_path)
     if os.sep not in text and not text.endswith(".npz"):
         if text in SHIPPED:
             entry = SHIPPED[text]
             policy = Policy.load(entry.file)
-            if entry.table == text:
+            if entry.table_owner == text:
                 return policy
             return policy.with_readout(entry.readout(), table=entry.table)
+        stored = next((p for p in SHIPPED.values() if p.table == text), None)
+        if stored is not None:
+            return Policy.load(stored.file).with_readout(Readout(), table=text)
         raise PolicyFileError(f"unknown policy {text!r}; shipped policies: "
-                              f"{', '.join(SHIPPED)} (or give a .npz path)")
+                              f"{', '.join(SHIPPED)} (or a shipped table, or a .npz path)")
     return Policy.load(Path(text))

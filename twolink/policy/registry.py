@@ -1,8 +1,9 @@
 """The registry of shipped policies: one table that the CLI, reports, tests and README read.
 
-Policies whose synthesis settings differ only in the read-out share one committed file
-(:attr:`ShippedPolicy.table`): the Q-tables are stored once, and each entry's read-out is
-applied when it is loaded (:func:`twolink.policy.fuzzy_policy.load_policy`).
+A Q-table is stored once, in ``policies/<stem>.npz`` named by its synthesis settings
+(:func:`table_stem` of :meth:`ShippedPolicy.table_options`); policies whose settings differ
+only in the read-out share that file (:attr:`ShippedPolicy.table`), and each entry's
+read-out is applied when it is loaded (:func:`twolink.policy.fuzzy_policy.load_policy`).
 
 Each entry says how the committed file under ``policies/`` is synthesised (kind (16) or
 (18), the model the transitions come from, agent 1's context, the sweeps of Alg. 1:
@@ -13,8 +14,11 @@ one of ours synthesised on the full model (6).
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 from typing import Optional
+
+from twolink.validate import real, whole
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,16 +49,24 @@ class ShippedPolicy:
 
     @property
     def table(self) -> str:
-        """The shipped policy whose file holds this one's Q-tables: the first entry of
-        :data:`SHIPPED` with the same synthesis settings but for the read-out (this one
-        when none comes earlier). Policies that differ only in their read-out share one
-        file; the read-out is this entry's data (:meth:`readout`)."""
-        mine = self.table_options()
-        return next(p.name for p in SHIPPED.values() if p.table_options() == mine)
+        """The name of this entry's stored Q-tables: :func:`table_stem` of
+        :meth:`table_options`, the stem of its committed file. Entries that differ only in
+        their read-out have the same table and share one file; the read-out is each
+        entry's data (:meth:`readout`)."""
+        return table_stem(self.table_options())
+
+    @property
+    def table_owner(self) -> str:
+        """The first entry of :data:`SHIPPED` with this one's :attr:`table`: the entry whose
+        settings, read-out included, the committed file's header records (what ``twolink
+        synthesize --ship`` synthesises for the table)."""
+        mine = self.table
+        return next(p.name for p in SHIPPED.values() if p.table == mine)
 
     @property
     def file(self) -> Path:
-        """The committed file of :attr:`table` (the Q-tables; its read-out may differ)."""
+        """The committed file of :attr:`table`: ``policies/<table>.npz`` (the Q-tables;
+        its read-out is :attr:`table_owner`'s)."""
         from twolink.resources import shipped_policy_dir
         return shipped_policy_dir() / f"{self.table}.npz"
 
@@ -92,6 +104,84 @@ class ShippedPolicy:
                                       argmax_beyond_deg=self.argmax_beyond_deg,
                                       near_gain=self.near_gain, near_deg=self.near_deg)
         return opts
+
+
+#: The synthesis settings a stored Q-table depends on (the keys of
+#: :meth:`ShippedPolicy.table_options`), with their defaults: the entry's.
+#: kind and model have none (required); agent 1's context is None unless decentralized.
+_TABLE_DEFAULTS = {f.name: None if f.default is dataclasses.MISSING else f.default
+                   for f in dataclasses.fields(ShippedPolicy)
+                   if f.name in ("kind", "model", "context", "sweeps", "robust", "draws",
+                                 "spread", "seed", "links", "rule", "levels", "bins",
+                                 "agent2_link1")}
+#: The settings that may be None: the context (centralized) and robust (not robust).
+_OPTIONAL = ("context", "robust")
+_WORD = re.compile(r"[a-z]+")
+
+
+def table_stem(options: dict) -> str:
+    """The file stem of the Q-tables synthesised with ``options`` (the settings of
+    :meth:`ShippedPolicy.table_options`; a setting left out or at its default is not
+    named)::
+
+        <kind>_<model>[_<context>][_<links><rule>][_<sweeps>]
+            [_<robust><draws>-<spread>-seed<seed>][_levels<L>][_bins-<layout>][_link1-<reading>]
+
+    ``context`` is agent 1's (decentralized only, always named); ``<links><rule>`` beyond
+    two links (``3tapered``); ``<sweeps>`` when not synchronous; the robust part when
+    robust (``<spread>`` as Python writes the float); ``levels<L>`` when not three torque
+    levels per joint; ``bins-<layout>`` when not the paper's bins; ``link1-<reading>`` when
+    agent 2 does not read link 1 free. E.g. ``centralized_simplified``,
+    ``decentralized_full_propagated_3tapered``, ``centralized_full_worst8-0.2-seed2006``,
+    ``centralized_full_levels5_bins-goal``.
+
+    Every word setting is lowercase letters only, so each part has its own shape and the
+    stem is unique per distinct settings. A setting that is unknown, missing (kind, model;
+    context of the decentralized agents), out of place (a context of the centralized
+    policy, draws/spread/seed without robust, a rule of two links) or not of the
+    grammar's form is one ValueError line."""
+    if not isinstance(options, dict):
+        raise ValueError(f"table settings must be a dict, got {type(options).__name__}")
+    unknown = sorted(set(map(str, options)) - set(_TABLE_DEFAULTS))
+    if unknown:
+        raise ValueError(f"unknown table setting(s) {', '.join(unknown)}; known: "
+                         f"{', '.join(_TABLE_DEFAULTS)}")
+    o = {**_TABLE_DEFAULTS, **options}
+    for key in ("kind", "model", "context", "sweeps", "robust", "rule", "bins",
+                "agent2_link1"):
+        value = o[key]
+        if value is None and key in ("kind", "model"):
+            raise ValueError(f"table settings need a {key}")
+        if not (isinstance(value, str) and _WORD.fullmatch(value)
+                or value is None and key in _OPTIONAL):
+            raise ValueError(f"table setting {key} must be a word of lowercase letters, "
+                             f"got {value!r}")
+    if (o["kind"] == "decentralized") != (o["context"] is not None):
+        raise ValueError(f"agent 1's context names the decentralized agents' tables, and "
+                         f"only theirs: kind {o['kind']!r} with context {o['context']!r}")
+    links = whole(o["links"], "links", 2)
+    levels = whole(o["levels"], "levels", 2)
+    parts = [o["kind"], o["model"]] + ([o["context"]] if o["context"] else [])
+    if links > 2:
+        parts.append(f"{links}{o['rule']}")
+    elif o["rule"] != _TABLE_DEFAULTS["rule"]:
+        raise ValueError(f"rule makes the links beyond the second; two links take none "
+                         f"(got {o['rule']!r})")
+    if o["sweeps"] != _TABLE_DEFAULTS["sweeps"]:
+        parts.append(o["sweeps"])
+    if o["robust"] is not None:
+        parts.append(f"{o['robust']}{whole(o['draws'], 'draws', 1)}-"
+                     f"{real(o['spread'], 'spread', 0.0)!r}-seed{whole(o['seed'], 'seed', 0)}")
+    elif (o["draws"], o["spread"], o["seed"]) != tuple(_TABLE_DEFAULTS[k] for k in
+                                                       ("draws", "spread", "seed")):
+        raise ValueError("draws, spread and seed name a robust table only: give robust too")
+    if levels != _TABLE_DEFAULTS["levels"]:
+        parts.append(f"levels{levels}")
+    if o["bins"] != _TABLE_DEFAULTS["bins"]:
+        parts.append(f"bins-{o['bins']}")
+    if o["agent2_link1"] != _TABLE_DEFAULTS["agent2_link1"]:
+        parts.append(f"link1-{o['agent2_link1']}")
+    return "_".join(parts)
 
 
 #: The seed of the shipped robust policies' parameter draws (fixed before any evaluation).
