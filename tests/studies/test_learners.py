@@ -5,12 +5,15 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from twolink.studies.learners import plan as P
 from twolink.studies.learners import report
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_plan_is_seed_major_small_arms_first_and_ids_unique():
@@ -88,6 +91,15 @@ def test_rows_pool_seeds_iqm_and_steps_to_the_ceiling():
     assert row["steps_to_90pct_ceiling"] == [None, 100, 100]
     assert row["cpu_us_per_step"] == pytest.approx(8.0 / 200 * 1e6)
     assert "| 3 | tapered | IPPO (local) | 3 | 23/30 = 76.7 %" in report.table([row])
+    assert row["fresh_late"] is None                     # no seed scored at 16 s
+    cells = [c.strip() for c in report.table([row]).splitlines()[2].split("|")]
+    assert cells[7] == "—"
+    data["runs"][0]["fresh_late"] = {"successes": 10, "n": 10}
+    data["runs"][2]["fresh_late"] = {"successes": 9, "n": 10}
+    (row,) = report.rows(data, {(3, "tapered"): 1.0})
+    assert row["fresh_late"]["successes"] == 19 and row["fresh_late"]["seeds"] == 2
+    cells = [c.strip() for c in report.table([row]).splitlines()[2].split("|")]
+    assert cells[7].startswith("19/20 = 95.0 %")
 
 
 def test_iqm_trims_the_outer_quarters():
@@ -149,6 +161,7 @@ def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
         assert x["fresh"]["n"] == P.SMOKE["poses"] and x["steps"] == P.SMOKE["steps"]
         assert x["parameters"] > 1000 and x["cpu_us_per_step"] > 0
         assert x["fresh_model"]["n"] == P.SMOKE["poses"]     # the same poses on the model
+        assert x["fresh_late"]["n"] == P.SMOKE["poses"]      # and run for 16 s
     data = json.loads((tmp_path / "twolink-results/learners-smoke/learners.json").read_text())
     assert data["schema"] == P.SCHEMA and len(data["runs"]) == 7
     assert data["runs"][0]["fresh"]["poses_seed"] in {P.FRESH_SEED + 2, P.FRESH_SEED + 3}
@@ -157,6 +170,25 @@ def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
                         "curve.json").read_text())
     assert curve["config"]["plant"] == "model"             # trained on the model (6)
     assert model_run["fresh_model"]["poses_seed"] == model_run["fresh"]["poses_seed"]
+    assert model_run["fresh_late"]["poses_seed"] == model_run["fresh"]["poses_seed"]
     again = _cli("--smoke", cwd=tmp_path)
     assert again.returncode == 0 and "7 of 7 runs" in again.stderr
     assert "training" not in again.stderr
+    # docs/studies/learners_late.py: a record without the 16 s score gets the same one back
+    # from its agent; a run whose agent is gone is listed and left as it is.
+    path = tmp_path / "twolink-results/learners-smoke/learners.json"
+    work = tmp_path / "twolink-results/learners-smoke/runs"
+    before = {r["id"]: r["fresh_late"] for r in data["runs"]}
+    for r in data["runs"][:2]:
+        del r["fresh_late"]
+    path.write_text(json.dumps(data))
+    (work / data["runs"][1]["id"] / "curve.json").unlink()
+    late = subprocess.run([sys.executable, str(ROOT / "docs/studies/learners_late.py"),
+                           "--json", str(path), "--work", str(work)],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert late.returncode == 0, late.stderr[-2000:]
+    summary = json.loads(late.stdout.strip().splitlines()[-1])
+    assert summary == {"scored": 1, "agent_gone": [data["runs"][1]["id"]]}
+    after = {r["id"]: r.get("fresh_late") for r in json.loads(path.read_text())["runs"]}
+    assert after[data["runs"][0]["id"]] == before[data["runs"][0]["id"]]
+    assert after[data["runs"][1]["id"]] is None

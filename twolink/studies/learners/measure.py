@@ -8,7 +8,9 @@ memory from the kernel (``os.wait4``), then scores the final agent with ``twolin
 evaluate AGENT --links N --rule R --poses K --seed S --json`` on the scaling table's poses
 and on fresh ones (:data:`~.plan.FRESH_SEED`), those again on the rigid-body model (6)
 (``--plant model``: the transfer gap of a model-trained agent, the model's error seen from
-a MuJoCo-trained one), and counts the parameters the agent file
+a MuJoCo-trained one), the fresh ones once more run for :data:`LATE_HORIZON` seconds
+(``--horizon``: a pose missed at 8 s that is settled by then was late, not lost), and
+counts the parameters the agent file
 holds (read with ``torch.load(weights_only=True)``). :func:`study` runs a plan, ``workers``
 runs at a time on this machine (``executor="local"``) or as tasks on a Ray cluster
 (``executor="ray"``), skipping every run the JSON already holds, and rewrites the JSON
@@ -31,6 +33,8 @@ from twolink.studies.learners.plan import FRESH_SEED, POSES, SCHEMA, TABLE_SEED,
 
 #: Where a run stops being one: executors of :func:`study`.
 EXECUTORS = ("local", "ray")
+#: Seconds of the fresh poses' second scoring (``fresh_late``): failed, or settled late?
+LATE_HORIZON = 16.0
 #: The fields a run's record keeps from its curve.json.
 CURVE_FIELDS = ("steps", "successes", "n", "rate", "median_settle", "wall_s", "cpu_s")
 
@@ -94,11 +98,16 @@ def parameter_count(path: Path) -> int:
     return count(tree)
 
 
-def _score(agent: Path, run: Run, poses: int, seed: int, log, plant: str = "mujoco") -> dict:
+def score_agent(agent: Path, run: Run, poses: int, seed: int, log=print,
+                plant: str = "mujoco", horizon: float | None = None) -> dict:
+    """``twolink evaluate AGENT --links N [--rule R] --poses K --seed S --json`` (on
+    ``plant``; over ``horizon`` seconds instead of the arm's when given) in a child
+    process: the score's poses seed, successes, n, rate, interval and median settle."""
     rule = ["--rule", run.rule] if run.links > 2 else []     # two links: Table I's arm
+    late = [] if horizon is None else ["--horizon", f"{horizon:g}"]
     text, code, _ = _child(_twolink("evaluate", agent, "--links", run.links, *rule,
                                     "--poses", poses, "--seed", seed, "--plant", plant,
-                                    "--json"),
+                                    *late, "--json"),
                            log, f"  {run.id} evaluate: ")
     if code != 0:
         raise RuntimeError(f"scoring {agent} failed (exit {code})")
@@ -132,9 +141,11 @@ def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
             "parameters": parameter_count(agent),
             "hyperparameters": record.get("hyperparameters"),
             "versions": record.get("versions"),
-            "table": _score(agent, run, poses, TABLE_SEED, log),
-            "fresh": _score(agent, run, poses, FRESH_SEED, log),
-            "fresh_model": _score(agent, run, poses, FRESH_SEED, log, plant="model")}
+            "table": score_agent(agent, run, poses, TABLE_SEED, log),
+            "fresh": score_agent(agent, run, poses, FRESH_SEED, log),
+            "fresh_model": score_agent(agent, run, poses, FRESH_SEED, log, plant="model"),
+            "fresh_late": score_agent(agent, run, poses, FRESH_SEED, log,
+                                      horizon=LATE_HORIZON)}
 
 
 
