@@ -131,6 +131,10 @@ def add_parser(sub):
                         "cannot bring home 1 s before the episode's end, so the other joints "
                         "must turn it; six tapered links) or mixed (half of each); the "
                         "curve is evaluated on uniform poses (ppo, sac)")
+    p.add_argument("--init", default=None, metavar="AGENT.zip",
+                   help="start from the policy of this saved agent (ppo, sac: the same "
+                        "algorithm, arm, history and base; read as data) instead of a "
+                        "random one, e.g. one cloned from demonstrations")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -168,7 +172,7 @@ def given_options(args) -> dict:
              "base": None if args.base is None else choice(args.base, "--base", BASES),
              "action_rate": None if args.action_rate is None else _rate(args.action_rate),
              "gamma": None if args.gamma is None else _gamma(args.gamma),
-             "start": args.start}
+             "start": args.start, "init": args.init}
     return {k: v for k, v in given.items() if v is not None}
 
 

@@ -168,6 +168,7 @@ class TrainConfig:
     action_rate: float = 0.0
     gamma: float | None = None
     start: str = "random"
+    init: str | None = None
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -199,6 +200,10 @@ class TrainConfig:
             from twolink.envs.starts import check_slow_starts
 
             check_slow_starts(self.start, links_parameters(self.links, self.rule), "start")
+        if self.init is not None:
+            if not isinstance(self.init, str) or not self.init.endswith(".zip"):
+                raise ValueError(f"init must be the path of a saved agent .zip, got "
+                                 f"{self.init!r}")
         check_challenge_run(self.challenge, self.links, self.seed)
         if self.challenge is not None and self.plant != "mujoco":
             raise ValueError("a challenge draws a new plant every episode: train it on "
@@ -247,7 +252,7 @@ class TrainConfig:
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
                 "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
-                "start")
+                "start", "init")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

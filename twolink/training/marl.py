@@ -213,7 +213,8 @@ class MarlConfig:
 
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
-            "start": "the multi-agent runs start from uniform poses only"}
+            "start": "the multi-agent runs start from uniform poses only",
+            "init": "a multi-agent run starts from random policies"}
 
 
 def config_from_options(given: dict) -> dict:

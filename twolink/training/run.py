@@ -51,7 +51,8 @@ from twolink.control.residual import base_controller, base_gains, residual_torqu
 from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
-from twolink.training.config import EVAL_PLANTS, EVAL_POSES, EVAL_SEED, TrainConfig, train_stream
+from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED, HYPERPARAMETERS,
+                                     TrainConfig, train_stream)
 
 #: Schema and version of ``curve.json``.
 CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
@@ -104,9 +105,35 @@ def build(config: TrainConfig):
     cls = sb3.SAC if config.algo == "sac" else sb3.PPO
     model = cls("MlpPolicy", env, seed=config.seed, device=config.device, verbose=0,
                 policy_kwargs=dict(net_arch=net), **hp)
+    if config.init is not None:
+        warm_start(model, config)
     if config.challenge is not None:         # the arms' own stream (config's docstring)
         env.seed(train_stream(config.seed))
     return model, env
+
+
+def warm_start(model, config: TrainConfig) -> None:
+    """Load the policy weights of the saved agent ``config.init`` into ``model`` (read as
+    data: :class:`twolink.control.sb3_agent.SB3Agent`), so training starts from it. One
+    line when the agent is not one this run could have saved: another algorithm, arm,
+    observation history, base or network."""
+    from twolink.control.sb3_agent import SB3Agent
+
+    agent = SB3Agent(config.init)
+    want = {"algorithm": config.algo, "links": config.links,
+            "rule": config.rule if config.links > 2 else None,
+            "history": config.history, "base": config.base}
+    have = {"algorithm": agent.algo, "links": agent.links, "rule": agent.rule,
+            "history": agent.history, "base": agent.base_name or "none"}
+    for key in want:
+        if want[key] != have[key]:
+            raise ValueError(f"--init {config.init}: its {key} is {have[key]}, this run's "
+                             f"{want[key]}")
+    mine, theirs = model.policy.state_dict(), agent.policy.state_dict()
+    if mine.keys() != theirs.keys() or any(mine[k].shape != theirs[k].shape for k in mine):
+        raise ValueError(f"--init {config.init}: its network does not fit this run's "
+                         f"({HYPERPARAMETERS[config.algo]['net_arch']})")
+    model.policy.load_state_dict(theirs, strict=True)
 
 
 def arm_of(config: TrainConfig):
@@ -217,16 +244,17 @@ def agent_name(config: TrainConfig) -> str:
 
 
 def run_name(config: TrainConfig) -> str:
-    """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]_seed<S>``:
-    the run's default folder and its agent's stem."""
+    """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
+    _seed<S>``: the run's default folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     start = f"_{config.start}" if config.start != "random" else ""
+    init = "_init" if config.init is not None else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
-            f"_seed{config.seed}")
+            f"{init}_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
