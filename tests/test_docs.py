@@ -516,6 +516,11 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
     assert rows["`other_6t_seed0`"][1].endswith("--algo mappo --observe local --base pd "
                                                  "--steps 2000000 --seed 0`")
     assert rows["`other_6t_seed0`"][3:5] == ["—", "—"]
+    (folder / "cloned_6t_seed0.fresh.json").write_text(json.dumps({"successes": 7, "n": 8}))
+    rows = {r[0]: r for r in ([c.strip() for c in line.strip("|").split("|")]
+                              for line in rl.levers_block().splitlines()
+                              if line.startswith("| `"))}
+    assert rows["`cloned_6t_seed0`"][1:] == ["—", "—", "7/8 = 87.5 % [53, 98]", "—", "—"]
     (folder / "broken.json").write_text("{}")
     with pytest.raises(ValueError, match=r"broken.json: not a twolink train curve"):
         rl.levers_block()

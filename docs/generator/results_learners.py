@@ -116,7 +116,8 @@ def _lever_command(config: dict) -> str:
 
 def levers_block() -> str:
     """The lever runs of :data:`LEVERS`: each run's command, its final curve point (64
-    poses of the table) and its final agent on the fresh poses where scored."""
+    poses of the table) and its final agent on the fresh poses where scored; an agent
+    scored without a training curve (made outside ``twolink train``) has its scores only."""
     import json
 
     from twolink.viz.formatting import format_rate
@@ -124,34 +125,38 @@ def levers_block() -> str:
     from . import common
 
     folder = common.ROOT / LEVERS
-    runs = sorted(p for p in folder.glob("*.json") if ".fresh" not in p.name) \
-        if folder.is_dir() else []
-    if not runs:
+    files = sorted(folder.glob("*.json")) if folder.is_dir() else []
+    stems = sorted({p.name.split(".")[0] if ".fresh" in p.name else p.stem for p in files})
+    if not stems:
         return ""
     out = ["## Levers tried outside the plan\n\n",
            f"Each run's curve is `{LEVERS}/<run>.json`; its final agent on the 256 fresh poses "
            "(seed 4180000 + N), where scored, is `<run>.fresh.json` (`twolink evaluate AGENT "
            "--links N --poses 256 --seed 4180000 --json`), and `<run>.fresh16.json` the "
-           "same poses run for 16 s (`--horizon 16`).\n\n",
+           "same poses run for 16 s (`--horizon 16`). A row without a command is an agent "
+           "made outside `twolink train` ([the guide](../guides/learners-study.md"
+           "#levers-tried-outside-the-plan) says how).\n\n",
            "| run | command | final curve point (64 table poses) | fresh poses at 8 s | "
            "fresh poses by 16 s | CPU per step |\n|---|---|---|---|---|---|\n"]
-    for path in runs:
-        try:
-            run = json.loads(path.read_text())
-            last = run["curve"][-1]
-            config = run["config"]
-            cpu = 1e6 * run["cpu_s"] / run["steps"]
-        except (ValueError, KeyError, TypeError, ZeroDivisionError, IndexError) as exc:
-            raise ValueError(f"{path}: not a twolink train curve ({exc})") from None
+    for stem in stems:
+        path = folder / f"{stem}.json"
+        command = point = cpu = "—"
+        if path.is_file():
+            try:
+                run = json.loads(path.read_text())
+                last = run["curve"][-1]
+                command = f"`{_lever_command(run['config'])}`"
+                cpu = f"{1e6 * run['cpu_s'] / run['steps']:.0f} µs"
+            except (ValueError, KeyError, TypeError, ZeroDivisionError, IndexError) as exc:
+                raise ValueError(f"{path}: not a twolink train curve ({exc})") from None
+            point = (f"{format_rate(last['successes'], last['n'])} at "
+                     f"{last['steps'] / 1e6:.2f} M steps")
         fresh = []
         for suffix in (".fresh.json", ".fresh16.json"):
-            f_path = path.with_name(path.stem + suffix)
+            f_path = folder / f"{stem}{suffix}"
             f = json.loads(f_path.read_text()) if f_path.is_file() else None
             fresh.append("—" if f is None else format_rate(f["successes"], f["n"]))
-        out.append(f"| `{path.stem}` | `{_lever_command(config)}` | "
-                   f"{format_rate(last['successes'], last['n'])} at "
-                   f"{last['steps'] / 1e6:.2f} M steps | {' | '.join(fresh)} | "
-                   f"{cpu:.0f} µs |\n")
+        out.append(f"| `{stem}` | {command} | {point} | {' | '.join(fresh)} | {cpu} |\n")
     return "".join(out) + "\n"
 
 
