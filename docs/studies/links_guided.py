@@ -95,7 +95,9 @@ def _clone(args, demos) -> int:
         save_agent(model, args.out, config)
     finally:
         env.close()
-    print(json.dumps({"demonstrations": len(demos), "agent": str(args.out), **result}))
+    print(json.dumps({"demonstrations": len(demos), "indices": [d["index"] for d in demos],
+                      "init": init, "epochs": args.epochs, "keep_weight": args.keep_weight,
+                      "agent": str(args.out), **result}))
     return 0
 
 
