@@ -34,6 +34,8 @@ from twolink.studies.guided import demos as D  # noqa: E402
 from twolink.validate import whole  # noqa: E402
 
 DEMOS = Path("renders/learners/guided/demos")
+#: The agent cloned into by default: the catalogue's six-link residual PPO.
+DEFAULT_INIT = "ppo_pd_6link_tapered"
 #: Uniform poses whose rollouts give the init agent's own actions to keep, and their seed
 #: (not the table's, the fresh poses', the tuning or the demonstration seeds).
 KEEP_POSES, KEEP_SEED = 64, 7_300_002
@@ -81,7 +83,7 @@ def _clone(args, demos) -> int:
     from twolink.training.config import TrainConfig
     from twolink.training.run import arm_of, build, save_agent
 
-    init = args.init or str(learned_agent_path("ppo_pd_6link_tapered"))
+    init = args.init or str(learned_agent_path(DEFAULT_INIT))
     config = TrainConfig(links=6, base="pd", init=init, start="mixed")
     model, env = build(config)
     try:
@@ -96,7 +98,7 @@ def _clone(args, demos) -> int:
     finally:
         env.close()
     print(json.dumps({"demonstrations": len(demos), "indices": [d["index"] for d in demos],
-                      "init": init, "epochs": args.epochs, "keep_weight": args.keep_weight,
+                      "init": args.init or DEFAULT_INIT, "epochs": args.epochs, "keep_weight": args.keep_weight,
                       "agent": str(args.out), **result}))
     return 0
 
