@@ -517,6 +517,7 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
                                                  "--steps 2000000 --seed 0`")
     assert rows["`other_6t_seed0`"][3:5] == ["—", "—"]
     (folder / "cloned_6t_seed0.fresh.json").write_text(json.dumps({"successes": 7, "n": 8}))
+    assert not any(line.startswith("| `ppo-pd-g0` ") for line in rl.levers_block().splitlines())
     rows = {r[0]: r for r in ([c.strip() for c in line.strip("|").split("|")]
                               for line in rl.levers_block().splitlines()
                               if line.startswith("| `"))}

@@ -24,8 +24,8 @@ COST_TARGET_US = 150.0
 #: ``<id>.fresh16.json`` the same with ``--horizon 16`` (failed, or settled late?).
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
-LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "history", "action_rate", "steps",
-                 "seed")
+LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
+                 "steps", "seed")
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -104,7 +104,7 @@ def _lever_command(config: dict) -> str:
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
     defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
-                "start": "random"}
+                "start": "random", "init": None}
     for key in LEVER_OPTIONS:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
@@ -126,7 +126,8 @@ def levers_block() -> str:
 
     folder = common.ROOT / LEVERS
     files = sorted(folder.glob("*.json")) if folder.is_dir() else []
-    stems = sorted({p.name.split(".")[0] if ".fresh" in p.name else p.stem for p in files})
+    stems = sorted({p.name[:p.name.index(".fresh")] if ".fresh" in p.name else p.stem
+                    for p in files})
     if not stems:
         return ""
     out = ["## Levers tried outside the plan\n\n",
