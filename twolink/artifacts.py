@@ -55,6 +55,13 @@ def signal_received() -> str | None:
     return _received[-1] if _received else None
 
 
+def signal_count() -> int:
+    """How many signals :func:`signal_received` has recorded so far: a count taken before
+    a foreign call and compared after it tells whether a signal arrived during the call,
+    also where the call swallowed the exception the signal raised."""
+    return len(_received)
+
+
 @contextlib.contextmanager
 def sigterm_raises():
     """Within the block, SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) instead

@@ -39,3 +39,24 @@ def test_ctrl_c_stops_limits_at_once_and_writes_nothing(tmp_path, workers):
     assert stopped < 6.0, f"took {stopped:.1f} s to stop"
     assert err.strip().splitlines() == ["twolink: interrupted"], err   # no solver warnings
     assert not rest and list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_recorded_during_a_solve_stops_the_search_even_if_swallowed():
+    """CasADi may swallow the KeyboardInterrupt a Ctrl-C raises inside one of its Python
+    callbacks and print its warning where the solve's stderr is not read: a signal that
+    sigterm_raises recorded during the solve still stops the search when it returns; one
+    recorded before it does not."""
+    from twolink import artifacts
+    from twolink.limits.nlp import _solver_output
+
+    with artifacts.sigterm_raises():
+        artifacts._received.append("SIGINT")            # one handled before the solve
+        assert artifacts.signal_count() == 1
+        with _solver_output(False):                      # recorded before: no effect
+            pass
+        with pytest.raises(KeyboardInterrupt):
+            with _solver_output(False):
+                artifacts._received.append("SIGINT")    # as the handler does, swallowed
+        with pytest.raises(artifacts.Terminated):
+            with _solver_output(False):
+                artifacts._received.append("SIGTERM")

@@ -166,9 +166,12 @@ def _solver_output(verbose: bool):
     """Around one IPOPT solve: CasADi's printing (it writes through ``sys.stdout`` and
     ``sys.stderr``) is swallowed unless ``verbose``, and a Ctrl-C or SIGTERM that arrived
     during the solve is raised when it returns. CasADi turns the signal's exception into
-    a warning and an early return, so without this the search would go on."""
-    from twolink.artifacts import Terminated, signal_received
+    a warning and an early return (or, when IPOPT's own code takes it, into a return
+    status), so without this the search would go on: a signal is seen in that warning or
+    in the signals :func:`twolink.artifacts.sigterm_raises` recorded during the solve."""
+    from twolink.artifacts import Terminated, signal_count, signal_received
 
+    before = signal_count()
     out, err = io.StringIO(), io.StringIO()
     with contextlib.ExitStack() as stack:
         if not verbose:
@@ -177,7 +180,7 @@ def _solver_output(verbose: bool):
         else:
             stack.enter_context(contextlib.redirect_stderr(_Tee(sys.stderr, err)))
         yield
-    if "KeyboardInterrupt" in err.getvalue():
+    if "KeyboardInterrupt" in err.getvalue() or signal_count() > before:
         if signal_received() == "SIGTERM":
             raise Terminated("terminated by SIGTERM")
         raise KeyboardInterrupt
