@@ -8,7 +8,7 @@ solver's answers:
 1. ``python docs/studies/links_guided.py demos --first 0 --last 40`` solves poses
    0..39 of the demonstration set (:mod:`twolink.studies.guided.demos`: poses beyond the
    own motors' reach from seed 7300001, one JSON file each under
-   ``renders/learners/guided/demos/``; about 2-4 min a pose; resumable, and several
+   ``renders/learners/guided/demos/``; minutes a pose; resumable, and several
    processes may share the range).
 2. ``python docs/studies/links_guided.py clone --init AGENT.zip -o CLONED.zip`` clones
    every demonstration whose open-loop replay succeeded on MuJoCo into the policy of

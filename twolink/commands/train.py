@@ -176,22 +176,24 @@ def given_options(args) -> dict:
     return {k: v for k, v in given.items() if v is not None}
 
 
-def _gamma(text) -> float:
+def _number(text, option: str, check, low: float, high: float) -> float:
+    """``check(float(text))`` of a numeric option, or one line naming ``option`` and its
+    range ``low`` .. ``high``."""
     try:
-        return check_gamma(float(text))
+        return check(float(text))
     except ValueError:
-        raise ValueError(f"--gamma must be a number from {GAMMA_RANGE[0]:g} to "
-                         f"{GAMMA_RANGE[1]:g}, got {text!r}") from None
+        raise ValueError(f"{option} must be a number from {low:g} to {high:g}, "
+                         f"got {text!r}") from None
+
+
+def _gamma(text) -> float:
+    return _number(text, "--gamma", check_gamma, *GAMMA_RANGE)
 
 
 def _rate(text) -> float:
     from twolink.training.action_rate import MAX_ACTION_RATE, check_action_rate
 
-    try:
-        return check_action_rate(float(text))
-    except ValueError:
-        raise ValueError(f"--action-rate must be a number from 0 to {MAX_ACTION_RATE:g}, "
-                         f"got {text!r}") from None
+    return _number(text, "--action-rate", check_action_rate, 0.0, MAX_ACTION_RATE)
 
 
 def run(args) -> int:

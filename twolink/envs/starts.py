@@ -4,8 +4,8 @@ A pose's own-motor time (:func:`twolink.arm.task.own_motor_seconds`, the largest
 its joints) bounds from below the time its slowest joint needs with every other joint
 held. Beyond the deadline of an episode (its horizon less the 1 s a success must hold:
 7 s of 8 s for three links or more) a pose can succeed only if the other joints' motion
-turns the slow one, and uniform poses rarely ask for it (74 of the scaling table's 256
-at six tapered links, none at five). The ``x0`` words of :data:`STARTS` let a learner
+turns the slow one; uniform poses ask for it only at six tapered links, and there for a
+minority of poses (docs/results/scaling.md). The ``x0`` words of :data:`STARTS` let a learner
 meet them more often:
 
 * ``'slow'``: angles uniform in [-pi, pi), at rest, conditioned on an own-motor time
@@ -28,8 +28,8 @@ from twolink.arm.task import own_motor_seconds, own_motor_speed
 STARTS = ("slow", "mixed")
 #: Seconds a success holds before an episode's end (the scaling table's rule).
 HOLD_S = 1.0
-#: Most draws :func:`slow_pose` makes before giving up (it needs about 3.5 at six
-#: tapered links).
+#: Most draws :func:`slow_pose` makes before giving up (a few suffice where such poses
+#: exist: :func:`check_slow_starts` refuses the arms without any).
 MAX_DRAWS = 100_000
 
 
