@@ -38,13 +38,15 @@ def _cpu(fn) -> float:
     return time.process_time() - t0
 
 
-def measure(links: int, *, envs: int = 16, n_steps: int = 128, updates: int = 2) -> dict:
+def measure(links: int, *, envs: int = 16, n_steps: int = 128, updates: int = 2,
+            **options) -> dict:
     """CPU seconds per environment step of PPO training, of the vector environment and of
-    the plant, for an arm of ``links`` links."""
+    the plant, for an arm of ``links`` links (``options``: more TrainConfig fields, e.g.
+    ``batch_size``, ``net``)."""
     from twolink.training.config import TrainConfig
     from twolink.training.run import build
 
-    config = TrainConfig(algo="ppo", links=links, envs=envs, n_steps=n_steps)
+    config = TrainConfig(algo="ppo", links=links, envs=envs, n_steps=n_steps, **options)
     unit = config.unit()
     model, env = build(config)
     try:
@@ -74,14 +76,15 @@ def measure(links: int, *, envs: int = 16, n_steps: int = 128, updates: int = 2)
 
 
 def measure_marl(algo: str, links: int, *, envs: int = 16, n_steps: int = 128,
-                 updates: int = 2) -> dict:
-    """CPU seconds per environment step of IPPO or MAPPO training (updates included)."""
+                 updates: int = 2, **options) -> dict:
+    """CPU seconds per environment step of IPPO or MAPPO training (updates included;
+    ``options``: more MarlConfig fields)."""
     import torch
 
     from twolink.training.marl import MarlConfig
     from twolink.training.marl_state import Learner
 
-    config = MarlConfig(algo=algo, links=links, envs=envs, n_steps=n_steps)
+    config = MarlConfig(algo=algo, links=links, envs=envs, n_steps=n_steps, **options)
     unit = config.unit()
     learner = Learner(config, torch)
     try:

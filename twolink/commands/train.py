@@ -22,6 +22,7 @@ from twolink.sim.challenges import LEVELS
 from twolink.validate import choice
 from twolink.training.config import (
     ALGOS,
+    BATCH_RANGE,
     EVAL_SEED,
     EVALUATION_SEEDS,
     DEVICES,
@@ -30,12 +31,17 @@ from twolink.training.config import (
     HYPERPARAMETERS,
     START_OPTIONS,
     MARL_ALGOS,
+    MAX_EPOCHS,
     MAX_STEPS,
+    NET_LAYERS,
+    NET_WIDTHS,
     PLANTS,
     TrainConfig,
     check_algo,
     check_gamma,
+    check_net,
 )
+from twolink.training.marl import HYPERPARAMETERS as MARL_HYPERPARAMETERS
 from twolink.viz.formatting import format_rate
 
 
@@ -135,6 +141,19 @@ def add_parser(sub):
                    help="start from the policy of this saved agent (ppo, sac: the same "
                         "algorithm, arm, history and base; read as data) instead of a "
                         "random one, e.g. one cloned from demonstrations")
+    p.add_argument("--batch-size", default=None, metavar="B",
+                   help=f"samples per gradient step, {BATCH_RANGE[0]:,} to {BATCH_RANGE[1]:,} "
+                        f"(default {HYPERPARAMETERS['ppo']['batch_size']} for every algorithm; "
+                        f"ppo, ippo, mappo: held to at most one rollout, --envs x --n-steps); "
+                        f"a larger batch takes fewer gradient steps per sample")
+    p.add_argument("--epochs", default=None, metavar="E",
+                   help=f"ppo, ippo, mappo: passes over each rollout per update, 1 to "
+                        f"{MAX_EPOCHS} (default {HYPERPARAMETERS['ppo']['n_epochs']})")
+    p.add_argument("--net", default=None, metavar="W,W",
+                   help=f"hidden-layer widths of the policy and value networks, 1 to "
+                        f"{NET_LAYERS} layers of {NET_WIDTHS[0]} to {NET_WIDTHS[1]} units "
+                        f"(default ppo, sac {','.join(map(str, HYPERPARAMETERS['ppo']['net_arch']))}"
+                        f"; ippo, mappo {','.join(map(str, MARL_HYPERPARAMETERS['hidden']))})")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -172,7 +191,10 @@ def given_options(args) -> dict:
              "base": None if args.base is None else choice(args.base, "--base", BASES),
              "action_rate": None if args.action_rate is None else _rate(args.action_rate),
              "gamma": None if args.gamma is None else _gamma(args.gamma),
-             "start": args.start, "init": args.init}
+             "start": args.start, "init": args.init,
+             "batch_size": _count(args.batch_size, "--batch-size", *BATCH_RANGE),
+             "epochs": _count(args.epochs, "--epochs", 1, MAX_EPOCHS),
+             "net": None if args.net is None else _net(args.net)}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -184,6 +206,16 @@ def _number(text, option: str, check, low: float, high: float) -> float:
     except ValueError:
         raise ValueError(f"{option} must be a number from {low:g} to {high:g}, "
                          f"got {text!r}") from None
+
+
+def _net(text) -> tuple[int, ...]:
+    """``--net W,W,...`` as a tuple of widths; else one line naming the option."""
+    try:
+        return check_net(tuple(int(w) for w in str(text).split(",")))
+    except ValueError:
+        raise ValueError(f"--net must be 1 to {NET_LAYERS} comma-separated widths of "
+                         f"{NET_WIDTHS[0]} to {NET_WIDTHS[1]} units, e.g. 64,64; got "
+                         f"{text!r}") from None
 
 
 def _gamma(text) -> float:

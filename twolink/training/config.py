@@ -81,6 +81,15 @@ EVAL_EVERY = {"sac": 10_000, "ppo": 50_000}
 MAX_STEPS = 10**10
 MAX_ENVS = 4096
 MAX_THREADS = 256
+#: ``--batch-size``: the minibatch of an update (PPO, IPPO, MAPPO; held to at most one
+#: rollout) or SAC's replay batch, from this many samples to this many.
+BATCH_RANGE = (8, 65_536)
+#: ``--net``: hidden layers of the policy and value networks, this many at most, each of
+#: this many units at least and at most.
+NET_LAYERS = 4
+NET_WIDTHS = (4, 1024)
+#: ``--epochs``: passes over each rollout per update (PPO, IPPO, MAPPO), at most this many.
+MAX_EPOCHS = 100
 #: Seed of the N-link evaluation poses (N links draw from EVAL_SEED + N): the scaling
 #: table's (:data:`twolink.studies.scaling.measure.EVAL_SEED`), so the two compare.
 EVAL_SEED = 20061122
@@ -129,6 +138,36 @@ def check_gamma(gamma) -> float:
     return value
 
 
+def check_batch_size(batch) -> int:
+    """``batch`` if it is a minibatch size a run may take (:data:`BATCH_RANGE`); else one
+    line."""
+    return whole(batch, "batch_size", *BATCH_RANGE)
+
+
+def check_net(net) -> tuple[int, ...]:
+    """``net`` (hidden-layer widths, e.g. ``(64, 64)``) as a tuple of ints if it has 1 to
+    :data:`NET_LAYERS` layers of :data:`NET_WIDTHS` units; else one line."""
+    low, high = NET_WIDTHS
+    message = (f"net must be 1 to {NET_LAYERS} hidden-layer widths of {low} to {high} "
+               f"units, e.g. 64,64; got {net!r}")
+    if isinstance(net, (str, bytes)) or not hasattr(net, "__len__") or \
+            not 1 <= len(net) <= NET_LAYERS:
+        raise ValueError(message)
+    if not all(isinstance(w, (int, np.integer)) and not isinstance(w, bool)
+               and low <= w <= high for w in net):
+        raise ValueError(message)
+    return tuple(int(w) for w in net)
+
+
+def recipe_suffix(config) -> str:
+    """``[_b<B>][_e<E>][_net<W>x<W>]``: the batch, epochs and network a run was given
+    (:class:`TrainConfig` or :class:`twolink.training.marl.MarlConfig`), for its name."""
+    batch = f"_b{config.batch_size}" if config.batch_size is not None else ""
+    epochs = f"_e{config.epochs}" if config.epochs is not None else ""
+    net = f"_net{'x'.join(map(str, config.net))}" if config.net is not None else ""
+    return batch + epochs + net
+
+
 def train_stream(seed: int) -> int:
     """The seed of a challenge run's arms (arm i: this + i): a 32-bit word of
     ``SeedSequence([seed, TRAIN_STREAM])``."""
@@ -169,6 +208,9 @@ class TrainConfig:
     gamma: float | None = None
     start: str = "random"
     init: str | None = None
+    batch_size: int | None = None
+    epochs: int | None = None
+    net: tuple[int, ...] | None = None
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -188,6 +230,15 @@ class TrainConfig:
             whole(self.n_steps, "n_steps", 2, 100_000)
         if self.eval_every is not None:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
+        if self.batch_size is not None:
+            check_batch_size(self.batch_size)
+        if self.epochs is not None:
+            if self.algo != "ppo":
+                raise ValueError("epochs (passes over each rollout) is PPO's; SAC takes one "
+                                 "gradient step per vector step")
+            whole(self.epochs, "epochs", 1, MAX_EPOCHS)
+        if self.net is not None:
+            object.__setattr__(self, "net", check_net(self.net))
         check_history(self.history)
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
@@ -210,13 +261,19 @@ class TrainConfig:
                              "--plant mujoco")
 
     def hyperparameters(self) -> dict:
-        """The algorithm's :data:`HYPERPARAMETERS` with this run's arms, rollout length
-        and discount (PPO's minibatch held to at most one rollout)."""
+        """The algorithm's :data:`HYPERPARAMETERS` with this run's arms, rollout length,
+        discount, batch, epochs and network (PPO's minibatch held to at most one rollout)."""
         hp = dict(HYPERPARAMETERS[self.algo])
         if self.envs is not None:
             hp["n_envs"] = self.envs
         if self.gamma is not None:
             hp["gamma"] = self.gamma
+        if self.batch_size is not None:
+            hp["batch_size"] = self.batch_size
+        if self.epochs is not None:
+            hp["n_epochs"] = self.epochs
+        if self.net is not None:
+            hp["net_arch"] = list(self.net)
         if self.algo == "ppo":
             if self.n_steps is not None:
                 hp["n_steps"] = self.n_steps
@@ -252,7 +309,7 @@ class TrainConfig:
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
                 "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
-                "start", "init")
+                "start", "init", "batch_size", "epochs", "net")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

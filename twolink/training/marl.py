@@ -69,7 +69,8 @@ from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
-    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, train_stream
+    MAX_ENVS, MAX_EPOCHS, MAX_STEPS, MAX_THREADS, check_batch_size, check_challenge_run, check_gamma, \
+    check_net, recipe_suffix, train_stream
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -132,11 +133,14 @@ class MarlConfig:
     history: int = 1
     action_rate: float = 0.0
     gamma: float | None = None
+    batch_size: int | None = None
+    epochs: int | None = None
+    net: tuple[int, ...] | None = None
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
-                "action_rate", "gamma")
+                "action_rate", "gamma", "batch_size", "epochs", "net")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -159,6 +163,12 @@ class MarlConfig:
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
+        if self.batch_size is not None:
+            check_batch_size(self.batch_size)
+        if self.epochs is not None:
+            whole(self.epochs, "epochs", 1, MAX_EPOCHS)
+        if self.net is not None:
+            object.__setattr__(self, "net", check_net(self.net))
         check_challenge_run(self.challenge, self.links, self.seed)
 
     def arm_seed(self) -> int:
@@ -167,9 +177,13 @@ class MarlConfig:
         return self.seed if self.challenge is None else train_stream(self.seed)
 
     def hyperparameters(self) -> dict:
-        """:data:`HYPERPARAMETERS` with this run's arms, rollout length and discount (the
-        minibatch held to at most one rollout)."""
-        hp = dict(HYPERPARAMETERS, hidden=list(HYPERPARAMETERS["hidden"]))
+        """:data:`HYPERPARAMETERS` with this run's arms, rollout length, discount, minibatch
+        (held to at most one rollout), epochs and hidden layers."""
+        hp = dict(HYPERPARAMETERS, hidden=list(self.net or HYPERPARAMETERS["hidden"]))
+        if self.batch_size is not None:
+            hp["batch_size"] = self.batch_size
+        if self.epochs is not None:
+            hp["learning_epochs"] = self.epochs
         if self.envs is not None:
             hp["n_envs"] = self.envs
         if self.gamma is not None:
@@ -229,7 +243,8 @@ def config_from_options(given: dict) -> dict:
 
 
 def run_name(config: MarlConfig) -> str:
-    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>]_seed<S>`` (PPO's
+    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_b<B>][_e<E>]
+    [_net<W>x<W>]_seed<S>`` (PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -238,7 +253,7 @@ def run_name(config: MarlConfig) -> str:
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}_seed{config.seed}")
+            f"{discount}{recipe_suffix(config)}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:

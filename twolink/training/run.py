@@ -51,8 +51,8 @@ from twolink.control.residual import base_controller, base_gains, residual_torqu
 from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
-from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED, HYPERPARAMETERS,
-                                     TrainConfig, train_stream)
+from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED,
+                                     TrainConfig, recipe_suffix, train_stream)
 
 #: Schema and version of ``curve.json``.
 CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
@@ -132,7 +132,7 @@ def warm_start(model, config: TrainConfig) -> None:
     mine, theirs = model.policy.state_dict(), agent.policy.state_dict()
     if mine.keys() != theirs.keys() or any(mine[k].shape != theirs[k].shape for k in mine):
         raise ValueError(f"--init {config.init}: its network does not fit this run's "
-                         f"({HYPERPARAMETERS[config.algo]['net_arch']})")
+                         f"({config.hyperparameters()['net_arch']})")
     model.policy.load_state_dict(theirs, strict=True)
 
 
@@ -245,7 +245,8 @@ def agent_name(config: TrainConfig) -> str:
 
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
-    _seed<S>``: the run's default folder and its agent's stem."""
+    [_b<B>][_e<E>][_net<W>x<W>]_seed<S>``: the run's default folder and its agent's
+    stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
@@ -254,7 +255,7 @@ def run_name(config: TrainConfig) -> str:
     start = f"_{config.start}" if config.start != "random" else ""
     init = "_init" if config.init is not None else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
-            f"{init}_seed{config.seed}")
+            f"{init}{recipe_suffix(config)}_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
