@@ -18,6 +18,10 @@ period), one process, torch on one thread, MuJoCo on one thread:
   one warm-up update: the N agents' policies and critics (64x64), the batched multi-agent
   env, and N updates of 10 epochs each.
 
+* the lighter recipe (:data:`LIGHT`, at the largest N only): the same rows with the
+  options ``twolink train --batch-size/--epochs/--net/--envs`` gives a lever run of the
+  learners page, so its cost stands beside the default recipe's measured in the same run.
+
 Needs the rl extras (the IPPO/MAPPO rows the marl extra); without them the section (or
 those rows) reports nothing and says so.
 """
@@ -30,6 +34,17 @@ import numpy as np
 from benchmarks.common import Row
 
 SECTION = "training"
+#: The lighter recipe per algorithm (``twolink train`` options; the learners page's lever
+#: runs ``ppo-pd-light`` and ``mappo-neighbours-light`` say how it learns).
+LIGHT = {"ppo": dict(batch_size=1024, net=(64, 64)),
+         "ippo": dict(envs=64, batch_size=8192),
+         "mappo": dict(envs=64, batch_size=8192)}
+
+
+def _recipe(options: dict) -> str:
+    return ", ".join(f"{k.replace('_', ' ')} "
+                     f"{'x'.join(map(str, v)) if isinstance(v, tuple) else v}"
+                     for k, v in options.items())
 
 
 def _cpu(fn) -> float:
@@ -123,10 +138,19 @@ def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
         ]
         summary[n] = m
         rows += _marl_rows(n, envs, n_steps, updates, m["plant_us"], summary)
+    n = max(links)
+    light = measure(n, n_steps=n_steps, updates=updates, **{"envs": envs, **LIGHT["ppo"]})
+    sec = f"{SECTION}: PPO, {n} links, lighter recipe ({_recipe(LIGHT['ppo'])})"
+    rows += [Row(sec, "training, updates included: CPU per env step", light["train_us"], "us",
+                 f"{updates} update{'s' if updates > 1 else ''} of {n_steps} steps per arm"),
+             Row(sec, "training / physics", light["train_us"] / summary[n]["plant_us"], "x")]
+    summary[f"ppo_{n}_light"] = light
+    rows += _marl_rows(n, envs, n_steps, updates, summary[n]["plant_us"], summary,
+                       light=True)
     return rows, summary
 
 
-def _marl_rows(n, envs, n_steps, updates, plant_us, summary) -> list[Row]:
+def _marl_rows(n, envs, n_steps, updates, plant_us, summary, light=False) -> list[Row]:
     try:
         import skrl  # noqa: F401
     except ImportError:
@@ -134,11 +158,14 @@ def _marl_rows(n, envs, n_steps, updates, plant_us, summary) -> list[Row]:
         return []
     rows = []
     for algo in ("ippo", "mappo"):
-        m = measure_marl(algo, n, envs=envs, n_steps=n_steps, updates=updates)
-        sec = f"{SECTION}: {algo.upper()}, {n} links, {envs} arms"
+        options = {"envs": envs, **(LIGHT[algo] if light else {})}
+        m = measure_marl(algo, n, n_steps=n_steps, updates=updates, **options)
+        sec = (f"{SECTION}: {algo.upper()}, {n} links, "
+               + (f"lighter recipe ({_recipe(LIGHT[algo])})" if light else f"{envs} arms"))
         rows += [Row(sec, "training, updates included: CPU per env step", m["train_us"],
-                     "us", f"{updates} update{'s' if updates > 1 else ''} of {envs} x "
-                           f"{n_steps} steps, {n} agents x 10 epochs each"),
+                     "us", f"{updates} update{'s' if updates > 1 else ''} of "
+                           f"{options['envs']} x {n_steps} steps, {n} agents x "
+                           f"{options.get('epochs', 10)} epochs each"),
                  Row(sec, "training / physics", m["train_us"] / plant_us, "x")]
-        summary[f"{algo}_{n}"] = m
+        summary[f"{algo}_{n}" + ("_light" if light else "")] = m
     return rows

@@ -3,6 +3,7 @@ import ctypes
 import os
 import signal
 import threading
+import time
 
 import pytest
 
@@ -174,6 +175,45 @@ def test_read_runs_merges_only_files_of_its_own_schema(tmp_path):
     broken.write_text("{")
     with pytest.raises(ValueError, match=r"broken.json: not valid JSON"):
         read_runs(broken, "twolink.x", 1)
+
+
+def _merge_many(path: str, start: int, count: int, go) -> None:
+    from twolink.artifacts import merge_run
+
+    go.wait(30)                                             # both processes start together
+    for i in range(start, start + count):
+        merge_run(path, "twolink.x", 1, {"id": f"run{i:03d}", "n": i}, note=f"by {start}")
+
+
+def test_merge_run_keeps_the_runs_of_processes_writing_the_same_file(tmp_path):
+    import json
+    import multiprocessing
+
+    from twolink.artifacts import merge_run
+
+    path = tmp_path / "study.json"
+    merge_run(path, "twolink.x", 1, {"id": "b", "n": 1})
+    data = merge_run(path, "twolink.x", 1, {"id": "a", "n": 2}, poses=8)
+    assert [r["id"] for r in data["runs"]] == ["a", "b"] and data["poses"] == 8
+    # a record of the same id replaces the old one
+    merge_run(path, "twolink.x", 1, {"id": "b", "n": 3})
+    assert json.loads(path.read_text())["runs"] == [{"id": "a", "n": 2}, {"id": "b", "n": 3}]
+    # two processes, 60 runs each, read-change-write the same file at once: none is lost
+    ctx = multiprocessing.get_context("spawn")
+    go = ctx.Event()
+    procs = [ctx.Process(target=_merge_many, args=(str(path), s, 60, go)) for s in (0, 100)]
+    for p in procs:
+        p.start()
+    time.sleep(1.0)                                         # both imported, waiting
+    go.set()
+    for p in procs:
+        p.join(60)
+    assert [p.exitcode for p in procs] == [0, 0]
+    ids = [r["id"] for r in json.loads(path.read_text())["runs"]]
+    assert len(ids) == 122 and {f"run{i:03d}" for i in [*range(60), *range(100, 160)]} <= set(ids)
+    assert ids == sorted(ids)
+    with pytest.raises(ValueError, match="is not a twolink.x version 2 file"):
+        merge_run(path, "twolink.x", 2, {"id": "c"})
 
 
 class _SignalWhileConverting:

@@ -327,6 +327,34 @@ def read_runs(path: os.PathLike, schema: str, version: int) -> dict:
     return data
 
 
+@contextlib.contextmanager
+def folder_lock(path: os.PathLike):
+    """Hold an exclusive lock on the folder of ``path`` (``flock`` of the folder itself, no
+    lock file), so processes that read, change and rewrite a file there take turns."""
+    import fcntl
+
+    fd = os.open(Path(path).resolve().parent, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)                        # closing the descriptor releases the lock
+
+
+def merge_run(path: os.PathLike, schema: str, version: int, record: dict, **fields) -> dict:
+    """Add ``record`` (replacing one of the same ``id``) to the study file at ``path``
+    (:func:`read_runs`), with the top-level ``fields``, reading the file afresh under
+    :func:`folder_lock`: two processes writing the same study keep each other's runs.
+    The merged data."""
+    with folder_lock(path):
+        data = read_runs(path, schema, version)
+        runs = [r for r in data.get("runs", []) if r.get("id") != record["id"]] + [record]
+        data.update(fields, schema=schema, version=version,
+                    runs=sorted(runs, key=lambda r: r["id"]))
+        write_json(path, data)
+    return data
+
+
 def provenance() -> dict:
     """Package version and machine description stamped on reports."""
     from importlib.metadata import version

@@ -98,8 +98,12 @@ def test_the_training_benchmark_rows():
     assert names[:4] == ["training, updates included: CPU per env step",
                          "vector env alone: CPU per env step",
                          "physics alone: CPU per env step", "training / physics"]
-    marl = [k for k in summary if isinstance(k, str)]      # IPPO/MAPPO rows where skrl is
-    assert len(names) == 4 + 2 * len(marl)
-    assert all(summary[k]["train_us"] > 0 for k in marl)
+    light = [r for r in rows if "lighter recipe (batch size 1024, net 64x64)" in r.section]
+    assert [r.name for r in light] == ["training, updates included: CPU per env step",
+                                       "training / physics"]
+    assert summary["ppo_2_light"]["train_us"] == light[0].value
+    more = [k for k in summary if isinstance(k, str)]      # + IPPO/MAPPO rows where skrl is
+    assert len(names) == 4 + 2 * len(more)
+    assert all(summary[k]["train_us"] > 0 for k in more)
     assert all(np.isfinite(r.value) and r.value > 0 for r in rows)
     assert summary[2]["train_us"] == rows[0].value

@@ -53,8 +53,9 @@ def add_parser(sub):
                    help="the runs' folders (checkpoints, agents; default "
                         "<output>/learners/runs)")
     p.add_argument("-o", "--out", type=Path, default=None, metavar="FILE",
-                   help="the study's JSON, read to skip finished runs and rewritten after "
-                        "each (default <output>/learners/learners.json; the committed one is "
+                   help="the study's JSON, read to skip finished runs, each finished run "
+                        "merged into it under a lock (processes running different runs may "
+                        "share it; default <output>/learners/learners.json; the committed one is "
                         "renders/learners/learners.json)")
     p.add_argument("--workers", type=int, default=1, metavar="W",
                    help="runs at a time on this machine (default 1; each run uses one core)")

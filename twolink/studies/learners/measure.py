@@ -28,7 +28,7 @@ import time
 import zipfile
 from pathlib import Path
 
-from twolink.artifacts import provenance, read_runs, write_json
+from twolink.artifacts import merge_run, provenance, read_runs
 from twolink.studies.learners.plan import FRESH_SEED, POSES, SCHEMA, TABLE_SEED, VERSION, Run
 
 #: Where a run stops being one: executors of :func:`study`.
@@ -153,8 +153,9 @@ def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
 def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="local",
           address=None, log=print, after=None) -> dict:
     """Run the ``runs`` the study's JSON at ``path`` does not hold yet, ``workers`` at a
-    time, writing each record into it as it finishes (then ``after(data)``, e.g. the
-    table and figure beside it); the study's data."""
+    time, merging each record into it as it finishes (:func:`twolink.artifacts.merge_run`:
+    other processes' runs in the same file are kept; then ``after(data)``, e.g. the table
+    and figure beside it); the study's data."""
     if executor not in EXECUTORS:
         raise ValueError(f"unknown executor {executor!r}; choose one of {', '.join(EXECUTORS)}")
     data = read_runs(path, SCHEMA, VERSION)
@@ -165,11 +166,9 @@ def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="l
     started = time.perf_counter()
 
     def keep(record) -> None:
-        data.setdefault("runs", []).append(record)
-        data["runs"].sort(key=lambda r: r["id"])
-        data.update(schema=SCHEMA, version=VERSION, provenance=provenance(), poses=poses,
-                    table_seed=TABLE_SEED, fresh_seed=FRESH_SEED)
-        write_json(path, data)
+        nonlocal data                    # another process may have added runs meanwhile
+        data = merge_run(path, SCHEMA, VERSION, record, provenance=provenance(), poses=poses,
+                         table_seed=TABLE_SEED, fresh_seed=FRESH_SEED)
         if after is not None:
             after(data)
         f = record["fresh"]
