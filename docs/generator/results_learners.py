@@ -25,7 +25,10 @@ COST_TARGET_US = 150.0
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
-                 "steps", "seed")
+                 "envs", "batch_size", "epochs", "net", "steps", "seed")
+#: The training benchmark's data, and the lever run of its lighter PPO recipe.
+BENCH = "benchmarks/results.json"
+LIGHT_LEVER = "ppo-pd-light_6t_seed0"
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -64,11 +67,42 @@ def _targets(rows: list) -> list:
         out.append(f"- {'met' if met else '**missed**'}: training cost at N = 6 <= "
                    f"{COST_TARGET_US:.0f} µs CPU per environment step (updates and the "
                    f"curve's evaluations included): cheapest {cheapest['learner']} "
-                   f"{cheapest['cpu_us_per_step']:.0f} µs")
+                   f"{cheapest['cpu_us_per_step']:.0f} µs" + _light_cost())
     else:
         out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
                    "per environment step")
     return out
+
+
+def _light_cost() -> str:
+    """The training benchmark's lighter PPO recipe at six links (updates included, no
+    evaluations) beside the default's, measured in one run, and how its lever run learnt."""
+    import json
+
+    from . import common
+
+    bench = _load(BENCH, SCHEMAS[BENCH])
+    found = {}
+    for r in bench["rows"]:
+        if r["section"].startswith("training: PPO, 6 links") and r["name"].startswith(
+                "training, updates included"):
+            found["light" if "lighter recipe" in r["section"] else "default"] = r
+    if set(found) != {"light", "default"}:
+        return ""
+    light, default = found["light"]["value"], found["default"]["value"]
+    lever = common.ROOT / LEVERS / f"{LIGHT_LEVER}.fresh.json"
+    learnt = ""
+    if lever.is_file():
+        from twolink.viz.formatting import format_rate
+
+        f = json.loads(lever.read_text())
+        learnt = (f"; its run `{LIGHT_LEVER}` (below) scored "
+                  f"{format_rate(f['successes'], f['n'])} on the fresh poses")
+    recipe = found["light"]["section"].split("lighter recipe ")[-1]
+    met = light <= COST_TARGET_US
+    return (f". The training benchmark (updates included, no evaluations; one run): the "
+            f"default PPO recipe {default:.0f} µs, the lighter recipe {recipe} "
+            f"{light:.0f} µs ({'meets' if met else 'misses'} the target){learnt}")
 
 
 def _transfer(rows: list) -> str:
@@ -109,6 +143,8 @@ def _lever_command(config: dict) -> str:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
             continue
+        if isinstance(value, (list, tuple)):
+            value = ",".join(map(str, value))
         words.append(f"--{key.replace('_', '-')} {value:g}" if isinstance(value, float)
                      else f"--{key.replace('_', '-')} {value}")
     return " ".join(words)
@@ -147,11 +183,16 @@ def levers_block() -> str:
                 run = json.loads(path.read_text())
                 last = run["curve"][-1]
                 command = f"`{_lever_command(run['config'])}`"
-                cpu = f"{1e6 * run['cpu_s'] / run['steps']:.0f} µs"
+                done = bool(run.get("done"))        # a run stopped early: its last point
+                cpu_s, steps = ((run["cpu_s"], run["steps"]) if done
+                                else (last["cpu_s"], last["steps"]))
+                cpu = f"{1e6 * cpu_s / steps:.0f} µs"
             except (ValueError, KeyError, TypeError, ZeroDivisionError, IndexError) as exc:
                 raise ValueError(f"{path}: not a twolink train curve ({exc})") from None
             point = (f"{format_rate(last['successes'], last['n'])} at "
-                     f"{last['steps'] / 1e6:.2f} M steps")
+                     f"{last['steps'] / 1e6:.2f} M steps"
+                     + ("" if done else f" (stopped there; "
+                        f"{run['steps_requested'] / 1e6:.2f} M asked)"))
         fresh = []
         for suffix in (".fresh.json", ".fresh16.json"):
             f_path = folder / f"{stem}{suffix}"
