@@ -255,7 +255,11 @@ def learners_block() -> str:
     rs = rows(data, ceiling)
     out = ["## Today's learners\n\n",
            "The best final agent per arm of `twolink learners` on the same poses "
-           "(details, fresh poses and learning curves: [Learners](learners.md)).\n\n",
+           "(details, fresh poses and learning curves: [Learners](learners.md)), with what "
+           "it cost to learn: environment steps until its curve first reached 90 % of the "
+           "ceiling (of all poses where the ceiling was not run; \"never\" within the run), "
+           "and the CPU time of its run (mean over seeds; updates and the curve's "
+           "evaluations included).\n\n",
            "| N | links | best centralized (PPO) | best decentralized (IPPO / MAPPO) | "
            "ceiling |\n|---|---|---|---|---|\n"]
     for arm in sorted({(r["links"], r["rule"]) for r in rs},
@@ -267,7 +271,10 @@ def learners_block() -> str:
                 return "—"
             b = max(c, key=lambda r: r["table"]["successes"] / r["table"]["n"])
             t = b["table"]
-            return f"{b['learner']}: {format_rate(t['successes'], t['n'])}"
+            steps = ", ".join("never" if v is None else f"after {v / 1e6:.2f} M steps"
+                              for v in b["steps_to_90pct_ceiling"])
+            return (f"{b['learner']}: {format_rate(t['successes'], t['n'])}; 90 % {steps}, "
+                    f"{b['cpu_s'] / 60:.0f} min CPU")
         top = ceiling.get(arm)
         out.append(f"| {arm[0]} | {arm[1]} | {best(True)} | {best(False)} | "
                    f"{'—' if top is None else f'{100 * top:.0f} %'} |\n")
