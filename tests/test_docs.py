@@ -496,7 +496,7 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
     folder.mkdir(parents=True)
     config = {"algo": "ppo", "base": "pd", "gamma": 0.995, "history": 1, "action_rate": 0.0,
               "links": 6, "rule": "tapered", "steps": 2000000, "seed": 0}
-    curve = {"config": config, "cpu_s": 700.0, "steps": 2000000,
+    curve = {"config": config, "cpu_s": 700.0, "steps": 2000000, "done": True,
              "curve": [{"successes": 12, "n": 64, "steps": 0},
                        {"successes": 50, "n": 64, "steps": 2000000}]}
     (folder / "ppo-pd-g0.995_6t_seed0.json").write_text(json.dumps(curve))
@@ -522,6 +522,57 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
                               for line in rl.levers_block().splitlines()
                               if line.startswith("| `"))}
     assert rows["`cloned_6t_seed0`"][1:] == ["—", "—", "7/8 = 87.5 % [53, 98]", "—", "—"]
+    # a run stopped early: its last point, the steps it asked for, its CPU so far; the
+    # recipe options in its command
+    (folder / "stopped_6t_seed0.json").write_text(json.dumps({
+        "config": dict(config, gamma=None, envs=64, batch_size=8192, net=[64, 64]),
+        "done": False, "steps_requested": 2000000,
+        "curve": [{"successes": 0, "n": 64, "steps": 0, "cpu_s": 0.0},
+                  {"successes": 1, "n": 64, "steps": 1000000, "cpu_s": 200.0}]}))
+    rows = {r[0]: r for r in ([c.strip() for c in line.strip("|").split("|")]
+                              for line in rl.levers_block().splitlines()
+                              if line.startswith("| `"))}
+    assert rows["`stopped_6t_seed0`"][1:] == [
+        "`twolink train --links 6 --rule tapered --algo ppo --base pd --envs 64 "
+        "--batch-size 8192 --net 64,64 --steps 2000000 --seed 0`",
+        "1/64 = 1.6 % [0, 8] at 1.00 M steps (stopped there; 2.00 M asked)", "—", "—",
+        "200 µs"]
     (folder / "broken.json").write_text("{}")
     with pytest.raises(ValueError, match=r"broken.json: not a twolink train curve"):
         rl.levers_block()
+
+
+def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, monkeypatch):
+    """The learners page's cost target: the cheapest study row at six links, then the
+    training benchmark's default and lighter PPO recipes (one run) and how the lighter
+    recipe's lever run scored; without the benchmark's rows, the study row alone."""
+    import json
+
+    gen = _generator()
+    from generator import results_learners as rl
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    six = {"links": 6, "rule": "tapered", "algo": "mappo", "learner": "MAPPO (local)",
+           "cpu_us_per_step": 600.0, "seeds": [0],
+           "fresh": {"successes": 100, "n": 256}}
+    line = rl._targets([six])[-1]
+    assert line == ("- **missed**: training cost at N = 6 <= 150 µs CPU per environment "
+                    "step (updates and the curve's evaluations included): cheapest MAPPO "
+                    "(local) 600 µs")
+    bench = tmp_path / rl.BENCH
+    bench.parent.mkdir(parents=True)
+    name = "training, updates included: CPU per env step"
+    bench.write_text(json.dumps({"command": "x", "machine": {}, "mode": "full", "seconds": {},
+                                 "rows": [
+        {"section": "training: PPO, 6 links, 16 arms", "name": name, "value": 290.0},
+        {"section": "training: PPO, 6 links, lighter recipe (batch size 1024, net 64x64)",
+         "name": name, "value": 140.4}]}))
+    lever = tmp_path / rl.LEVERS / f"{rl.LIGHT_LEVER}.fresh.json"
+    lever.parent.mkdir(parents=True)
+    lever.write_text(json.dumps({"successes": 196, "n": 256}))
+    line = rl._targets([six])[-1]
+    assert line.endswith("cheapest MAPPO (local) 600 µs. The training benchmark (updates "
+                         "included, no evaluations; one run): the default PPO recipe 290 µs, "
+                         "the lighter recipe (batch size 1024, net 64x64) 140 µs (meets the "
+                         "target); its run `ppo-pd-light_6t_seed0` (below) scored "
+                         "196/256 = 76.6 % [71, 81] on the fresh poses")

@@ -83,7 +83,7 @@ def _light_cost() -> str:
 
     bench = _load(BENCH, SCHEMAS[BENCH])
     found = {}
-    for r in bench["rows"]:
+    for r in (bench or {}).get("rows", []):
         if r["section"].startswith("training: PPO, 6 links") and r["name"].startswith(
                 "training, updates included"):
             found["light" if "lighter recipe" in r["section"] else "default"] = r
