@@ -25,7 +25,8 @@ COST_TARGET_US = 150.0
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
-                 "envs", "batch_size", "epochs", "net", "steps", "seed")
+                 "envs", "n_steps", "batch_size", "epochs", "net", "eval_every", "steps",
+                 "seed")
 #: The training benchmark's data, and the lever run of its lighter PPO recipe.
 BENCH = "benchmarks/results.json"
 LIGHT_LEVER = "ppo-pd-light_6t_seed0"
