@@ -567,12 +567,15 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
         {"section": "training: PPO, 6 links, 16 arms", "name": name, "value": 290.0},
         {"section": "training: PPO, 6 links, lighter recipe (batch size 1024, net 64x64)",
          "name": name, "value": 140.4}]}))
-    lever = tmp_path / rl.LEVERS / f"{rl.LIGHT_LEVER}.fresh.json"
+    lever = tmp_path / rl.LEVERS / f"{rl.LIGHT_LEVER}0.fresh.json"
     lever.parent.mkdir(parents=True)
     lever.write_text(json.dumps({"successes": 196, "n": 256}))
+    lever.with_name(f"{rl.LIGHT_LEVER}1.fresh.json").write_text(json.dumps(
+        {"successes": 0, "n": 256}))
     line = rl._targets([six])[-1]
     assert line.endswith("cheapest MAPPO (local) 600 µs. The training benchmark (updates "
                          "included, no evaluations; one run): the default PPO recipe 290 µs, "
                          "the lighter recipe (batch size 1024, net 64x64) 140 µs (meets the "
-                         "target); its run `ppo-pd-light_6t_seed0` (below) scored "
-                         "196/256 = 76.6 % [71, 81] on the fresh poses")
+                         "target); its runs (below) on the fresh poses: "
+                         "`ppo-pd-light_6t_seed0` 196/256 = 76.6 % [71, 81], "
+                         "`ppo-pd-light_6t_seed1` 0/256 = 0.0 % [0, 1]")

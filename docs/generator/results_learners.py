@@ -27,9 +27,10 @@ LEVERS = "renders/learners/levers"
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
                  "envs", "n_steps", "batch_size", "epochs", "net", "eval_every", "steps",
                  "seed")
-#: The training benchmark's data, and the lever run of its lighter PPO recipe.
+#: The training benchmark's data, and the stem of the lever runs of its lighter PPO recipe
+#: (one per seed).
 BENCH = "benchmarks/results.json"
-LIGHT_LEVER = "ppo-pd-light_6t_seed0"
+LIGHT_LEVER = "ppo-pd-light_6t_seed"
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -77,8 +78,10 @@ def _targets(rows: list) -> list:
 
 def _light_cost() -> str:
     """The training benchmark's lighter PPO recipe at six links (updates included, no
-    evaluations) beside the default's, measured in one run, and how its lever run learnt."""
+    evaluations) beside the default's, measured in one run, and how its lever runs learnt."""
     import json
+
+    from twolink.viz.formatting import format_rate
 
     from . import common
 
@@ -91,14 +94,13 @@ def _light_cost() -> str:
     if set(found) != {"light", "default"}:
         return ""
     light, default = found["light"]["value"], found["default"]["value"]
-    lever = common.ROOT / LEVERS / f"{LIGHT_LEVER}.fresh.json"
+    scored = sorted((common.ROOT / LEVERS).glob(f"{LIGHT_LEVER}*.fresh.json"))
     learnt = ""
-    if lever.is_file():
-        from twolink.viz.formatting import format_rate
-
-        f = json.loads(lever.read_text())
-        learnt = (f"; its run `{LIGHT_LEVER}` (below) scored "
-                  f"{format_rate(f['successes'], f['n'])} on the fresh poses")
+    if scored:
+        runs = ", ".join(
+            f"`{p.name[:-len('.fresh.json')]}` {format_rate(f['successes'], f['n'])}"
+            for p, f in ((p, json.loads(p.read_text())) for p in scored))
+        learnt = f"; its runs (below) on the fresh poses: {runs}"
     recipe = found["light"]["section"].split("lighter recipe ")[-1]
     met = light <= COST_TARGET_US
     return (f". The training benchmark (updates included, no evaluations; one run): the "
