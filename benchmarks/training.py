@@ -35,7 +35,8 @@ from benchmarks.common import Row
 
 SECTION = "training"
 #: The lighter recipe per algorithm (``twolink train`` options; the learners page's lever
-#: runs ``ppo-pd-light`` and ``mappo-neighbours-light`` say how it learns).
+#: runs ``ppo-pd-light_6t_seed*`` and ``mappo-neighbours-b8192_6t_seed0`` say how it
+#: learns).
 LIGHT = {"ppo": dict(batch_size=1024, net=(64, 64)),
          "ippo": dict(envs=64, batch_size=8192),
          "mappo": dict(envs=64, batch_size=8192)}

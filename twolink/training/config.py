@@ -138,10 +138,20 @@ def check_gamma(gamma) -> float:
     return value
 
 
-def check_batch_size(batch) -> int:
-    """``batch`` if it is a minibatch size a run may take (:data:`BATCH_RANGE`); else one
-    line."""
-    return whole(batch, "batch_size", *BATCH_RANGE)
+def check_recipe(config, *, epochs: bool = True) -> None:
+    """Check a run's ``batch_size`` (:data:`BATCH_RANGE`), ``epochs`` (1 to
+    :data:`MAX_EPOCHS`; refused where the algorithm has none, ``epochs=False``) and
+    ``net`` (:func:`check_net`, stored back as a tuple) of a frozen config
+    (:class:`TrainConfig` or :class:`twolink.training.marl.MarlConfig`); one line each."""
+    if config.batch_size is not None:
+        whole(config.batch_size, "batch_size", *BATCH_RANGE)
+    if config.epochs is not None:
+        if not epochs:
+            raise ValueError("epochs (passes over each rollout) is PPO's; SAC takes one "
+                             "gradient step per vector step")
+        whole(config.epochs, "epochs", 1, MAX_EPOCHS)
+    if config.net is not None:
+        object.__setattr__(config, "net", check_net(config.net))
 
 
 def check_net(net) -> tuple[int, ...]:
@@ -230,15 +240,7 @@ class TrainConfig:
             whole(self.n_steps, "n_steps", 2, 100_000)
         if self.eval_every is not None:
             whole(self.eval_every, "eval_every", 1, MAX_STEPS)
-        if self.batch_size is not None:
-            check_batch_size(self.batch_size)
-        if self.epochs is not None:
-            if self.algo != "ppo":
-                raise ValueError("epochs (passes over each rollout) is PPO's; SAC takes one "
-                                 "gradient step per vector step")
-            whole(self.epochs, "epochs", 1, MAX_EPOCHS)
-        if self.net is not None:
-            object.__setattr__(self, "net", check_net(self.net))
+        check_recipe(self, epochs=self.algo == "ppo")
         check_history(self.history)
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)

@@ -69,8 +69,8 @@ from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
-    MAX_ENVS, MAX_EPOCHS, MAX_STEPS, MAX_THREADS, check_batch_size, check_challenge_run, check_gamma, \
-    check_net, recipe_suffix, train_stream
+    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_recipe, \
+    recipe_suffix, train_stream
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -163,12 +163,7 @@ class MarlConfig:
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
-        if self.batch_size is not None:
-            check_batch_size(self.batch_size)
-        if self.epochs is not None:
-            whole(self.epochs, "epochs", 1, MAX_EPOCHS)
-        if self.net is not None:
-            object.__setattr__(self, "net", check_net(self.net))
+        check_recipe(self)
         check_challenge_run(self.challenge, self.links, self.seed)
 
     def arm_seed(self) -> int:
