@@ -192,3 +192,87 @@ def test_smoke_runs_end_to_end_and_a_second_call_keeps_it(tmp_path):
     after = {r["id"]: r.get("fresh_late") for r in json.loads(path.read_text())["runs"]}
     assert after[data["runs"][0]["id"]] == before[data["runs"][0]["id"]]
     assert after[data["runs"][1]["id"]] is None
+
+
+def _fake_train(monkeypatch, scripts: dict):
+    """``twolink train`` of run seed S replaced by the Python one-liner scripts[S]."""
+    from twolink.studies.learners import measure
+
+    started = []
+
+    def fake(*args):
+        args = list(map(str, args))
+        seed = int(args[args.index("--seed") + 1])
+        started.append(seed)
+        return [sys.executable, "-c", scripts[seed]]
+
+    monkeypatch.setattr(measure, "_twolink", fake)
+    return started
+
+
+KILLED = "import os, signal; os.kill(os.getpid(), signal.SIGTERM)"
+
+
+def test_a_run_ended_by_a_signal_stops_the_study(tmp_path, monkeypatch):
+    from twolink.studies.learners import measure
+
+    started = _fake_train(monkeypatch, {0: KILLED, 1: "pass", 2: "pass"})
+    runs = [P.Run("ppo", "global", 2, "tapered", s, 1000, 500) for s in range(3)]
+    with pytest.raises(measure.RunInterrupted, match="ppo_2t_seed0 was interrupted.*resume"):
+        measure.study(runs, tmp_path / "s.json", tmp_path / "runs", log=lambda t: None)
+    assert started == [0]                      # the later runs never started
+    assert not (tmp_path / "s.json").exists()
+
+
+def test_an_interrupted_study_ends_its_other_live_runs(tmp_path, monkeypatch):
+    from twolink.studies.learners import measure
+
+    mark = tmp_path / "slept"
+    sleeper = f"import time, pathlib; time.sleep(20); pathlib.Path({str(mark)!r}).touch()"
+    killed_later = "import os, signal, time; time.sleep(1); os.kill(os.getpid(), 15)"
+    _fake_train(monkeypatch, {0: sleeper, 1: killed_later, 2: "pass"})
+    runs = [P.Run("ppo", "global", 2, "tapered", s, 1000, 500) for s in range(3)]
+    with pytest.raises(measure.RunInterrupted, match="ppo_2t_seed1"):
+        measure.study(runs, tmp_path / "s.json", tmp_path / "runs", workers=2,
+                      log=lambda t: None)
+    assert not measure._children               # every child ended and reaped
+    assert not mark.exists()                   # the sleeper was terminated, not awaited
+
+
+def test_sigterm_to_a_parallel_study_ends_its_runs_and_starts_no_other(tmp_path):
+    """The study's process, SIGTERMed while two runs train, ends both and starts none of
+    the queued ones (it used to wait for the live runs and then start the rest)."""
+    import signal
+    import time
+
+    script = tmp_path / "study.py"
+    script.write_text(f"""
+import pathlib, sys
+from twolink.artifacts import sigterm_raises
+from twolink.studies.learners import measure, plan as P
+tmp = pathlib.Path({str(tmp_path)!r})
+def fake(*args):
+    seed = list(map(str, args))[list(map(str, args)).index("--seed") + 1]
+    (tmp / f"started{{seed}}").touch()
+    return [sys.executable, "-c",
+            f"import time, pathlib; time.sleep(20); pathlib.Path({{str(tmp)!r}}, 'slept{{seed}}').touch()"]
+measure._twolink = fake
+runs = [P.Run("ppo", "global", 2, "tapered", s, 1000, 500) for s in range(4)]
+try:
+    with sigterm_raises():
+        measure.study(runs, tmp / "s.json", tmp / "runs", workers=2, log=lambda t: None)
+except KeyboardInterrupt:
+    print("stopped", flush=True)
+""")
+    proc = subprocess.Popen([sys.executable, str(script)], cwd=ROOT, stdout=subprocess.PIPE,
+                            text=True)
+    for _ in range(300):                       # both runs' children started
+        if (tmp_path / "started0").exists() and (tmp_path / "started1").exists():
+            break
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert out.strip() == "stopped"
+    assert sorted(p.name for p in tmp_path.glob("started*")) == ["started0", "started1"]
+    assert not list(tmp_path.glob("slept*"))   # terminated, not awaited

@@ -22,8 +22,10 @@ from __future__ import annotations
 import io
 import json
 import os
+import signal
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from pathlib import Path
@@ -50,24 +52,73 @@ def _state(folder: Path) -> str:
     return "interrupted" if (folder / "checkpoint.pt").is_file() else "new"
 
 
+class RunInterrupted(RuntimeError):
+    """A run's process ended by a signal, or the study told to stop: no further run
+    starts (the interrupted one resumes from its checkpoint when the study is rerun)."""
+
+
+#: The study's live child processes, and whether it is stopping: a study that is
+#: interrupted (SIGTERM, Ctrl-C, a run killed) ends every child and starts no new one.
+_children: set = set()
+_lock = threading.Lock()
+_stopping = threading.Event()
+
+
+def _stop_children() -> None:
+    """Start no new child; SIGTERM every live one (a ``twolink train`` checkpoints and
+    exits) and wait for it."""
+    _stopping.set()
+    with _lock:
+        live = list(_children)
+    for proc in live:
+        if proc.poll() is None:
+            proc.terminate()
+    for proc in live:
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 def _child(cmd: list, log, prefix: str) -> tuple:
     """Run ``cmd``; its stderr lines go to ``log`` with ``prefix``; (stdout text, return
-    code, peak resident memory of the child in bytes)."""
+    code, peak resident memory of the child in bytes). Refused with
+    :class:`RunInterrupted` once the study is stopping; the child is terminated when this
+    call is interrupted."""
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
-    import threading
-
-    out = []
-    reader = threading.Thread(target=lambda: out.append(proc.stdout.read()), daemon=True)
-    reader.start()
-    for line in proc.stderr:
-        if line.strip():
-            log(f"{prefix}{line.rstrip()}")
-    reader.join()
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
+    with _lock:
+        if _stopping.is_set():
+            raise RunInterrupted("the study is stopping")
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, env=env)
+        _children.add(proc)
+    try:
+        out = []
+        reader = threading.Thread(target=lambda: out.append(proc.stdout.read()),
+                                  daemon=True)
+        reader.start()
+        for line in proc.stderr:
+            if line.strip():
+                log(f"{prefix}{line.rstrip()}")
+        reader.join()
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+    except BaseException:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait()
+        raise
+    finally:
+        with _lock:
+            _children.discard(proc)
     return "".join(out), proc.returncode, usage.ru_maxrss * 1024
+
+
+def _signalled(code: int) -> bool:
+    """Whether a child's exit status says a signal ended it: killed (negative) or a
+    ``twolink`` command that caught SIGINT or SIGTERM (128 + its number)."""
+    return code < 0 or code in (128 + signal.SIGINT, 128 + signal.SIGTERM)
 
 
 def _twolink(*args) -> list:
@@ -129,6 +180,10 @@ def run_one(run: Run, work, *, poses: int = POSES, log=print) -> dict:
         log(f"{run.id}: {'resuming' if state == 'interrupted' else 'training'} "
             f"({run.steps:,} steps)")
         _, code, peak = _child(cmd, log, "  ")
+        if _signalled(code):
+            raise RunInterrupted(f"run {run.id} was interrupted (twolink train exit "
+                                 f"{code}); its folder {folder} keeps the last "
+                                 f"checkpoint: rerun the study to resume it")
         if code != 0:
             raise RuntimeError(f"run {run.id} failed (twolink train exit {code}); its "
                                f"folder {folder} keeps the last checkpoint")
@@ -181,10 +236,13 @@ def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="l
     def outcome(run, get) -> None:
         try:
             keep(get())
+        except RunInterrupted:
+            raise
         except (RuntimeError, OSError, ValueError) as exc:
             failed.append(run.id)
             log(f"{run.id}: {exc}")
 
+    _stopping.clear()
     if executor == "ray":
         from twolink.sim.cells import ray_session
 
@@ -200,10 +258,17 @@ def study(runs, path, work, *, poses: int = POSES, workers: int = 1, executor="l
     else:
         from concurrent.futures import ThreadPoolExecutor, as_completed
 
-        with ThreadPoolExecutor(workers) as pool:
+        pool = ThreadPoolExecutor(workers)
+        try:
             futures = {pool.submit(run_one, r, work, poses=poses, log=log): r for r in todo}
             for f in as_completed(futures):
                 outcome(futures[f], f.result)
+        except BaseException:                # interrupted: no new run; end the live ones
+            pool.shutdown(wait=False, cancel_futures=True)
+            _stop_children()
+            raise
+        finally:
+            pool.shutdown(wait=True)
     if failed:
         raise RuntimeError(f"{len(failed)} run(s) failed ({', '.join(failed)}); the "
                            f"{len(data['runs'])} finished are in {path}; rerun to retry")
