@@ -42,6 +42,7 @@ from twolink.training.config import (
     check_net,
 )
 from twolink.training.marl import HYPERPARAMETERS as MARL_HYPERPARAMETERS
+from twolink.training.marl import STD_FLOOR_RANGE, check_std_floor
 from twolink.viz.formatting import format_rate
 
 
@@ -154,6 +155,11 @@ def add_parser(sub):
                         f"{NET_LAYERS} layers of {NET_WIDTHS[0]} to {NET_WIDTHS[1]} units "
                         f"(default ppo, sac {','.join(map(str, HYPERPARAMETERS['ppo']['net_arch']))}"
                         f"; ippo, mappo {','.join(map(str, MARL_HYPERPARAMETERS['hidden']))})")
+    p.add_argument("--std-floor", default=None, metavar="S",
+                   help=f"ippo, mappo: each policy's exploration noise starts at standard "
+                        f"deviation S, in units of the normalized action, and never falls "
+                        f"below it, {STD_FLOOR_RANGE[0]:g} to {STD_FLOOR_RANGE[1]:g} "
+                        f"(default: starts at 1, no floor)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -177,6 +183,8 @@ def given_options(args) -> dict:
         if args.algo not in MARL_ALGOS and not args.resume:
             raise ValueError("--observe is for --algo ippo|mappo (one agent per joint)")
         choice(args.observe, "--observe", OBSERVE)
+    if args.std_floor is not None and args.algo not in MARL_ALGOS and not args.resume:
+        raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
     given = {"algo": args.algo, "links": args.links, "rule": args.rule,
              "steps": _count(args.steps, "--steps"),
              "seed": None if args.seed is None else seed_option(args.seed, high=2**32 - 1),
@@ -194,7 +202,9 @@ def given_options(args) -> dict:
              "start": args.start, "init": args.init,
              "batch_size": _count(args.batch_size, "--batch-size", *BATCH_RANGE),
              "epochs": _count(args.epochs, "--epochs", 1, MAX_EPOCHS),
-             "net": None if args.net is None else _net(args.net)}
+             "net": None if args.net is None else _net(args.net),
+             "std_floor": None if args.std_floor is None else _number(
+                 args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE)}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -235,6 +245,7 @@ def run(args) -> int:
     if _is_marl(args, given):
         return _run_marl(args, given)
     given.pop("observe", None)
+    given.pop("std_floor", None)
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
                                        if k in ("algo", "links", "seed", "challenge", "history",

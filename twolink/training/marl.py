@@ -52,6 +52,10 @@ observations and its own K - 1 last actions (:mod:`twolink.training.marl_history
 (:func:`twolink.training.action_rate.agent_penalties`): IPPO's agent i earns its reward
 less c (a_i,k - a_i,k-1)^2, MAPPO's team reward is lessened by c times the mean of those
 over the agents (PPO's penalty of the arm).
+``std_floor`` S: each policy's Gaussian noise starts at standard deviation S (in units of
+the normalized action; by default 1, the whole torque limit) and is clipped from below at
+S (skrl's ``min_log_std``), so the learner never stops exploring: the policy's mean, which
+the controller runs, is learnt under noise of at least S.
 """
 from __future__ import annotations
 
@@ -89,7 +93,10 @@ HYPERPARAMETERS = dict(n_envs=16, n_steps=128, learning_epochs=10, batch_size=25
                        learning_rate=3e-4, gamma=0.98, gae_lambda=0.95, ratio_clip=0.2,
                        value_clip=0.0, value_loss_scale=0.5, entropy_loss_scale=0.0,
                        grad_norm_clip=0.5, hidden=[64, 64], activation="Tanh",
-                       log_std_init=0.0)
+                       log_std_init=0.0, min_log_std=-20.0)
+#: The range of ``std_floor``: each policy's exploration noise, in units of its normalized
+#: action (1: the whole torque limit).
+STD_FLOOR_RANGE = (0.01, 1.0)
 #: Environment steps between evaluations by default.
 EVAL_EVERY = 50_000
 #: The run's learning curve (as PPO's, :data:`twolink.training.run.CURVE`).
@@ -136,11 +143,12 @@ class MarlConfig:
     batch_size: int | None = None
     epochs: int | None = None
     net: tuple[int, ...] | None = None
+    std_floor: float | None = None
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
-                "action_rate", "gamma", "batch_size", "epochs", "net")
+                "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -164,6 +172,8 @@ class MarlConfig:
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
         check_recipe(self)
+        if self.std_floor is not None:
+            object.__setattr__(self, "std_floor", check_std_floor(self.std_floor))
         check_challenge_run(self.challenge, self.links, self.seed)
 
     def arm_seed(self) -> int:
@@ -185,6 +195,8 @@ class MarlConfig:
             hp["gamma"] = self.gamma
         if self.n_steps is not None:
             hp["n_steps"] = self.n_steps
+        if self.std_floor is not None:
+            hp["log_std_init"] = hp["min_log_std"] = math.log(self.std_floor)
         hp["batch_size"] = min(hp["batch_size"], hp["n_steps"] * hp["n_envs"])
         hp["mini_batches"] = max(1, hp["n_steps"] * hp["n_envs"] // hp["batch_size"])
         return hp
@@ -237,9 +249,22 @@ def config_from_options(given: dict) -> dict:
     return {k: v for k, v in given.items() if k in names and v is not None}
 
 
+def check_std_floor(value) -> float:
+    """``value`` as a float if it lies in :data:`STD_FLOOR_RANGE`; else one line."""
+    low, high = STD_FLOOR_RANGE
+    try:
+        got = float(value)
+    except (TypeError, ValueError):
+        got = math.nan
+    if isinstance(value, bool) or not low <= got <= high:
+        raise ValueError(f"std_floor must be a number from {low:g} to {high:g} (the policy's "
+                         f"noise in units of its normalized action), got {value!r}")
+    return got
+
+
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_b<B>][_e<E>]
-    [_net<W>x<W>]_seed<S>`` (PPO's
+    [_net<W>x<W>][_sf<S>]_seed<S>`` (PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -247,8 +272,9 @@ def run_name(config: MarlConfig) -> str:
     base = f"_{config.base}" if config.base != "none" else ""
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
+    floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{recipe_suffix(config)}_seed{config.seed}")
+            f"{discount}{recipe_suffix(config)}{floor}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:

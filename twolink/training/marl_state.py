@@ -59,7 +59,7 @@ SCHEMA, VERSION = "twolink.train.marl_checkpoint", 1
 MAX_BYTES = 2**30
 
 
-def _models(torch, hidden, activation, log_std_init):
+def _models(torch, hidden, activation, log_std_init, min_log_std=-20.0):
     from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
 
     from twolink.control.marl_agent import policy_net
@@ -69,7 +69,8 @@ def _models(torch, hidden, activation, log_std_init):
             Model.__init__(self, observation_space=observation_space,
                            action_space=action_space, device=device)
             GaussianMixin.__init__(self, clip_actions=False, clip_log_std=True,
-                                   min_log_std=-20.0, max_log_std=2.0, reduction="sum")
+                                   min_log_std=float(min_log_std), max_log_std=2.0,
+                                   reduction="sum")
             self.net = policy_net(observation_space.shape[0], hidden, activation)
             self.log_std = torch.nn.Parameter(torch.full((1,), float(log_std_init)))
 
@@ -126,7 +127,8 @@ class Learner:
                       for a in self.agents}
         state = spaces.Box(-np.inf, np.inf, (3 * config.links,), np.float32)
         act = {a: spaces.Box(-1.0, 1.0, (1,), np.float32) for a in self.agents}
-        Policy, Value = _models(torch, hp["hidden"], hp["activation"], hp["log_std_init"])
+        Policy, Value = _models(torch, hp["hidden"], hp["activation"], hp["log_std_init"],
+                                hp.get("min_log_std", -20.0))
         mappo = config.algo == "mappo"
         models = {a: {"policy": Policy(obs_spaces[a], act[a], device),
                       "value": Value(state if mappo else obs_spaces[a],
