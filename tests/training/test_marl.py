@@ -132,6 +132,11 @@ def test_a_resumed_run_is_bit_for_bit_the_uninterrupted_one(tmp_path, algo):
     assert strip == [{k: v for k, v in p.items() if k not in CLOCKS}
                      for p in resumed["curve"]]
     assert resumed["resumed_at"] == [64]
+    assert resumed["best"] == whole["best"]             # the best point's agent, too
+    a_best = torch.load(tmp_path / "whole" / whole["best"]["agent"], weights_only=True)
+    b_best = torch.load(tmp_path / "part" / resumed["best"]["agent"], weights_only=True)
+    assert all(torch.equal(a_best["policies"][k][n], b_best["policies"][k][n])
+               for k in a_best["policies"] for n in a_best["policies"][k])
     # the comparison can fail: another seed gives other weights
     other = train(MarlConfig(steps=64, **dict(common, seed=4)), tmp_path / "other")
     c = torch.load(tmp_path / "other" / other["agent"], weights_only=True)["policies"]

@@ -75,6 +75,22 @@ def test_a_resumed_run_is_bit_for_bit_the_uninterrupted_one(whole_run, tmp_path,
     a, _ = checkpoint.load(tmp_path / "checkpoint.pt")
     b, _ = checkpoint.load(whole / "checkpoint.pt")
     assert a["plain"] == b["plain"]              # counters, generators, arms: the same
+    assert resumed["best"] == record["best"]     # the best point and its agent, too
+    assert _same(_weights(tmp_path / record["best"]["agent"]),
+                 _weights(whole / record["best"]["agent"]))
+
+
+def test_the_best_agent_is_the_policy_of_the_curves_best_point(whole_run, tmp_path):
+    record, out = whole_run
+    curve, best = record["curve"], record["best"]
+    top = max(p["successes"] for p in curve)
+    latest = max(p["steps"] for p in curve if p["successes"] == top)
+    assert (best["steps"], best["successes"], best["n"]) == (latest, top, 65)
+    assert best["agent"] == "ppo_2links_seed0.best.zip"
+    agent = resolve_controller(str(out / best["agent"]))
+    assert agent.meta["steps"] == best["steps"]            # the policy of that point
+    from twolink.sim.evaluation import evaluate
+    assert evaluate(agent, nthread=1).score.successes == best["successes"]
 
 
 def test_the_comparison_can_fail(whole_run, tmp_path):

@@ -46,6 +46,9 @@ evaluation plant; the evaluation seeds are refused as training seeds), and the c
 scored under the same level on the 65 states and the
 :data:`~twolink.training.config.EVAL_PLANTS` plants of seed
 :data:`~twolink.training.config.EVAL_SEED`, PPO's protocol, so the curves compare.
+Beside the final agent, ``<algo>_<N>links_<observe>_seed<S>.best.marl.pt`` holds the
+policies of the curve's best point so far (PPO's rule:
+:func:`twolink.training.run.is_best`), named with its point in the record's ``best``.
 ``history`` K > 1: each agent's policy (and IPPO's critic) sees the last K of its own
 observations and its own K - 1 last actions (:mod:`twolink.training.marl_history`).
 ``action_rate`` c > 0: a training-only penalty against torque chatter
@@ -370,6 +373,8 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
         learner.restore(header["plain"], tensors)
         record["curve"], clocks = header["curve"], header["clocks"]
         record["resumed_at"] = header.get("resumed_at", []) + [header["steps"]]
+        if header.get("best"):
+            record["best"] = header["best"]
     out.mkdir(parents=True, exist_ok=True)
     try:
         _loop(config, learner, out, record, clocks, total, every,
@@ -381,15 +386,18 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
 
 def _loop(config, learner, out, record, clocks, total, every, say) -> None:
     from twolink.training import marl_state
-    from twolink.training.run import CHECKPOINT, CURVE, curve_point
+    from twolink.training.run import CHECKPOINT, CURVE, best_entry, curve_point, is_best
 
     def point() -> None:
         sc = evaluate_controller(learner.controller(), config)
         record["curve"].append(curve_point(learner.steps, sc, clocks["wall_s"], clocks["cpu_s"]))
+        if is_best(record["curve"]):
+            record["best"] = best_entry(record["curve"], agent_name(config))
+            learner.save_agent(out / record["best"]["agent"])
         plain, tensors = learner.capture()
         header = {"config": config.as_dict(), "versions": record["versions"],
                   "steps": learner.steps, "plain": plain, "curve": record["curve"],
-                  "clocks": clocks}
+                  "clocks": clocks, "best": record.get("best")}
         if "resumed_at" in record:
             header["resumed_at"] = record["resumed_at"]
         marl_state.save(out / CHECKPOINT, header, tensors)

@@ -10,9 +10,14 @@ on :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` (all arms of a batch in one
   steps per second), rewritten atomically after every point;
 * ``checkpoint.pt`` (:mod:`twolink.training.checkpoint`), rewritten atomically at the
   same points, from which ``resume=True`` continues exactly;
-* ``<algo>_<N>links_seed<S>.zip`` (:func:`agent_name`), the final policy (never one picked by its score) as an SB3 save with
+* ``<algo>_<N>links_seed<S>.zip`` (:func:`agent_name`), the final policy as an SB3 save with
   the ``twolink.json`` member of :mod:`twolink.control.agent_meta`: a controller for
-  :mod:`twolink.control.sb3_agent` (``twolink evaluate/leaderboard/rollout --controller``).
+  :mod:`twolink.control.sb3_agent` (``twolink evaluate/leaderboard/rollout --controller``);
+* ``<algo>_<N>links_seed<S>.best.zip`` (:func:`best_agent_name`), the policy of the
+  curve's best point so far (most successes, the latest of equals; :func:`is_best`),
+  rewritten when a point ties or beats every earlier one, and named with its point in
+  the curve record's ``best``: a pick on the curve's own evaluation, which is the
+  training side's (never the leaderboard's plants or the evaluate command's poses).
 
 Evaluation (before the first step, every ``eval_every`` steps and after the last) runs
 the deterministic policy on MuJoCo: for two links the 65-state evaluation set for 5 s
@@ -243,6 +248,32 @@ def agent_name(config: TrainConfig) -> str:
     return run_name(config) + ".zip"
 
 
+#: What a run's best agent adds to its agent's stem.
+BEST = ".best"
+
+
+def best_agent_name(agent: str) -> str:
+    """``<stem>.best<suffix>``: the file name of the best agent of a run whose final agent
+    is ``agent`` (an SB3 ``.zip`` or a multi-agent ``.marl.pt``)."""
+    for suffix in (".marl.pt", ".zip"):
+        if agent.endswith(suffix):
+            return agent[:-len(suffix)] + BEST + suffix
+    raise ValueError(f"{agent!r} is not an agent file name (.zip or .marl.pt)")
+
+
+def is_best(curve) -> bool:
+    """Whether the curve's last point scores at least as many successes as every earlier
+    one: the run's best so far (of equals, the latest)."""
+    return bool(curve) and curve[-1]["successes"] >= max(p["successes"] for p in curve)
+
+
+def best_entry(curve, agent: str) -> dict:
+    """The curve record's ``best``: the best agent's file name and its point."""
+    p = curve[-1]
+    return {"agent": best_agent_name(agent), "steps": p["steps"],
+            "successes": p["successes"], "n": p["n"], "rate": p["rate"]}
+
+
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
     [_b<B>][_e<E>][_net<W>x<W>]_seed<S>``: the run's default folder and its agent's
@@ -343,6 +374,8 @@ def train(config, out, *, resume: bool = False, progress=None) -> dict:
             episodes.restore(env, tensors["episodes"])
         record["curve"], clocks = header["curve"], header["clocks"]
         record["resumed_at"] = header.get("resumed_at", []) + [header["steps"]]
+        if header.get("best"):
+            record["best"] = header["best"]
     out.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda text: None)
     try:
@@ -357,13 +390,16 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
         sc = evaluate_policy(model.policy, config)
         record["curve"].append(_point(model.num_timesteps, sc, clocks["wall_s"],
                                       clocks["cpu_s"]))
+        if is_best(record["curve"]):
+            record["best"] = best_entry(record["curve"], agent_name(config))
+            save_agent(model, out / record["best"]["agent"], config)
         plain, tensors = checkpoint.capture(model, episodes.base(env))
         if plain["started"] and (config.challenge is not None or config.history > 1
                                  or config.action_rate > 0):
             tensors["episodes"] = episodes.capture(env)
         header = {"config": config.as_dict(), "versions": record["versions"],
                   "steps": int(model.num_timesteps), "plain": plain,
-                  "curve": record["curve"], "clocks": clocks}
+                  "curve": record["curve"], "clocks": clocks, "best": record.get("best")}
         if "resumed_at" in record:
             header["resumed_at"] = record["resumed_at"]
         checkpoint.save(out / CHECKPOINT, header, tensors)
