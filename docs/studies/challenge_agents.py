@@ -1,18 +1,24 @@
-"""Learned agents for the challenge levels: PPO trained under ``medium`` and ``hard``.
+"""Learned agents for the challenge levels: PPO, SAC and IPPO trained under ``medium`` and ``hard``.
 
-``python docs/studies/challenge_agents.py [--levels medium hard] [--seeds 1 2 3]
-[--steps 8e5] [--work DIR]`` runs ``twolink train --algo ppo --challenge LEVEL --history 3
---action-rate 1 --steps N --seed S --eval-every 2e5`` for every level and seed, one run at
-a time, each resumed from its last checkpoint when a previous call was interrupted and
-skipped when finished. After every finished run it copies the run's ``curve.json`` into
-``renders/challenge_agents/<run>.json`` and picks, per level, the seed whose final agent
-scored best on the curve's own evaluation (the level on 8 plants of seed 20061122: the
-training seeds' side, never the leaderboard's seed 2026), copying that agent to
-``renders/challenge_agents/ppo_<level>.zip``, the file the catalogue's ``ppo_<level>``
-names. Training seeds 1-3 are neither 2026 nor 20061122 (``twolink train`` refuses
-those under a challenge). What each run cost (steps, CPU, wall) is the ``Cost of
-learning`` section of the leaderboard (:func:`twolink.control.learned.learning_cost`,
-read from the curves copied here).
+``python docs/studies/challenge_agents.py [--algos ppo sac ippo] [--levels medium hard]
+[--seeds 1 2 3] [--steps N] [--work DIR]`` runs ``twolink train --algo ALGO --challenge
+LEVEL --history 3 --action-rate 1 --steps N --seed S --eval-every E`` for every algorithm,
+level and seed, one run at a time, each resumed from its last checkpoint when a previous
+call was interrupted and skipped when finished (PPO: 0.8 M steps, an evaluation every
+0.2 M; SAC: 0.3 M, every 50 k; IPPO with ``local`` observations: 1.2 M, every 0.1 M;
+:data:`RECIPES`; ``--steps`` overrides them). After every
+finished run it copies the run's ``curve.json`` into
+``renders/challenge_agents/<algo>_<level>_seed<S>.json`` and picks, per algorithm and
+level, per seed its best agent (the curve's best point, kept by ``twolink train``; the
+final agent of a run that kept none), then the seed whose pick scored most on the curve's
+own evaluation (the level on 8 plants of seed 20061122: the training seeds' side, never
+the leaderboard's seed 2026), copying that agent to ``renders/challenge_agents/<algo>_<level>.zip`` (IPPO's
+``.marl.pt``), the file the
+catalogue's ``<algo>_<level>`` names, and the choice to ``<algo>_<level>.selection.json``.
+Training seeds 1-3 are neither 2026 nor 20061122 (``twolink train`` refuses those under a
+challenge). What each run cost (steps, CPU, wall) is the ``Cost of learning`` section of
+the leaderboard (:func:`twolink.control.learned.learning_cost`, read from the curves
+copied here).
 """
 from __future__ import annotations
 
@@ -29,8 +35,19 @@ if __package__ in (None, ""):
 from twolink.artifacts import write_json  # noqa: E402
 
 OUT = Path("renders/challenge_agents")
-#: The recipe every run shares (the command's options beside level, seed and steps).
-RECIPE = ["--algo", "ppo", "--history", "3", "--action-rate", "1", "--eval-every", "200000"]
+#: Per algorithm: the options every run shares (beside level, seed and steps), its
+#: default steps and the suffix of its agent file. IPPO is decentralized with ``local``
+#: observations (each joint's agent reads only its own joint), its policy noise held at
+#: 0.37 or more (``--std-floor``: without it the agents' means learn torques that jump
+#: between the limits, the training guide).
+RECIPES = {
+    "ppo": (["--algo", "ppo", "--history", "3", "--action-rate", "1",
+             "--eval-every", "200000"], 800_000, ".zip"),
+    "sac": (["--algo", "sac", "--history", "3", "--action-rate", "1",
+             "--eval-every", "50000"], 300_000, ".zip"),
+    "ippo": (["--algo", "ippo", "--observe", "local", "--history", "3", "--action-rate",
+              "1", "--std-floor", "0.37", "--eval-every", "100000"], 1_200_000, ".marl.pt"),
+}
 
 
 def _state(folder: Path) -> str:
@@ -43,12 +60,15 @@ def _state(folder: Path) -> str:
     return "interrupted" if (folder / "checkpoint.pt").is_file() else "new"
 
 
-def run(level: str, seed: int, steps: int, work: Path) -> dict:
-    folder = work / f"ppo_{level}_seed{seed}"
+def run(algo: str, level: str, seed: int, steps: int, work: Path) -> dict:
+    """Train (or resume, or reuse) one run; its curve record, copied under :data:`OUT`,
+    and its folder."""
+    folder = work / f"{algo}_{level}_seed{seed}"
     state = _state(folder)
     if state != "finished":
-        cmd = [sys.executable, "-m", "twolink.cli", "train", *RECIPE, "--challenge", level,
-               "--seed", str(seed), "--steps", str(steps), "-o", str(folder)]
+        cmd = [sys.executable, "-m", "twolink.cli", "train", *RECIPES[algo][0],
+               "--challenge", level, "--seed", str(seed), "--steps", str(steps),
+               "-o", str(folder)]
         if state == "interrupted":
             cmd.append("--resume")
         print(f"{folder.name}: {'resuming' if state == 'interrupted' else 'training'}",
@@ -56,38 +76,72 @@ def run(level: str, seed: int, steps: int, work: Path) -> dict:
         subprocess.run(cmd, check=True)
     record = json.loads((folder / "curve.json").read_text())
     write_json(OUT / f"{folder.name}.json", record)
-    return {"record": record, "agent": folder / record["agent"]}
+    return {"record": record, "folder": folder}
+
+
+def candidate(d: dict) -> dict:
+    """A seed's candidate: its best agent (the curve's best point, ``twolink train``'s
+    ``best``) where the run kept one, else its final agent; its score on the curve."""
+    r = d["record"]
+    if r.get("best"):
+        b = r["best"]
+        return {"agent": d["folder"] / b["agent"], "which": "best", "steps": b["steps"],
+                "successes": b["successes"], "n": b["n"]}
+    last = r["curve"][-1]
+    return {"agent": d["folder"] / r["agent"], "which": "final", "steps": last["steps"],
+            "successes": last["successes"], "n": last["n"]}
+
+
+def select(algo: str, level: str, done: list) -> None:
+    """Ship the candidate of ``done`` (:func:`candidate`, one per seed) that scored most on
+    its curve's evaluation as ``<algo>_<level>`` (the lower seed of equals), and the choice
+    beside it."""
+    seeds = {d["record"]["config"]["seed"]: candidate(d) for d in done}
+    chosen = max(seeds, key=lambda s: (seeds[s]["successes"], -s))
+    name = f"{algo}_{level}"
+    shutil.copyfile(seeds[chosen]["agent"], OUT / f"{name}{RECIPES[algo][2]}")
+    write_json(OUT / f"{name}.selection.json",
+               {"level": level, "algo": algo, "chosen_seed": chosen,
+                "agent": seeds[chosen]["which"], "at_steps": seeds[chosen]["steps"],
+                "final_successes_by_seed": {d["record"]["config"]["seed"]:
+                                            d["record"]["curve"][-1]["successes"]
+                                            for d in done},
+                "candidate_successes_by_seed": {s: c["successes"] for s, c in seeds.items()},
+                "of": seeds[chosen]["n"],
+                "rule": "per seed its best agent (the curve's best point; the final agent "
+                        "where the run kept none), then the seed whose candidate scored "
+                        "most on the curve's evaluation (8 plants of seed 20061122 under "
+                        "the level)"})
+    print(f"{name}: seed {chosen} ({seeds[chosen]['which']} agent at "
+          f"{seeds[chosen]['steps']:,} steps, {seeds[chosen]['successes']}/"
+          f"{seeds[chosen]['n']}) of {sorted(seeds)}", flush=True)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--levels", nargs="+", default=["medium", "hard"])
+    ap.add_argument("--algos", nargs="+", choices=sorted(RECIPES), default=["ppo"])
+    ap.add_argument("--levels", nargs="+", choices=["easy", "medium", "hard"],
+                    default=["medium", "hard"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
-    ap.add_argument("--steps", type=float, default=8e5)
+    ap.add_argument("--steps", type=float, default=None,
+                    help="steps of every run (default per algorithm: PPO 8e5, SAC 3e5, "
+                         "IPPO 1.2e6)")
     ap.add_argument("--work", type=Path, default=Path("twolink-results/challenge_agents"))
     args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
-    for seed in args.seeds:                    # every level's first seed first
+
+    def steps(algo: str) -> int:
+        return int(args.steps) if args.steps is not None else RECIPES[algo][1]
+
+    for algo in args.algos:
+        for seed in args.seeds:                # every level's first seed first
+            for level in args.levels:
+                run(algo, level, seed, steps(algo), args.work)
         for level in args.levels:
-            run(level, seed, int(args.steps), args.work)
-    for level in args.levels:
-        done = [run(level, s, int(args.steps), args.work) for s in args.seeds
-                if _state(args.work / f"ppo_{level}_seed{s}") == "finished"]
-        if not done:
-            continue
-        best = max(done, key=lambda d: (d["record"]["curve"][-1]["successes"],
-                                        -d["record"]["config"]["seed"]))
-        shutil.copyfile(best["agent"], OUT / f"ppo_{level}.zip")
-        picks = {d["record"]["config"]["seed"]: d["record"]["curve"][-1]["successes"]
-                 for d in done}
-        write_json(OUT / f"ppo_{level}.selection.json",
-                   {"level": level, "chosen_seed": best["record"]["config"]["seed"],
-                    "final_successes_by_seed": picks,
-                    "of": best["record"]["curve"][-1]["n"],
-                    "rule": "the seed whose final agent scored most on the curve's "
-                            "evaluation (8 plants of seed 20061122 under the level)"})
-        print(f"ppo_{level}: seed {best['record']['config']['seed']} of {sorted(picks)} "
-              f"({picks})", flush=True)
+            done = [run(algo, level, s, steps(algo), args.work) for s in args.seeds
+                    if _state(args.work / f"{algo}_{level}_seed{s}") == "finished"]
+            if done:
+                select(algo, level, done)
     return 0
 
 

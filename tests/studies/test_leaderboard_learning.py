@@ -58,13 +58,19 @@ def test_a_foreign_curve_is_one_line(fake):
 def test_the_shipped_challenge_agents_name_their_chosen_seed():
     import importlib.util
 
-    multi = ("mappo_medium",) if importlib.util.find_spec("torch") else ()   # a .marl.pt
-    for name in ("ppo_medium", "ppo_hard", *multi):
+    multi = ("mappo_medium", "ippo_medium") if importlib.util.find_spec("torch") else ()
+    for name in ("ppo_medium", "ppo_hard", *multi):      # (the multi-agent ones: .marl.pt)
         c = learning_cost(name)
         files = [json.loads((ROOT / p).read_text()) for p in LEARNED[name].curves]
+        assert len(c["seeds"]) == 3
         assert c["steps"] == sum(f["steps"] for f in files) > 2_000_000
         best = max(c["seeds"], key=lambda s: s["successes"])
         assert c["chosen_seed"] == best["seed"]           # the selection rule, on its data
+    # a seed's candidate is its best agent where the run kept one
+    ippo = [json.loads((ROOT / p).read_text()) for p in LEARNED["ippo_medium"].curves]
+    if multi:
+        assert [s["successes"] for s in learning_cost("ippo_medium")["seeds"]] == \
+            [f["best"]["successes"] for f in ippo]
 
 
 REPORT = {"command": "twolink leaderboard", "states": 65, "plants": 32, "seed": 2026,

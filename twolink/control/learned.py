@@ -33,14 +33,18 @@ class Learned:
     curves: tuple = ()
 
 
-def _challenge_ppo(level: str) -> Learned:
-    """The PPO agent of ``docs/studies/challenge_agents.py`` for ``level``: seeds 1-3
+#: The Stable-Baselines3 learners of ``docs/studies/challenge_agents.py``, by file prefix.
+CHALLENGE_ALGOS = {"ppo": "PPO", "sac": "SAC"}
+
+
+def _challenge(algo: str, level: str) -> Learned:
+    """The ``algo`` agent of ``docs/studies/challenge_agents.py`` for ``level``: seeds 1-3
     trained, the best on the training side's plants shipped."""
-    return Learned(f"renders/challenge_agents/ppo_{level}.zip",
-                   description=f"PPO trained under {level}: history 3, action rate 1, the best "
-                               f"of seeds 1-3 on training plants "
+    return Learned(f"renders/challenge_agents/{algo}_{level}.zip",
+                   description=f"{CHALLENGE_ALGOS[algo]} trained under {level}: history 3, "
+                               f"action rate 1, the best of seeds 1-3 on training plants "
                                f"(docs/studies/challenge_agents.py)",
-                   curves=tuple(f"renders/challenge_agents/ppo_{level}_seed{s}.json"
+                   curves=tuple(f"renders/challenge_agents/{algo}_{level}_seed{s}.json"
                                 for s in (1, 2, 3)))
 
 
@@ -48,7 +52,15 @@ def _challenge_ppo(level: str) -> Learned:
 LEARNED = {
     "ppo_seed0": Learned("renders/deep_rl/ppo_seed0.zip",
                          description="PPO trained on the nominal arm (renders/deep_rl/)"),
-    **{f"ppo_{level}": _challenge_ppo(level) for level in ("medium", "hard")},
+    **{f"{algo}_{level}": _challenge(algo, level)
+       for algo in CHALLENGE_ALGOS for level in ("medium", "hard")},
+    "ippo_medium": Learned(
+        "renders/challenge_agents/ippo_medium.marl.pt", kind="decentralized",
+        description="IPPO trained under medium: one agent per joint reading only its own "
+                    "joint (local), history 3, action rate 1, policy noise held at 0.37 or "
+                    "more (--std-floor), the best of seeds 1-3 on training plants "
+                    "(docs/studies/challenge_agents.py)",
+        curves=tuple(f"renders/challenge_agents/ippo_medium_seed{s}.json" for s in (1, 2, 3))),
     "mappo_medium": Learned(
         "renders/challenge_agents/mappo_medium.marl.pt", kind="decentralized",
         description="MAPPO trained under medium: one actor per joint, each observing the whole "
@@ -136,7 +148,8 @@ def default_learned_agents(exclude=()) -> list:
 def learning_cost(name: str) -> dict | None:
     """What learning the shipped agent ``name`` cost, from its curves (:attr:`Learned.curves`,
     ``twolink train``'s JSON of each seed): ``seeds`` (each seed's environment steps, CPU
-    and wall seconds, final successes of n on its curve's evaluation), the totals over the
+    and wall seconds, successes of n on its curve's evaluation of the seed's candidate:
+    its best point where the run kept a best agent, else its final one), the totals over the
     seeds (every seed trained is paid for, not only the chosen one) and ``chosen_seed``
     (the seed of the agent file, read from its ``twolink.json``). None when the entry has no
     curves or a file is missing (a wheel); a curve that is not ``twolink train``'s is a
@@ -155,10 +168,10 @@ def learning_cost(name: str) -> dict | None:
             return None
         try:
             d = json.loads(path.read_text())
-            last = d["curve"][-1]
+            pick = d.get("best") or d["curve"][-1]      # the seed's candidate's score
             seeds.append({"seed": int(d["config"]["seed"]), "steps": int(d["steps"]),
                           "cpu_s": float(d["cpu_s"]), "wall_s": float(d["wall_s"]),
-                          "successes": int(last["successes"]), "n": int(last["n"])})
+                          "successes": int(pick["successes"]), "n": int(pick["n"])})
         except (ValueError, KeyError, IndexError, TypeError) as exc:
             raise ControllerError(f"learned agent {name}: {rel} is not a twolink train "
                                   f"curve ({type(exc).__name__}: {exc})") from None
