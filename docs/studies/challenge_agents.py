@@ -38,7 +38,7 @@ OUT = Path("renders/challenge_agents")
 #: Per algorithm: the options every run shares (beside level, seed and steps), its
 #: default steps and the suffix of its agent file. IPPO is decentralized with ``local``
 #: observations (each joint's agent reads only its own joint), its policy noise held at
-#: 0.37 or more (``--std-floor``: without it the agents' means learn torques that jump
+#: 0.2 or more (``--std-floor``: without it the agents' means learn torques that jump
 #: between the limits, the training guide).
 RECIPES = {
     "ppo": (["--algo", "ppo", "--history", "3", "--action-rate", "1",
@@ -46,7 +46,7 @@ RECIPES = {
     "sac": (["--algo", "sac", "--history", "3", "--action-rate", "1",
              "--eval-every", "50000"], 300_000, ".zip"),
     "ippo": (["--algo", "ippo", "--observe", "local", "--history", "3", "--action-rate",
-              "1", "--std-floor", "0.37", "--eval-every", "100000"], 1_200_000, ".marl.pt"),
+              "1", "--std-floor", "0.2", "--eval-every", "100000"], 1_200_000, ".marl.pt"),
 }
 
 

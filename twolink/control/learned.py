@@ -57,7 +57,7 @@ LEARNED = {
     "ippo_medium": Learned(
         "renders/challenge_agents/ippo_medium.marl.pt", kind="decentralized",
         description="IPPO trained under medium: one agent per joint reading only its own "
-                    "joint (local), history 3, action rate 1, policy noise held at 0.37 or "
+                    "joint (local), history 3, action rate 1, policy noise held at 0.2 or "
                     "more (--std-floor), the best of seeds 1-3 on training plants "
                     "(docs/studies/challenge_agents.py)",
         curves=tuple(f"renders/challenge_agents/ippo_medium_seed{s}.json" for s in (1, 2, 3))),
