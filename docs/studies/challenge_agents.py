@@ -1,11 +1,12 @@
-"""Learned agents for the challenge levels: PPO, SAC and IPPO trained under ``medium`` and ``hard``.
+"""Learned agents for the challenge levels: PPO, SAC, IPPO and MAPPO trained under a level.
 
-``python docs/studies/challenge_agents.py [--algos ppo sac ippo] [--levels medium hard]
+``python docs/studies/challenge_agents.py [--algos ppo sac ippo mappo_local] [--levels medium hard]
 [--seeds 1 2 3] [--steps N] [--work DIR]`` runs ``twolink train --algo ALGO --challenge
 LEVEL --history 3 --action-rate 1 --steps N --seed S --eval-every E`` for every algorithm,
 level and seed, one run at a time, each resumed from its last checkpoint when a previous
 call was interrupted and skipped when finished (PPO: 0.8 M steps, an evaluation every
-0.2 M; SAC: 0.3 M, every 50 k; IPPO with ``local`` observations: 1.2 M, every 0.1 M;
+0.2 M; SAC: 0.3 M, every 50 k; IPPO and MAPPO (``mappo_local``) with ``local``
+observations: 1.2 M, every 0.1 M;
 :data:`RECIPES`; ``--steps`` overrides them). After every
 finished run it copies the run's ``curve.json`` into
 ``renders/challenge_agents/<algo>_<level>_seed<S>.json`` and picks, per algorithm and
@@ -36,8 +37,9 @@ from twolink.artifacts import write_json  # noqa: E402
 
 OUT = Path("renders/challenge_agents")
 #: Per algorithm: the options every run shares (beside level, seed and steps), its
-#: default steps and the suffix of its agent file. IPPO is decentralized with ``local``
-#: observations (each joint's agent reads only its own joint), its policy noise held at
+#: default steps and the suffix of its agent file. IPPO and MAPPO (``mappo_local``; its
+#: critics see the whole arm while training) are decentralized with ``local``
+#: observations (each joint's agent reads only its own joint), their policy noise held at
 #: 0.2 or more (``--std-floor``: without it the agents' means learn torques that jump
 #: between the limits, the training guide).
 RECIPES = {
@@ -47,6 +49,9 @@ RECIPES = {
              "--eval-every", "50000"], 300_000, ".zip"),
     "ippo": (["--algo", "ippo", "--observe", "local", "--history", "3", "--action-rate",
               "1", "--std-floor", "0.2", "--eval-every", "100000"], 1_200_000, ".marl.pt"),
+    "mappo_local": (["--algo", "mappo", "--observe", "local", "--history", "3",
+                     "--action-rate", "1", "--std-floor", "0.2", "--eval-every", "100000"],
+                    1_200_000, ".marl.pt"),
 }
 
 
@@ -125,7 +130,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     ap.add_argument("--steps", type=float, default=None,
                     help="steps of every run (default per algorithm: PPO 8e5, SAC 3e5, "
-                         "IPPO 1.2e6)")
+                         "IPPO and MAPPO 1.2e6)")
     ap.add_argument("--work", type=Path, default=Path("twolink-results/challenge_agents"))
     args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)

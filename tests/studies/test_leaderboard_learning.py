@@ -58,7 +58,8 @@ def test_a_foreign_curve_is_one_line(fake):
 def test_the_shipped_challenge_agents_name_their_chosen_seed():
     import importlib.util
 
-    multi = ("mappo_medium", "ippo_medium") if importlib.util.find_spec("torch") else ()
+    multi = ("mappo_medium", "ippo_medium", "mappo_local_medium") \
+        if importlib.util.find_spec("torch") else ()
     for name in ("ppo_medium", "ppo_hard", "sac_medium", "sac_hard", *multi):
         c = learning_cost(name)                          # (the multi-agent ones: .marl.pt)
         files = [json.loads((ROOT / p).read_text()) for p in LEARNED[name].curves]

@@ -61,6 +61,14 @@ LEARNED = {
                     "more (--std-floor), the best of seeds 1-3 on training plants "
                     "(docs/studies/challenge_agents.py)",
         curves=tuple(f"renders/challenge_agents/ippo_medium_seed{s}.json" for s in (1, 2, 3))),
+    "mappo_local_medium": Learned(
+        "renders/challenge_agents/mappo_local_medium.marl.pt", kind="decentralized",
+        description="MAPPO trained under medium: one actor per joint reading only its own "
+                    "joint (local; the critics see the whole arm while training), history 3, "
+                    "action rate 1, policy noise held at 0.2 or more (--std-floor), the best "
+                    "of seeds 1-3 on training plants (docs/studies/challenge_agents.py)",
+        curves=tuple(f"renders/challenge_agents/mappo_local_medium_seed{s}.json"
+                     for s in (1, 2, 3))),
     "mappo_medium": Learned(
         "renders/challenge_agents/mappo_medium.marl.pt", kind="decentralized",
         description="MAPPO trained under medium: one actor per joint, each observing the whole "
