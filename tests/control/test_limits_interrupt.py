@@ -60,3 +60,26 @@ def test_a_signal_recorded_during_a_solve_stops_the_search_even_if_swallowed():
         with pytest.raises(artifacts.Terminated):
             with _solver_output(False):
                 artifacts._received.append("SIGTERM")
+
+
+def test_a_signal_swallowed_outside_the_solver_call_still_stops_the_search(monkeypatch):
+    """A Ctrl-C whose exception a CasADi call outside the IPOPT solve swallowed (building a
+    problem, evaluating its defects) is raised when the cache's solve returns: this was the
+    remaining way for ``twolink limits --workers 1`` to finish a run after a Ctrl-C."""
+    from twolink import artifacts
+    from twolink.limits import nlp
+
+    def swallowed(self, *args, **kw):                  # as CasADi does after the handler
+        artifacts._received.append("SIGINT")
+        return "solution"
+
+    monkeypatch.setattr(nlp.ShootingProblem, "solve", swallowed)
+    monkeypatch.setattr(nlp.ProblemCache, "get",
+                        lambda self, model, k: object.__new__(nlp.ShootingProblem))
+    cache = nlp.ProblemCache()
+    with artifacts.sigterm_raises():
+        with pytest.raises(KeyboardInterrupt):
+            cache.solve("full", 10, None, None, None, None)
+        artifacts._received.clear()
+        monkeypatch.setattr(nlp.ShootingProblem, "solve", lambda self, *a, **k: "solution")
+        assert cache.solve("full", 10, None, None, None, None) == "solution"

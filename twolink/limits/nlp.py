@@ -169,18 +169,28 @@ def _solver_output(verbose: bool):
     a warning and an early return (or, when IPOPT's own code takes it, into a return
     status), so without this the search would go on: a signal is seen in that warning or
     in the signals :func:`twolink.artifacts.sigterm_raises` recorded during the solve."""
-    from twolink.artifacts import Terminated, signal_count, signal_received
-
-    before = signal_count()
     out, err = io.StringIO(), io.StringIO()
-    with contextlib.ExitStack() as stack:
+    with _signals_raised(err), contextlib.ExitStack() as stack:
         if not verbose:
             stack.enter_context(contextlib.redirect_stdout(out))
             stack.enter_context(contextlib.redirect_stderr(err))
         else:
             stack.enter_context(contextlib.redirect_stderr(_Tee(sys.stderr, err)))
         yield
-    if "KeyboardInterrupt" in err.getvalue() or signal_count() > before:
+
+
+@contextlib.contextmanager
+def _signals_raised(err: io.StringIO | None = None):
+    """Raise, when the block ends, a Ctrl-C (KeyboardInterrupt) or SIGTERM
+    (:class:`~twolink.artifacts.Terminated`) that :func:`twolink.artifacts.sigterm_raises`
+    recorded during it, or whose exception CasADi printed as a warning into ``err``: any
+    CasADi call (building a problem, a solve, evaluating its defects) may swallow one."""
+    from twolink.artifacts import Terminated, signal_count, signal_received
+
+    before = signal_count()
+    yield
+    if (err is not None and "KeyboardInterrupt" in err.getvalue()) or \
+            signal_count() > before:
         if signal_received() == "SIGTERM":
             raise Terminated("terminated by SIGTERM")
         raise KeyboardInterrupt
@@ -222,5 +232,8 @@ class ProblemCache:
         return self.problems[key]
 
     def solve(self, model: str, samples: int, x0, targets, states, torques, **kw) -> Solution:
+        """One solve of the (model, K) problem (built first if new); a Ctrl-C or SIGTERM
+        that any CasADi call of it swallowed is raised when it returns."""
         self.solves += 1
-        return self.get(model, samples).solve(x0, targets, states, torques, **kw)
+        with _signals_raised():
+            return self.get(model, samples).solve(x0, targets, states, torques, **kw)
