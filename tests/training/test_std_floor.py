@@ -69,3 +69,15 @@ def test_a_resume_with_another_floor_is_refused(tmp_path, capsys):
     assert main([*common[:-2], "--steps", "256", "-o", str(out), "--std-floor", "0.5",
                  "--resume"]) == 2
     assert "std_floor 0.37, not 0.5" in capsys.readouterr().err
+
+
+def test_a_ppo_resume_with_a_floor_is_refused(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path / "ppo"
+    assert main(["train", "--steps", "128", "--envs", "4", "--n-steps", "32",
+                 "--eval-every", "128", "-o", str(out)]) == 0
+    capsys.readouterr()
+    (out / "ppo_2links_seed0.zip").unlink()                    # as if stopped before the end
+    assert main(["train", "--resume", "-o", str(out), "--steps", "256",
+                 "--std-floor", "0.3"]) == 2
+    assert "--std-floor is for --algo ippo|mappo" in capsys.readouterr().err

@@ -245,7 +245,8 @@ def run(args) -> int:
     if _is_marl(args, given):
         return _run_marl(args, given)
     given.pop("observe", None)
-    given.pop("std_floor", None)
+    if given.pop("std_floor", None) is not None:     # a resumed PPO/SAC run
+        raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
                                        if k in ("algo", "links", "seed", "challenge", "history",
