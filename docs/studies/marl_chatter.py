@@ -70,7 +70,12 @@ def main(argv=None) -> int:
     ap.add_argument("agents", nargs="+", metavar="AGENT")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    rows = [measure(s) for s in args.agents]
+    from twolink.sim.controller import ControllerError
+
+    try:
+        rows = [measure(s) for s in args.agents]
+    except (ControllerError, OSError, ValueError) as exc:
+        raise SystemExit(f"marl_chatter: {exc}") from None
     if args.json:
         print(json.dumps(rows, indent=1))
         return 0

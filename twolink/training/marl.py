@@ -78,7 +78,7 @@ from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_recipe, \
     recipe_suffix, train_stream
-from twolink.validate import choice, whole
+from twolink.validate import choice, real, whole
 
 #: The multi-agent algorithms (skrl).
 MARL_ALGOS = ("ippo", "mappo")
@@ -255,14 +255,9 @@ def config_from_options(given: dict) -> dict:
 def check_std_floor(value) -> float:
     """``value`` as a float if it lies in :data:`STD_FLOOR_RANGE`; else one line."""
     low, high = STD_FLOOR_RANGE
-    try:
-        got = float(value)
-    except (TypeError, ValueError):
-        got = math.nan
-    if isinstance(value, bool) or not low <= got <= high:
-        raise ValueError(f"std_floor must be a number from {low:g} to {high:g} (the policy's "
-                         f"noise in units of its normalized action), got {value!r}")
-    return got
+    return real(value, "std_floor", low, high,
+                message=f"{{what}} must be a number from {low:g} to {high:g} (the policy's "
+                        f"noise in units of its normalized action), got {{value!r}}")
 
 
 def run_name(config: MarlConfig) -> str:
