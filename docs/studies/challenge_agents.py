@@ -54,6 +54,17 @@ RECIPES = {
                     1_200_000, ".marl.pt"),
 }
 
+#: ``--levels mixed``: the levels a mixed run trains under side by side (arm i under level
+#: i mod 3, ``twolink train --challenge none+medium+hard``), so one agent meets the nominal
+#: arm and both scored levels; its arms per batch per algorithm (a multiple of three).
+MIXED = ("none+medium+hard", {"ppo": 18, "sac": 9, "ippo": 18, "mappo_local": 18})
+
+
+def _challenge_options(algo: str, level: str) -> list[str]:
+    if level == "mixed":
+        return ["--challenge", MIXED[0], "--envs", str(MIXED[1][algo])]
+    return ["--challenge", level]
+
 
 def _state(folder: Path) -> str:
     try:
@@ -72,7 +83,7 @@ def run(algo: str, level: str, seed: int, steps: int, work: Path) -> dict:
     state = _state(folder)
     if state != "finished":
         cmd = [sys.executable, "-m", "twolink.cli", "train", *RECIPES[algo][0],
-               "--challenge", level, "--seed", str(seed), "--steps", str(steps),
+               *_challenge_options(algo, level), "--seed", str(seed), "--steps", str(steps),
                "-o", str(folder)]
         if state == "interrupted":
             cmd.append("--resume")
@@ -125,7 +136,7 @@ def select(algo: str, level: str, done: list) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--algos", nargs="+", choices=sorted(RECIPES), default=["ppo"])
-    ap.add_argument("--levels", nargs="+", choices=["easy", "medium", "hard"],
+    ap.add_argument("--levels", nargs="+", choices=["easy", "medium", "hard", "mixed"],
                     default=["medium", "hard"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     ap.add_argument("--steps", type=float, default=None,

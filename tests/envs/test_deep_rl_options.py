@@ -68,6 +68,24 @@ def test_shaped_reward_is_the_stated_formula(rng):
     assert core.shaped_reward(np.concatenate([theta, speed])) == pytest.approx(r, abs=1e-15)
 
 
+def test_shaped_time_reward_is_the_shaped_reward_less_one_outside_the_band(rng):
+    far = np.concatenate([rng.uniform(-np.pi, np.pi, (1000, 2)),
+                          rng.uniform(-TWO_PI, TWO_PI, (1000, 2))], -1)
+    x = np.concatenate([far, _band_states(rng, 300), _band_states(rng, 300, inside=False)])
+    r, shaped = core.shaped_time_reward(x), core.shaped_reward(x)
+    out = ~in_goal_band(x)
+    assert out.sum() == 1300
+    np.testing.assert_array_equal(r[~out], 0.0)
+    np.testing.assert_array_equal(r[out], shaped[out] - core.TIME_PENALTY)
+    assert np.all((r[out] >= -2) & (r[out] < -1))
+    # It is (15) scaled to one per sample outside the band, plus the shaped reward.
+    np.testing.assert_allclose(r, shaped + centralized_reward(x) / 0.5, rtol=0, atol=1e-15)
+    env = gym_env.TwoLinkEnv(x0="random", reward="shaped_time")
+    env.reset(seed=2)
+    step = env.step(np.array([1.0, -1.0]))
+    assert step[1] == float(core.shaped_time_reward(env.state)) < -1
+
+
 def test_reward_option_default_is_paper_and_shaped_reads_the_true_state():
     paper, shaped = (gym_env.TwoLinkEnv(x0="random", angle_noise=0.05, reward=r)
                      for r in ("paper", "shaped"))
@@ -151,7 +169,8 @@ def test_single_env_reports_is_success_at_the_truncation_step_only():
 
 
 # --------------------------------------------------------------------------- autoreset
-@pytest.mark.parametrize("reward, floor", [("paper", -0.5), ("shaped", -1.0)])
+@pytest.mark.parametrize("reward, floor", [("paper", -0.5), ("shaped", -1.0),
+                                           ("shaped_time", -2.0)])
 def test_autoreset_steps_return_the_floor_never_a_goal_reward(reward, floor):
     """At rest at the origin every real step earns the goal reward 0; the step after a
     truncation (next-step autoreset) returns the floor and is marked in the infos."""

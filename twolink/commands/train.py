@@ -18,7 +18,7 @@ from twolink.commands._options import seed_option
 from twolink.resources import output_dir
 from twolink.control.history import MAX_HISTORY
 from twolink.control.residual import BASES
-from twolink.sim.challenges import LEVELS
+from twolink.sim.challenges import LEVELS, is_mix, mix
 from twolink.validate import choice
 from twolink.training.config import (
     ALGOS,
@@ -36,6 +36,7 @@ from twolink.training.config import (
     NET_LAYERS,
     NET_WIDTHS,
     PLANTS,
+    TRAIN_REWARDS,
     TrainConfig,
     check_algo,
     check_gamma,
@@ -111,7 +112,10 @@ def add_parser(sub):
                         "drawn from the level, with its noise, delays and faults (two "
                         "links); the curve is evaluated under the same level on 8 plants of "
                         f"seed {EVAL_SEED}; seeds {' and '.join(map(str, EVALUATION_SEEDS))} "
-                        "(the evaluation seeds) are refused")
+                        "(the evaluation seeds) are refused. A mix of levels joined by + "
+                        "in this order (e.g. none+medium+hard; --envs a multiple of their "
+                        "number) trains arm i under level i mod L, and the curve scores "
+                        "every level of it (none on the nominal arm once)")
     p.add_argument("--history", default=None, metavar="K",
                    help=f"observe the last K observations and K-1 actions, 1 to "
                         f"{MAX_HISTORY} (default 1: the present observation only; ippo/mappo: "
@@ -155,6 +159,11 @@ def add_parser(sub):
                         f"{NET_LAYERS} layers of {NET_WIDTHS[0]} to {NET_WIDTHS[1]} units "
                         f"(default ppo, sac {','.join(map(str, HYPERPARAMETERS['ppo']['net_arch']))}"
                         f"; ippo, mappo {','.join(map(str, MARL_HYPERPARAMETERS['hidden']))})")
+    p.add_argument("--reward", choices=TRAIN_REWARDS, default=None,
+                   help="ppo, sac: the reward learnt from, shaped (default: dm_control-style "
+                        "tolerances of angles and speeds, 0 in the goal band) or shaped_time "
+                        "(the shaped reward minus 1 for every sample outside the goal band: "
+                        "a minimum-time term, as the paper's reward (15))")
     p.add_argument("--std-floor", default=None, metavar="S",
                    help=f"ippo, mappo: each policy's exploration noise starts at standard "
                         f"deviation S, in units of the normalized action, and never falls "
@@ -193,6 +202,7 @@ def given_options(args) -> dict:
              "eval_every": _count(args.eval_every, "--eval-every"),
              "device": args.device, "threads": _count(args.threads, "--threads", 1, 256),
              "challenge": None if args.challenge is None else
+             mix(args.challenge).name if is_mix(args.challenge) else
              choice(args.challenge, "--challenge level", tuple(LEVELS)),
              "history": _count(args.history, "--history", 1, MAX_HISTORY),
              "observe": args.observe,
@@ -203,6 +213,7 @@ def given_options(args) -> dict:
              "batch_size": _count(args.batch_size, "--batch-size", *BATCH_RANGE),
              "epochs": _count(args.epochs, "--epochs", 1, MAX_EPOCHS),
              "net": None if args.net is None else _net(args.net),
+             "reward": args.reward,
              "std_floor": None if args.std_floor is None else _number(
                  args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE)}
     return {k: v for k, v in given.items() if v is not None}

@@ -194,8 +194,10 @@ def state_bounds(speed_max) -> np.ndarray:
 
 # --------------------------------------------------------------------------- rewards
 #: Reward options of the Gymnasium and Stable-Baselines3 environments: ``'paper'`` is
-#: (15), ``'shaped'`` the dense :func:`shaped_reward`.
-REWARD_OPTIONS = ("paper", "shaped")
+#: (15), ``'shaped'`` the dense :func:`shaped_reward`, ``'shaped_time'``
+#: :func:`shaped_time_reward` (the shaped reward plus (15) scaled to a cost of one per
+#: sample outside the goal band).
+REWARD_OPTIONS = ("paper", "shaped", "shaped_time")
 #: The tolerances of :func:`shaped_reward`: dm_control's ``rewards.tolerance`` with this
 #: sigmoid, its value at the margin, and the margins on |theta_i| (rad) and |dtheta_i|
 #: (rad/s).
@@ -207,7 +209,9 @@ SHAPED_SPEED_MARGIN = 2.0 * math.pi
 SHAPED_OUTSIDE_MAX = -1e-12
 #: The lowest values of the two rewards: what the vector environment's autoreset steps
 #: return (:class:`twolink.envs.gym.TwoLinkVectorEnv`), never a goal reward.
-REWARD_FLOOR = {"paper": -0.5, "shaped": -1.0}
+REWARD_FLOOR = {"paper": -0.5, "shaped": -1.0, "shaped_time": -2.0}
+#: What :func:`shaped_time_reward` subtracts for every sample outside the goal band.
+TIME_PENALTY = 1.0
 
 
 def shaped_reward(x) -> np.ndarray:
@@ -237,6 +241,17 @@ def shaped_reward(x) -> np.ndarray:
                             margin=SHAPED_SPEED_MARGIN, **kw) for i in range(n)]
     r = np.mean(per_link, axis=0) - 1.0
     return np.where(in_goal_band(x), 0.0, np.minimum(r, SHAPED_OUTSIDE_MAX))
+
+
+def shaped_time_reward(x) -> np.ndarray:
+    """:func:`shaped_reward` minus :data:`TIME_PENALTY` outside the goal band: 0 in the
+    band, in [-2, -1) elsewhere, i.e. ``shaped(x) + (TIME_PENALTY / 0.5) * r15(x)`` with
+    (15)'s r15 of -0.5 outside the band and 0 in it. The shaped part guides (it grows
+    towards the band) but also costs speed (its speed tolerance), so alone it favours
+    slow approaches; the penalty is the minimum-time term of (15) that the fuzzy
+    policies are synthesised for, so a sample saved is worth at least as much as any
+    change of the shaped part."""
+    return shaped_reward(x) - TIME_PENALTY * (~in_goal_band(np.asarray(x, dtype=float)))
 
 
 #: Reward options of the multi-agent environments (:mod:`twolink.envs.pettingzoo`), what
@@ -271,7 +286,7 @@ def check_reward(reward) -> str:
     """``reward`` if it is one of :data:`REWARD_OPTIONS`, else a ValueError; for
     ``'shaped'`` an ImportError now, not at the first step, where dm-control is missing."""
     choice(reward, "reward", REWARD_OPTIONS)
-    if reward == "shaped":
+    if reward in ("shaped", "shaped_time"):
         try:
             from dm_control.utils import rewards  # noqa: F401
         except ImportError:
@@ -284,6 +299,8 @@ def reward_of(x, reward: str) -> np.ndarray:
     """Reward ``reward`` (one of :data:`REWARD_OPTIONS`) of states x (..., 2N), float64."""
     if reward == "shaped":
         return shaped_reward(x)
+    if reward == "shaped_time":
+        return shaped_time_reward(x)
     return centralized_reward(x).astype(np.float64)
 
 

@@ -36,6 +36,7 @@ from twolink.envs.core import (
     wrap_angles,
 )
 from twolink.envs.starts import check_slow_starts
+from twolink.sim.challenges import is_mix, mix
 from twolink.sim.perturbations import ActuationDelay, Sensors
 from twolink.sim.plants import ModelPlant, MujocoPlant, check_states
 from twolink.validate import choice, is_real, is_whole, numbers, real, real_array
@@ -119,17 +120,28 @@ class Arms:
                             ("delay", delay)):
             if not is_real(value):
                 raise ValueError(f"{name} must be one number, got {value!r}")
-        self.challenge = check_challenge(challenge, perturbation=perturbation,
-                                          angle_noise=angle_noise, speed_noise=speed_noise,
-                                          delay=delay)
-        if self.challenge is not None:
+        mixed = mix(challenge) if is_mix(challenge) else None
+        self.challenge = mixed or check_challenge(challenge, perturbation=perturbation,
+                                                  angle_noise=angle_noise,
+                                                  speed_noise=speed_noise, delay=delay)
+        if mixed is not None:
+            check_challenge(mixed.levels[0].name, perturbation=perturbation,
+                            angle_noise=angle_noise, speed_noise=speed_noise, delay=delay)
+            if rows < len(mixed.levels):
+                raise ValueError(f"a mix of {len(mixed.levels)} levels ({mixed.name}) needs "
+                                 f"at least as many arms, got {rows}")
+            size = mixed.perturbs_plant()
+            self._draw = lambda rng, i: mixed.level(i).plant(rng, params)
+            self.sensors = mixed.sensors(rngs=[None] * rows)
+            delay = mixed.action_delays(rows)
+        elif self.challenge is not None:
             ch = self.challenge
             size = ch.perturbs_plant()          # a new plant every episode
-            self._draw = lambda rng: ch.plant(rng, params)
+            self._draw = lambda rng, i: ch.plant(rng, params)
             self.sensors = ch.sensors(rngs=[None] * rows)
             delay = ch.action_delay
         else:
-            self._draw = lambda rng: perturbed_params(params, perturbation, rng)
+            self._draw = lambda rng, i: perturbed_params(params, perturbation, rng)
             self.sensors = Sensors(float(angle_noise), float(speed_noise), rngs=[None] * rows)
         self._size = size
         self._noisy = self.sensors.noisy
@@ -229,7 +241,7 @@ class Arms:
             self.rngs[i] = rng
             self.sensors.set_generator(i, rng)
             if self._size:
-                self.plant.set_row_params(i, self._draw(rng))
+                self.plant.set_row_params(i, self._draw(rng, i))
             self.x[i] = initial_state(x0, rng, self.links, self.params)
             self.k[i] = 0
             self.last_out[i] = -1 if in_goal_band(self.x[i]) else 0

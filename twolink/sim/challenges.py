@@ -223,6 +223,70 @@ def challenge(name) -> Challenge:
     raise ValueError(f"unknown challenge {name!r}; choose one of {', '.join(LEVELS)}")
 
 
+#: Joins the levels of a :class:`Mix` in its name (``"none+medium+hard"``).
+MIX_JOIN = "+"
+
+
+@dataclasses.dataclass(frozen=True)
+class Mix:
+    """Levels trained side by side: arm i of a batch of arms runs under
+    ``levels[i % len(levels)]`` for every episode (its plants, noise, faults and delays),
+    so a batch of a multiple of ``len(levels)`` arms holds each level equally. Build it
+    with :func:`mix` from its name."""
+
+    levels: tuple
+
+    @property
+    def name(self) -> str:
+        return MIX_JOIN.join(c.name for c in self.levels)
+
+    def level(self, row: int) -> Challenge:
+        """The level of arm ``row``."""
+        return self.levels[row % len(self.levels)]
+
+    def perturbs_plant(self) -> bool:
+        return any(c.perturbs_plant() for c in self.levels)
+
+    def action_delays(self, rows: int) -> np.ndarray:
+        """Each of ``rows`` arms' actuation delay in samples."""
+        return np.array([self.level(i).action_delay for i in range(rows)])
+
+    def sensors(self, *, rngs: Sequence) -> Sensors:
+        """The noise, faults and observation delay of ``len(rngs)`` arms, each its level's
+        (:class:`twolink.sim.perturbations.Sensors` with per-row settings)."""
+        rows = [self.level(i) for i in range(len(rngs))]
+        return Sensors(np.array([c.angle_std for c in rows]),
+                       np.array([c.speed_noise for c in rows]),
+                       np.array([c.dropout for c in rows]), np.array([c.stuck for c in rows]),
+                       np.array([c.observation_delay for c in rows]), rngs=rngs)
+
+
+def is_mix(name) -> bool:
+    """Whether ``name`` is a :class:`Mix` or spells one (levels joined by ``+``)."""
+    return isinstance(name, Mix) or (isinstance(name, str) and MIX_JOIN in name)
+
+
+def mix(name) -> Mix:
+    """The :class:`Mix` of ``name`` (a Mix passes through): two or more distinct levels of
+    :data:`LEVELS` joined by ``+`` in the table's order (``"none+medium+hard"``); a
+    one-line ValueError otherwise."""
+    if isinstance(name, Mix):
+        return name
+    parts = name.split(MIX_JOIN) if isinstance(name, str) else []
+    order = list(LEVELS)
+    if (len(parts) < 2 or any(p not in LEVELS for p in parts) or len(set(parts)) != len(parts)
+            or parts != sorted(parts, key=order.index)):
+        raise ValueError(f"unknown challenge {name!r}: a level ({', '.join(LEVELS)}) or two "
+                         f"or more distinct levels joined by {MIX_JOIN!r} in that order, "
+                         f"e.g. 'none{MIX_JOIN}medium{MIX_JOIN}hard'")
+    return Mix(tuple(LEVELS[p] for p in parts))
+
+
+def levels_of(name) -> tuple:
+    """The levels a training run under ``name`` meets: the one level, or a mix's."""
+    return mix(name).levels if is_mix(name) else (challenge(name),)
+
+
 def draw_plants(spread: float, count: int, seed, base: ArmParameters = TABLE_I
                 ) -> list[ArmParameters]:
     """``count`` plants, each with every PHYSICAL parameter of ``base`` changed jointly

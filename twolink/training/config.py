@@ -40,7 +40,7 @@ from twolink.arm.parameters import LINK_RULES, check_links
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
-from twolink.sim.challenges import LEVELS
+from twolink.sim.challenges import LEVELS, is_mix, levels_of, mix
 from twolink.validate import choice, whole
 
 #: The algorithms ``twolink train`` runs (Stable-Baselines3).
@@ -58,6 +58,10 @@ PLANTS = {"mujoco": "mujoco", "model": "full"}
 DEVICES = ("cpu", "cuda")
 #: What the agent sees and does (the options of TwoLinkSB3VecEnv).
 ENV = dict(observation="cos_sin", actions="normalized", reward="shaped", x0="random")
+#: ``--reward``: the env reward PPO and SAC learn from, ``shaped`` (the default,
+#: :func:`twolink.envs.core.shaped_reward`) or ``shaped_time`` (the shaped reward minus one
+#: per sample outside the goal band, :func:`twolink.envs.core.shaped_time_reward`).
+TRAIN_REWARDS = ("shaped", "shaped_time")
 #: One hyperparameter set per algorithm (those of the committed agents of
 #: ``renders/deep_rl/``). SAC: one gradient step per vector step of 8 arms; on a CPU the
 #: gradient steps, not the arms, bound the wall time, so more arms buy data at no cost.
@@ -113,7 +117,10 @@ def check_challenge_run(challenge, links: int, seed: int) -> None:
     :data:`EVALUATION_SEEDS`."""
     if challenge is None:
         return
-    choice(challenge, "challenge level", tuple(LEVELS))
+    if is_mix(challenge):
+        mix(challenge)
+    else:
+        choice(challenge, "challenge level", tuple(LEVELS))
     if links != 2:
         raise ValueError(f"challenge levels perturb the two-link arm of Table I; "
                          f"this run has {links} links")
@@ -121,6 +128,48 @@ def check_challenge_run(challenge, links: int, seed: int) -> None:
         raise ValueError(f"seed {seed} is an evaluation seed (the leaderboard's and "
                          f"evaluate's {LEADERBOARD_SEED}, the curve's {EVAL_SEED}): "
                          f"training seeds must differ from the evaluation seeds")
+
+
+def check_mix_arms(challenge, arms: int) -> None:
+    """A one-line ValueError when ``challenge`` is a mix of more levels than the run has
+    arms, or of a number of levels that does not divide them (arm i trains under level
+    i mod L, so every level gets as many arms)."""
+    if not is_mix(challenge):
+        return
+    levels = len(mix(challenge).levels)
+    if arms % levels:
+        raise ValueError(f"a mix of {levels} levels ({challenge}) needs a multiple of {levels} "
+                         f"arms (--envs), so each level trains on as many; got {arms}")
+
+
+def evaluate_under(agent, challenge, label: str):
+    """The :class:`twolink.sim.metrics.Score` of the controller ``agent`` on the 65-state
+    evaluation set under ``challenge`` (a level, or a :class:`twolink.sim.challenges.Mix`'s
+    name: each of its levels, the runs of all together): a level that perturbs or
+    observes on :data:`EVAL_PLANTS` plants of :data:`EVAL_SEED`, the nominal arm
+    (``none``) once."""
+    from twolink.sim.evaluation import evaluate
+    from twolink.sim.metrics import score
+
+    if not is_mix(challenge):
+        return evaluate(agent, label=label, nthread=1, challenge=challenge, seed=EVAL_SEED,
+                        count=EVAL_PLANTS).score
+    runs = [evaluate(agent, label=label, nthread=1, challenge=c, seed=EVAL_SEED,
+                     count=EVAL_PLANTS if c != LEVELS["none"] else 1)
+            for c in levels_of(challenge)]
+    first = np.cumsum([0] + [r.success.shape[0] for r in runs])
+    return score(np.concatenate([r.success.ravel() for r in runs]),
+                 np.concatenate([r.settle.ravel() for r in runs]),
+                 np.concatenate([np.repeat(np.arange(r.success.shape[0]) + f,
+                                           r.success.shape[1]) for r, f in zip(runs, first)]))
+
+
+def mix_protocol(challenge) -> dict:
+    """What a curve's protocol adds under a mix (nothing under one level)."""
+    if not is_mix(challenge):
+        return {}
+    return {"mix": "each level's runs scored together; none on the nominal plant once "
+                   "(65 runs), every other level on the plants"}
 
 
 def check_gamma(gamma) -> float:
@@ -221,9 +270,11 @@ class TrainConfig:
     batch_size: int | None = None
     epochs: int | None = None
     net: tuple[int, ...] | None = None
+    reward: str = "shaped"
 
     def __post_init__(self):
         check_algo(self.algo)
+        choice(self.reward, "reward", TRAIN_REWARDS)
         check_links(self.links)
         choice(self.rule, "rule", LINK_RULES)
         choice(self.plant, "plant", tuple(PLANTS))
@@ -258,6 +309,7 @@ class TrainConfig:
                 raise ValueError(f"init must be the path of a saved agent .zip, got "
                                  f"{self.init!r}")
         check_challenge_run(self.challenge, self.links, self.seed)
+        check_mix_arms(self.challenge, self.hyperparameters()["n_envs"])
         if self.challenge is not None and self.plant != "mujoco":
             raise ValueError("a challenge draws a new plant every episode: train it on "
                              "--plant mujoco")
@@ -301,7 +353,8 @@ class TrainConfig:
 
     def env_options(self) -> dict:
         """The options of :class:`twolink.envs.sb3.TwoLinkSB3VecEnv` for this run."""
-        return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
+        return dict(ENV, reward=self.reward, links=self.links,
+                    rule=None if self.links == 2 else self.rule,
                     plant=PLANTS[self.plant], nthread=1, challenge=self.challenge,
                     x0=self.start)
 
@@ -311,7 +364,7 @@ class TrainConfig:
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
                 "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
-                "start", "init", "batch_size", "epochs", "net")
+                "start", "init", "batch_size", "epochs", "net", "reward")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

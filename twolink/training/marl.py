@@ -76,8 +76,8 @@ from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
-    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_recipe, \
-    recipe_suffix, train_stream
+    MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
+    check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
 from twolink.validate import choice, real, whole
 
 #: The multi-agent algorithms (skrl).
@@ -178,6 +178,7 @@ class MarlConfig:
         if self.std_floor is not None:
             object.__setattr__(self, "std_floor", check_std_floor(self.std_floor))
         check_challenge_run(self.challenge, self.links, self.seed)
+        check_mix_arms(self.challenge, self.hyperparameters()["n_envs"])
 
     def arm_seed(self) -> int:
         """The seed of the arms' first reset (arm i: this + i): ``seed``, or under a
@@ -238,7 +239,8 @@ class MarlConfig:
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "start": "the multi-agent runs start from uniform poses only",
-            "init": "a multi-agent run starts from random policies"}
+            "init": "a multi-agent run starts from random policies",
+            "reward": "IPPO learns from the per-link shaped reward, MAPPO from the team's"}
 
 
 def config_from_options(given: dict) -> dict:
@@ -293,7 +295,8 @@ def evaluation_protocol(config: MarlConfig) -> dict:
     if config.challenge is not None:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco", "challenge": config.challenge, "plants": EVAL_PLANTS,
-                "seed": EVAL_SEED, "controller": "decentralized: each joint from its agent"}
+                "seed": EVAL_SEED, "controller": "decentralized: each joint from its agent",
+                **mix_protocol(config.challenge)}
     if config.links == 2:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco", "controller": "decentralized: each joint from its agent"}
@@ -310,10 +313,9 @@ def evaluate_controller(agent, config: MarlConfig):
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
-        level = {} if config.challenge is None else dict(
-            challenge=config.challenge, seed=EVAL_SEED, count=EVAL_PLANTS)
-        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1,
-                        **level).score
+        if config.challenge is not None:
+            return evaluate_under(agent, config.challenge, f"{config.algo} seed {config.seed}")
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
     from twolink.sim.metrics import random_poses, score, settle_time, success
     from twolink.sim.plants import MujocoPlant
     from twolink.sim.rollout import rollout

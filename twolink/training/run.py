@@ -57,7 +57,9 @@ from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
 from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED,
-                                     TrainConfig, recipe_suffix, train_stream)
+                                     TrainConfig, evaluate_under, mix_protocol,
+                                     recipe_suffix,
+                                     train_stream)
 
 #: Schema and version of ``curve.json``.
 CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
@@ -185,7 +187,7 @@ def evaluation_protocol(config: TrainConfig) -> dict:
     if config.challenge is not None:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco", "challenge": config.challenge, "plants": EVAL_PLANTS,
-                "seed": EVAL_SEED}
+                "seed": EVAL_SEED, **mix_protocol(config.challenge)}
     if config.links == 2:
         return {"states": "twolink.sim.metrics.evaluation_set (65 states)", "horizon_s": 5.0,
                 "plant": "mujoco"}
@@ -203,10 +205,9 @@ def evaluate_policy(policy, config: TrainConfig):
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
-        level = {} if config.challenge is None else dict(
-            challenge=config.challenge, seed=EVAL_SEED, count=EVAL_PLANTS)
-        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1,
-                        **level).score
+        if config.challenge is not None:
+            return evaluate_under(agent, config.challenge, f"{config.algo} seed {config.seed}")
+        return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
     from twolink.sim.metrics import random_poses, score, settle_time, success
     from twolink.sim.plants import MujocoPlant
     from twolink.sim.rollout import rollout
@@ -276,7 +277,7 @@ def best_entry(curve, agent: str) -> dict:
 
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
-    [_b<B>][_e<E>][_net<W>x<W>]_seed<S>``: the run's default folder and its agent's
+    [_b<B>][_e<E>][_net<W>x<W>][_rt]_seed<S>`` (``_rt``: the ``shaped_time`` reward): the run's default folder and its agent's
     stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
@@ -285,8 +286,9 @@ def run_name(config: TrainConfig) -> str:
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     start = f"_{config.start}" if config.start != "random" else ""
     init = "_init" if config.init is not None else ""
+    reward = "_rt" if config.reward == "shaped_time" else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
-            f"{init}{recipe_suffix(config)}_seed{config.seed}")
+            f"{init}{recipe_suffix(config)}{reward}_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:

@@ -1,0 +1,64 @@
+"""``twolink train --reward shaped_time``: the arms' rewards are the shaped reward less one
+outside the goal band, the run is named and checkpointed with it, a resume with another
+reward is refused, and IPPO/MAPPO refuse the option in one line."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from twolink.cli import main  # noqa: E402
+from twolink.envs.core import shaped_time_reward  # noqa: E402
+from twolink.training.config import TrainConfig  # noqa: E402
+from twolink.training.run import build, run_name, train  # noqa: E402
+
+
+def _err(capsys, argv) -> str:
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    return err
+
+
+def test_the_arms_learn_from_the_shaped_time_reward():
+    config = TrainConfig(algo="ppo", steps=64, envs=2, n_steps=32, reward="shaped_time")
+    model, env = build(config)
+    env.reset()
+    _, r, _, _ = env.step(np.ones((2, 2), np.float32))
+    np.testing.assert_allclose(r, shaped_time_reward(env._live().x), rtol=1e-6)  # float32
+    assert np.all(r < -1)                       # random poses start outside the band
+    env.close()
+    assert run_name(config) == "ppo_2links_rt_seed0"
+    assert run_name(TrainConfig(algo="ppo")) == "ppo_2links_seed0"
+
+
+def test_the_reward_is_part_of_the_run(tmp_path, capsys):
+    config = TrainConfig(algo="ppo", steps=64, envs=2, n_steps=32, eval_every=64,
+                         reward="shaped_time")
+    run = tmp_path / "run"
+    record = train(config, run)
+    assert record["config"]["reward"] == "shaped_time"
+    assert json.loads((run / "curve.json").read_text())["config"]["reward"] == "shaped_time"
+    copy = tmp_path / "copy"          # the checkpoint alone: an interrupted run
+    copy.mkdir()
+    (copy / "checkpoint.pt").write_bytes((run / "checkpoint.pt").read_bytes())
+    assert "checkpoint of a run with reward 'shaped_time', not 'shaped'" in _err(
+        capsys, ["train", "--resume", "--reward", "shaped", "--steps", "128",
+                 "--out", str(copy)])
+
+
+def test_bad_rewards_are_one_line(tmp_path, capsys):
+    out = tmp_path / "run"
+    with pytest.raises(SystemExit) as exit_:
+        main(["train", "--reward", "dense", "--out", str(out)])
+    assert exit_.value.code == 2
+    assert "--reward: invalid choice: 'dense'" in capsys.readouterr().err
+    assert "--reward does not apply to --algo ippo|mappo" in _err(
+        capsys, ["train", "--algo", "ippo", "--reward", "shaped_time", "--out", str(out)])
+    assert not out.exists()
+    with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time'"):
+        TrainConfig(reward="paper")
