@@ -56,13 +56,16 @@ RECIPES = {
 
 #: ``--levels mixed``: the levels a mixed run trains under side by side (arm i under level
 #: i mod 3, ``twolink train --challenge none+medium+hard``), so one agent meets the nominal
-#: arm and both scored levels; its arms per batch per algorithm (a multiple of three).
+#: arm and both scored levels; its arms per batch per algorithm (a multiple of three). A
+#: mixed run of PPO or SAC learns from ``--reward shaped_time`` (the shaped reward less one
+#: per sample outside the goal band), the minimum-time term for the nominal settle target.
 MIXED = ("none+medium+hard", {"ppo": 18, "sac": 9, "ippo": 18, "mappo_local": 18})
 
 
 def _challenge_options(algo: str, level: str) -> list[str]:
     if level == "mixed":
-        return ["--challenge", MIXED[0], "--envs", str(MIXED[1][algo])]
+        reward = ["--reward", "shaped_time"] if algo in ("ppo", "sac") else []
+        return ["--challenge", MIXED[0], "--envs", str(MIXED[1][algo]), *reward]
     return ["--challenge", level]
 
 
@@ -127,7 +130,8 @@ def select(algo: str, level: str, done: list) -> None:
                 "rule": "per seed its best agent (the curve's best point; the final agent "
                         "where the run kept none), then the seed whose candidate scored "
                         "most on the curve's evaluation (8 plants of seed 20061122 under "
-                        "the level)"})
+                        "the level; for mixed, under each level of the mix, none once on "
+                        "the nominal arm)"})
     print(f"{name}: seed {chosen} ({seeds[chosen]['which']} agent at "
           f"{seeds[chosen]['steps']:,} steps, {seeds[chosen]['successes']}/"
           f"{seeds[chosen]['n']}) of {sorted(seeds)}", flush=True)

@@ -37,13 +37,20 @@ class Learned:
 CHALLENGE_ALGOS = {"ppo": "PPO", "sac": "SAC"}
 
 
+#: How the entries' names spell what they were trained under (``mixed``: the study's
+#: ``--levels mixed``).
+TRAINED_UNDER = {"medium": "under medium", "hard": "under hard",
+                 "mixed": "under none, medium and hard side by side (--challenge "
+                          "none+medium+hard) on the shaped_time reward"}
+
+
 def _challenge(algo: str, level: str) -> Learned:
     """The ``algo`` agent of ``docs/studies/challenge_agents.py`` for ``level``: seeds 1-3
     trained, the best on the training side's plants shipped."""
     return Learned(f"renders/challenge_agents/{algo}_{level}.zip",
-                   description=f"{CHALLENGE_ALGOS[algo]} trained under {level}: history 3, "
-                               f"action rate 1, the best of seeds 1-3 on training plants "
-                               f"(docs/studies/challenge_agents.py)",
+                   description=f"{CHALLENGE_ALGOS[algo]} trained {TRAINED_UNDER[level]}: "
+                               f"history 3, action rate 1, the best of seeds 1-3 on training "
+                               f"plants (docs/studies/challenge_agents.py)",
                    curves=tuple(f"renders/challenge_agents/{algo}_{level}_seed{s}.json"
                                 for s in (1, 2, 3)))
 
@@ -54,6 +61,7 @@ LEARNED = {
                          description="PPO trained on the nominal arm (renders/deep_rl/)"),
     **{f"{algo}_{level}": _challenge(algo, level)
        for algo in CHALLENGE_ALGOS for level in ("medium", "hard")},
+    "sac_mixed": _challenge("sac", "mixed"),
     "ippo_medium": Learned(
         "renders/challenge_agents/ippo_medium.marl.pt", kind="decentralized",
         description="IPPO trained under medium: one agent per joint reading only its own "
