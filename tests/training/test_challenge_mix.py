@@ -148,3 +148,41 @@ def test_bad_mixes_are_one_line_and_write_nothing(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert message in err and len(err.splitlines()) == 1
         assert not out.exists()
+
+
+def test_a_multi_agent_run_takes_a_mix_and_resumes_bit_for_bit(tmp_path):
+    pytest.importorskip("skrl")
+    from twolink.envs.pettingzoo_batched import batched_parallel_env
+    from twolink.training.marl import MarlConfig, train
+
+    arms = batched_parallel_env(3, challenge=MIX, observe="local", reward="shaped",
+                                actions="normalized", observation="cos_sin")
+    # The spaces are the noisiest level's: unbounded readings.
+    assert np.isinf(arms.observation_spaces["link1"].high).any()
+    arms.close()
+    config = MarlConfig(algo="ippo", observe="local", steps=192, envs=3, n_steps=32,
+                        eval_every=96, challenge=MIX, history=2, seed=3)
+    whole = train(config, tmp_path / "whole")
+    assert [p["n"] for p in whole["curve"]] == [65 + 2 * 8 * 65] * 3
+
+    class Stop(Exception):
+        pass
+
+    seen = []
+
+    def stop(line):
+        seen.append(line)
+        if len(seen) == 2:
+            raise Stop
+
+    with pytest.raises(Stop):
+        train(config, tmp_path / "cut", progress=stop)
+    resumed = train(None, tmp_path / "cut", resume=True)
+    keep = ("steps", "successes", "n", "median_settle")
+    assert [{k: p[k] for k in keep} for p in resumed["curve"]] == \
+        [{k: p[k] for k in keep} for p in whole["curve"]]
+    import torch
+
+    a, b = (torch.load(tmp_path / run / whole["agent"], weights_only=True)["policies"]
+            for run in ("whole", "cut"))
+    assert all(torch.equal(a[k][n], b[k][n]) for k in a for n in a[k])

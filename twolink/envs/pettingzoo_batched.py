@@ -53,6 +53,7 @@ from gymnasium.utils import seeding
 from twolink.envs.core import check_reset_options
 from twolink.envs.gym import MAX_ENVS
 from twolink.envs.gym_arms import Arms
+from twolink.sim.challenges import is_mix, mix
 from twolink.envs.multi_agent import agent_observations, agent_rewards
 from twolink.envs.pettingzoo import ParallelArm
 from twolink.validate import MAX_SEED, is_whole, whole
@@ -80,9 +81,13 @@ class BatchedParallelArms:
         options = dict(x0=x0, params=params, perturbation=perturbation,
                        angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
                        time_limit=time_limit, challenge=challenge, links=links, rule=rule)
-        # One arm's env checks every option and defines the spaces; it never steps.
-        spec = ParallelArm(**options, reward=reward, link1_tau2=link1_tau2, actions=actions,
-                           observation=observation, observe=observe)
+        # One arm's env checks every option and defines the spaces; it never steps. Under a
+        # mix of levels (training only: arm i under level i mod L) the spaces are those of
+        # its last level, the noisiest (levels are in the table's order, mildest first).
+        spec_options = dict(options, challenge=mix(challenge).levels[-1]) \
+            if is_mix(challenge) else options
+        spec = ParallelArm(**spec_options, reward=reward, link1_tau2=link1_tau2,
+                           actions=actions, observation=observation, observe=observe)
         self.links = spec.links
         self.possible_agents = list(spec.possible_agents)
         self.agents = list(spec.possible_agents)
