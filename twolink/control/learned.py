@@ -61,7 +61,7 @@ LEARNED = {
                          description="PPO trained on the nominal arm (renders/deep_rl/)"),
     **{f"{algo}_{level}": _challenge(algo, level)
        for algo in CHALLENGE_ALGOS for level in ("medium", "hard")},
-    "sac_mixed": _challenge("sac", "mixed"),
+    **{f"{algo}_mixed": _challenge(algo, "mixed") for algo in CHALLENGE_ALGOS},
     "ippo_medium": Learned(
         "renders/challenge_agents/ippo_medium.marl.pt", kind="decentralized",
         description="IPPO trained under medium: one agent per joint reading only its own "
