@@ -142,20 +142,20 @@ def check_mix_arms(challenge, arms: int) -> None:
                          f"arms (--envs), so each level trains on as many; got {arms}")
 
 
-def evaluate_under(agent, challenge, label: str):
+def evaluate_under(agent, challenge, label: str, plants: int = EVAL_PLANTS):
     """The :class:`twolink.sim.metrics.Score` of the controller ``agent`` on the 65-state
     evaluation set under ``challenge`` (a level, or a :class:`twolink.sim.challenges.Mix`'s
-    name: each of its levels, the runs of all together): a level that perturbs or
-    observes on :data:`EVAL_PLANTS` plants of :data:`EVAL_SEED`, the nominal arm
-    (``none``) once."""
+    name: each of its levels, the runs of all together): a level on ``plants`` plants of
+    :data:`EVAL_SEED` (the curve's :data:`EVAL_PLANTS`), the nominal arm of a mix's
+    ``none`` once."""
     from twolink.sim.evaluation import evaluate
     from twolink.sim.metrics import score
 
     if not is_mix(challenge):
         return evaluate(agent, label=label, nthread=1, challenge=challenge, seed=EVAL_SEED,
-                        count=EVAL_PLANTS).score
+                        count=plants).score
     runs = [evaluate(agent, label=label, nthread=1, challenge=c, seed=EVAL_SEED,
-                     count=EVAL_PLANTS if c != LEVELS["none"] else 1)
+                     count=plants if c != LEVELS["none"] else 1)
             for c in levels_of(challenge)]
     first = np.cumsum([0] + [r.success.shape[0] for r in runs])
     return score(np.concatenate([r.success.ravel() for r in runs]),

@@ -314,7 +314,8 @@ def evaluate_controller(agent, config: MarlConfig):
         from twolink.sim.evaluation import evaluate
 
         if config.challenge is not None:
-            return evaluate_under(agent, config.challenge, f"{config.algo} seed {config.seed}")
+            return evaluate_under(agent, config.challenge, f"{config.algo} seed {config.seed}",
+                                  EVAL_PLANTS)
         return evaluate(agent, label=f"{config.algo} seed {config.seed}", nthread=1).score
     from twolink.sim.metrics import random_poses, score, settle_time, success
     from twolink.sim.plants import MujocoPlant
