@@ -29,13 +29,12 @@ def test_a_mix_names_distinct_levels_in_the_table_order():
 
 
 def test_each_arm_runs_under_its_own_level():
-    from twolink.envs.sb3 import TwoLinkSB3VecEnv
+    from twolink.envs.gym import TwoLinkVectorEnv
 
-    env = TwoLinkSB3VecEnv(6, challenge=MIX, observation="cos_sin", actions="normalized",
-                           reward="shaped", nthread=1)
-    env.seed(3)
-    env.reset()
-    arms = env._live()
+    env = TwoLinkVectorEnv(6, challenge=MIX, observation="cos_sin", actions="normalized",
+                           x0="random", nthread=1)
+    env.reset(seed=3)
+    arms = env._arms
     assert arms._delay.samples.tolist() == [0, 1, 1] * 2          # medium and hard: 1 late
     assert arms.sensors.delay.samples.tolist() == [0, 0, 1] * 2    # hard: readings 1 late
     angle = np.degrees(arms.sensors.noise.std[:, 0])
@@ -49,7 +48,7 @@ def test_each_arm_runs_under_its_own_level():
     assert np.all(hard_tau <= 0.8 + 1e-12)                         # hard: 20 % less torque
     # Noise-free arms read the true state; noisy ones do not.
     obs = env.step(np.zeros((6, 2), np.float32))[0]
-    truth = env._live().x
+    truth = env._arms.x
     q = truth[:, :2]
     exact = np.stack([np.cos(q[:, 0]), np.sin(q[:, 0]), np.cos(q[:, 1]), np.sin(q[:, 1])], 1)
     assert np.allclose(obs[[0, 3], :4], exact[[0, 3]])
@@ -57,7 +56,7 @@ def test_each_arm_runs_under_its_own_level():
     env.close()
     with pytest.raises(ValueError, match=re.escape(f"a mix of 3 levels ({MIX}) needs at least "
                                                    f"as many arms, got 2")):
-        TwoLinkSB3VecEnv(2, challenge=MIX, nthread=1)
+        TwoLinkVectorEnv(2, challenge=MIX, nthread=1)
 
 
 @pytest.fixture(scope="module")
