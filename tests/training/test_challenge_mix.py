@@ -23,6 +23,10 @@ def test_a_mix_names_distinct_levels_in_the_table_order():
     assert [m.level(i).name for i in range(7)] == ["none", "medium", "hard"] * 2 + ["none"]
     assert levels_of("medium") == (LEVELS["medium"],) and levels_of(MIX) == m.levels
     assert is_mix(MIX) and is_mix(m) and not is_mix("hard") and not is_mix(None)
+    with pytest.raises(ValueError, match="a mix holds two or more Challenge levels"):
+        Mix((LEVELS["hard"],))
+    with pytest.raises(ValueError, match="a mix holds two or more Challenge levels"):
+        Mix(("none", "hard"))
     for bad in ("hard+none", "medium+medium", "none+", "medium+extreme", "+"):
         with pytest.raises(ValueError, match=re.escape(f"unknown challenge {bad!r}: a level")):
             mix(bad)

@@ -236,6 +236,12 @@ class Mix:
 
     levels: tuple
 
+    def __post_init__(self):
+        levels = tuple(self.levels) if isinstance(self.levels, (tuple, list)) else ()
+        if len(levels) < 2 or not all(isinstance(c, Challenge) for c in levels):
+            raise ValueError(f"a mix holds two or more Challenge levels, got {self.levels!r}")
+        object.__setattr__(self, "levels", levels)
+
     @property
     def name(self) -> str:
         return MIX_JOIN.join(c.name for c in self.levels)
