@@ -69,6 +69,14 @@ LEARNED = {
                     "more (--std-floor), the best of seeds 1-3 on training plants "
                     "(docs/studies/challenge_agents.py)",
         curves=tuple(f"renders/challenge_agents/ippo_medium_seed{s}.json" for s in (1, 2, 3))),
+    "ippo_mixed": Learned(
+        "renders/challenge_agents/ippo_mixed.marl.pt", kind="decentralized",
+        description="IPPO trained under none, medium and hard side by side (--challenge "
+                    "none+medium+hard): one agent per joint reading only its own joint "
+                    "(local), history 3, action rate 1, policy noise held at 0.2 or more "
+                    "(--std-floor), the best of seeds 1-3 on training plants "
+                    "(docs/studies/challenge_agents.py)",
+        curves=tuple(f"renders/challenge_agents/ippo_mixed_seed{s}.json" for s in (1, 2, 3))),
     "mappo_local_medium": Learned(
         "renders/challenge_agents/mappo_local_medium.marl.pt", kind="decentralized",
         description="MAPPO trained under medium: one actor per joint reading only its own "
