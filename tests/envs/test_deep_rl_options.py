@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("dm_control")      # the shaped reward's tolerance; twolink.envs.dm
 from dm_control.utils.rewards import tolerance  # noqa: E402
 
-from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TABLE_I  # noqa: E402
+from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, REWARD_OTHER, TABLE_I  # noqa: E402
 from twolink.arm.task import centralized_reward, in_goal_band  # noqa: E402
 from twolink.envs import core  # noqa: E402
 from twolink.envs import dm  # noqa: E402
@@ -79,7 +79,8 @@ def test_shaped_time_reward_is_the_shaped_reward_less_one_outside_the_band(rng):
     np.testing.assert_array_equal(r[out], shaped[out] - core.TIME_PENALTY)
     assert np.all((r[out] >= -2) & (r[out] < -1))
     # It is (15) scaled to one per sample outside the band, plus the shaped reward.
-    np.testing.assert_allclose(r, shaped + centralized_reward(x) / 0.5, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(r, shaped + core.TIME_PENALTY * centralized_reward(x)
+                               / -REWARD_OTHER, rtol=0, atol=1e-15)
     env = gym_env.TwoLinkEnv(x0="random", reward="shaped_time")
     env.reset(seed=2)
     step = env.step(np.array([1.0, -1.0]))

@@ -101,26 +101,32 @@ def test_the_curve_point_is_the_levels_evaluated_one_by_one(whole_run):
     assert last["n"] == sum(r.score.n for r in runs)
 
 
+class _Stop(Exception):
+    pass
+
+
+def _interrupted_then_resumed(train, config, out):
+    """``train(config, out)`` stopped at its second progress line (after the first curve
+    point), then resumed to the end: the resumed run's record."""
+    seen = []
+
+    def stop(line):
+        seen.append(line)
+        if len(seen) == 2:
+            raise _Stop
+
+    with pytest.raises(_Stop):
+        train(config, out, progress=stop)
+    return train(None, out, resume=True)
+
+
 def test_a_resumed_mix_run_is_bit_for_bit_the_uninterrupted_one(whole_run, tmp_path):
     import torch
 
     from twolink.training.run import CLOCKS, train
 
     record, whole, config = whole_run
-
-    class Stop(Exception):
-        pass
-
-    seen = []
-
-    def stop(line):
-        seen.append(line)
-        if len(seen) == 2:
-            raise Stop
-
-    with pytest.raises(Stop):
-        train(config, tmp_path, progress=stop)
-    resumed = train(None, tmp_path, resume=True)
+    resumed = _interrupted_then_resumed(train, config, tmp_path)
 
     def plain(curve):
         return [{k: v for k, v in p.items() if k not in CLOCKS} for p in curve]
@@ -167,20 +173,7 @@ def test_a_multi_agent_run_takes_a_mix_and_resumes_bit_for_bit(tmp_path):
                         eval_every=96, challenge=MIX, history=2, seed=3)
     whole = train(config, tmp_path / "whole")
     assert [p["n"] for p in whole["curve"]] == [65 + 2 * 8 * 65] * 3
-
-    class Stop(Exception):
-        pass
-
-    seen = []
-
-    def stop(line):
-        seen.append(line)
-        if len(seen) == 2:
-            raise Stop
-
-    with pytest.raises(Stop):
-        train(config, tmp_path / "cut", progress=stop)
-    resumed = train(None, tmp_path / "cut", resume=True)
+    resumed = _interrupted_then_resumed(train, config, tmp_path / "cut")
     keep = ("steps", "successes", "n", "median_settle")
     assert [{k: p[k] for k in keep} for p in resumed["curve"]] == \
         [{k: p[k] for k in keep} for p in whole["curve"]]

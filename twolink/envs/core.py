@@ -245,8 +245,8 @@ def shaped_reward(x) -> np.ndarray:
 
 def shaped_time_reward(x) -> np.ndarray:
     """:func:`shaped_reward` minus :data:`TIME_PENALTY` outside the goal band: 0 in the
-    band, in [-2, -1) elsewhere, i.e. ``shaped(x) + (TIME_PENALTY / 0.5) * r15(x)`` with
-    (15)'s r15 of -0.5 outside the band and 0 in it. The shaped part guides (it grows
+    band, in [-2, -1) elsewhere: the shaped reward plus (15) rescaled to a cost of
+    TIME_PENALTY per sample outside the band. The shaped part guides (it grows
     towards the band) but also costs speed (its speed tolerance), so alone it favours
     slow approaches; the penalty is the minimum-time term of (15) that the fuzzy
     policies are synthesised for, so a sample saved is worth at least as much as any

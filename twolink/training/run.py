@@ -58,8 +58,7 @@ from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
 from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED,
                                      TrainConfig, evaluate_under, mix_protocol,
-                                     recipe_suffix,
-                                     train_stream)
+                                     recipe_suffix, train_stream)
 
 #: Schema and version of ``curve.json``.
 CURVE_SCHEMA, CURVE_VERSION = "twolink.train", 1
