@@ -16,6 +16,7 @@ from pathlib import Path
 from twolink.commands import SUMMARIES
 from twolink.commands._options import seed_option
 from twolink.resources import output_dir
+from twolink.control.action_gain import MAX_ACTION_GAIN, check_action_gain
 from twolink.control.history import MAX_HISTORY
 from twolink.control.residual import BASES
 from twolink.sim.challenges import LEVELS, is_mix, mix
@@ -164,6 +165,11 @@ def add_parser(sub):
                         "tolerances of angles and speeds, 0 in the goal band) or shaped_time "
                         "(the shaped reward minus 1 for every sample outside the goal band: "
                         "a minimum-time term, as the paper's reward (15))")
+    p.add_argument("--action-gain", default=None, metavar="G",
+                   help=f"ppo, sac: the torque is clip(G a, -1, 1) tau_max for the normalized "
+                        f"action a, so full torque lies at |a| = 1/G (1 to "
+                        f"{MAX_ACTION_GAIN:g}; default 1). SAC's squashed actions seldom "
+                        f"reach +-1; the agent file records G and every loader applies it")
     p.add_argument("--std-floor", default=None, metavar="S",
                    help=f"ippo, mappo: each policy's exploration noise starts at standard "
                         f"deviation S, in units of the normalized action, and never falls "
@@ -214,6 +220,8 @@ def given_options(args) -> dict:
              "epochs": _count(args.epochs, "--epochs", 1, MAX_EPOCHS),
              "net": None if args.net is None else _net(args.net),
              "reward": args.reward,
+             "action_gain": None if args.action_gain is None else _number(
+                 args.action_gain, "--action-gain", check_action_gain, 1.0, MAX_ACTION_GAIN),
              "std_floor": None if args.std_floor is None else _number(
                  args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE)}
     return {k: v for k, v in given.items() if v is not None}

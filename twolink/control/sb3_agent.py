@@ -29,7 +29,9 @@ observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'
 numbers, or ``'state'``, 2N, told apart by the saved observation space's size; with a
 ``history`` K > 1 in ``twolink.json`` the last K of them and the last K - 1 actions of
 each row, :mod:`twolink.control.history`, reset by ``reset(n)``), the policy's
-deterministic action, clipped to [-1, 1] and scaled to +-tau_max (added to its base
+deterministic action, clipped to [-1, 1], times the ``action_gain`` G its
+``twolink.json`` records (1 without one; clipped again, :mod:`twolink.control.action_gain`)
+and scaled to +-tau_max (added to its base
 controller's torques and clipped when ``twolink.json`` names a ``base``,
 :mod:`twolink.control.residual`). N is the size of the saved action space (2 to 6); an
 agent of N > 2 links names its arm's link rule in the optional member ``twolink.json``
@@ -54,6 +56,7 @@ import numpy as np
 
 from twolink.arm.observations import features
 from twolink.arm.parameters import MAX_LINKS, MIN_LINKS, TABLE_I, links_parameters
+from twolink.control.action_gain import agent_action_gain, gained
 from twolink.control.agent_meta import AGENT_MEMBER, agent_arm, agent_observation
 from twolink.control.history import ObservationHistory
 from twolink.control.residual import agent_base, residual_torques
@@ -459,30 +462,33 @@ class SB3Agent:
         self.policy = load_policy(path, data, self.algo, members["policy.pth"])
         self.tau_max = np.asarray(params.tau_max, dtype=float)
         self.base_name, self.base = agent_base(path, members.get(AGENT_MEMBER), params)
+        self.action_gain = agent_action_gain(path, members.get(AGENT_MEMBER))
         self.name = name or path.stem
         self.path = path
         self.meta = {"algo": self.algo, "seed": data.get("seed"),
                      "steps": data.get("num_timesteps"), "observation": self.observation,
                      "links": self.links, "rule": self.rule, "history": self.history,
-                     "base": self.base_name, "file": str(path), "stable_baselines3": sb3.__version__}
+                     "base": self.base_name, "action_gain": self.action_gain,
+                     "file": str(path), "stable_baselines3": sb3.__version__}
 
     def __call__(self, x) -> np.ndarray:
-        """Torques (..., N) of states x (..., 2N): the clipped deterministic action scaled
-        to +-tau_max (plus the base's torques, clipped)."""
+        """Torques (..., N) of states x (..., 2N): the clipped deterministic action times
+        the action gain, clipped, scaled to +-tau_max (plus the base's torques, clipped)."""
         x = np.asarray(x, dtype=float)
         if x.shape[-1:] != (2 * self.links,):
             raise ValueError(f"a {self.links}-link agent maps states (..., {2 * self.links}) "
                              f"to torques, got states of shape {x.shape}")
         if self.history == 1:       # the action (tau_max 1) over the base, scaled
-            return residual_torques(self.base, x, model_torques(
-                self.policy, x, self.observation, 1.0), self.tau_max)
+            return residual_torques(self.base, x, gained(model_torques(
+                self.policy, x, self.observation, 1.0), self.action_gain), self.tau_max)
         obs = features(x, self.observation).reshape(x.size // x.shape[-1], -1)
         if self._buffer is None or self._buffer.rows != len(obs):
             self.reset(len(obs))
         action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         self._buffer.act(a)
-        return residual_torques(self.base, x, a.reshape(x.shape[:-1] + (-1,)), self.tau_max)
+        return residual_torques(self.base, x, gained(a, self.action_gain).reshape(
+            x.shape[:-1] + (-1,)), self.tau_max)
 
     def reset(self, n: int) -> None:
         """Start ``n`` rows afresh: with a history K > 1, its buffers of zeros."""

@@ -37,6 +37,7 @@ import math
 import numpy as np
 
 from twolink.arm.parameters import LINK_RULES, check_links
+from twolink.control.action_gain import check_action_gain
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
@@ -271,6 +272,7 @@ class TrainConfig:
     epochs: int | None = None
     net: tuple[int, ...] | None = None
     reward: str = "shaped"
+    action_gain: float = 1.0
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -296,6 +298,7 @@ class TrainConfig:
         choice(self.base, "base", BASES)
         check_base(self.base, self.links)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
+        object.__setattr__(self, "action_gain", check_action_gain(self.action_gain))
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
         choice(self.start, "start", START_OPTIONS)
@@ -364,7 +367,7 @@ class TrainConfig:
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
                 "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
-                "start", "init", "batch_size", "epochs", "net", "reward")
+                "start", "init", "batch_size", "epochs", "net", "reward", "action_gain")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

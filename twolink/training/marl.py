@@ -240,7 +240,9 @@ class MarlConfig:
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "start": "the multi-agent runs start from uniform poses only",
             "init": "a multi-agent run starts from random policies",
-            "reward": "IPPO learns from the per-link shaped reward, MAPPO from the team's"}
+            "reward": "IPPO learns from the per-link shaped reward, MAPPO from the team's",
+            "action_gain": "skrl's Gaussian policies are not squashed: their actions reach "
+                           "the torque limit without a gain"}
 
 
 def config_from_options(given: dict) -> dict:

@@ -50,6 +50,7 @@ import numpy as np
 from twolink.arm.parameters import horizon
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import atomic_path, write_json
+from twolink.control.action_gain import gained
 from twolink.control.agent_meta import AGENT_MEMBER, agent_record
 from twolink.control.history import ObservationHistory, history_layout
 from twolink.control.residual import base_controller, base_gains, residual_torques
@@ -100,6 +101,10 @@ def build(config: TrainConfig):
         from twolink.envs.residual import ResidualVecEnv
 
         env = ResidualVecEnv(env, base_controller(config.base, arm_of(config)))
+    if config.action_gain != 1.0:
+        from twolink.envs.action_gain import ActionGainVecEnv
+
+        env = ActionGainVecEnv(env, config.action_gain)
     if config.action_rate > 0:
         from twolink.training import action_rate
 
@@ -149,25 +154,27 @@ def arm_of(config: TrainConfig):
 
 class PolicyController:
     """An SB3 policy in memory under the controller protocol: states (n, 2N) -> torques
-    (n, N), the clipped deterministic action scaled to +-tau_max, added to ``base``'s
+    (n, N), the clipped deterministic action times ``gain`` (clipped again,
+    :func:`twolink.control.action_gain.gained`) scaled to +-tau_max, added to ``base``'s
     torques when given (:func:`twolink.control.residual.residual_torques`)."""
 
-    def __init__(self, policy, params, name: str = "sb3", history: int = 1, base=None):
+    def __init__(self, policy, params, name: str = "sb3", history: int = 1, base=None,
+                 gain: float = 1.0):
         self.policy, self.tau_max, self.links = policy, params.tau_max, params.links
         self.name, self.history, self._buffer, self.base = name, history, None, base
+        self.gain = gain
 
     def reset(self, n: int) -> None:
         if self.history > 1:
             self._buffer = ObservationHistory(n, 3 * self.links, self.links, self.history)
 
     def __call__(self, x):
+        unit = model_torques(self.policy, x, "cos_sin", 1.0) if self.history == 1 \
+            else self._history_action(x)
+        unit = gained(unit, self.gain)
         if self.base is not None:
-            unit = model_torques(self.policy, x, "cos_sin", 1.0) if self.history == 1 \
-                else self._history_action(x)
             return residual_torques(self.base, x, unit, self.tau_max)
-        if self.history == 1:
-            return model_torques(self.policy, x, "cos_sin", self.tau_max)
-        return self._history_action(x) * np.asarray(self.tau_max, dtype=float)
+        return unit * np.asarray(self.tau_max, dtype=float)
 
     def _history_action(self, x):
         from twolink.arm.observations import features
@@ -200,7 +207,8 @@ def evaluate_policy(policy, config: TrainConfig):
     evaluation protocol of ``config`` (see the module docstring)."""
     params = arm_of(config)
     agent = PolicyController(policy, params, history=config.history,
-                             base=base_controller(config.base, params))
+                             base=base_controller(config.base, params),
+                             gain=config.action_gain)
     if config.links == 2:
         from twolink.sim.evaluation import evaluate
 
@@ -228,12 +236,18 @@ def save_agent(model, path, config: TrainConfig) -> Path:
                           challenge=config.challenge, history=config.history,
                           observation_layout=history_layout(config.history,
                                                             3 * config.links, config.links),
-                          **_base_record(config))
+                          **_base_record(config), **_gain_record(config))
     with atomic_path(path) as tmp:
         model.save(tmp)
         with zipfile.ZipFile(tmp, "a", zipfile.ZIP_DEFLATED) as z:
             z.writestr(AGENT_MEMBER, json.dumps(record))
     return Path(path)
+
+
+def _gain_record(config: TrainConfig) -> dict:
+    """The agent's ``action_gain`` field: none for a gain of 1 (an older loader reads the
+    agent as before)."""
+    return {} if config.action_gain == 1.0 else {"action_gain": config.action_gain}
 
 
 def _base_record(config: TrainConfig) -> dict:
@@ -277,8 +291,8 @@ def best_entry(curve, agent: str) -> dict:
 
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
-    [_b<B>][_e<E>][_net<W>x<W>][_rt]_seed<S>`` (``_rt``: the ``shaped_time`` reward): the run's default folder and its agent's
-    stem."""
+    [_b<B>][_e<E>][_net<W>x<W>][_rt][_ag<G>]_seed<S>`` (``_rt``: the ``shaped_time``
+    reward; ``_ag``: the action gain): the run's default folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
@@ -287,8 +301,9 @@ def run_name(config: TrainConfig) -> str:
     start = f"_{config.start}" if config.start != "random" else ""
     init = "_init" if config.init is not None else ""
     reward = "_rt" if config.reward == "shaped_time" else ""
+    gain = f"_ag{config.action_gain:g}" if config.action_gain != 1.0 else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
-            f"{init}{recipe_suffix(config)}{reward}_seed{config.seed}")
+            f"{init}{recipe_suffix(config)}{reward}{gain}_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
