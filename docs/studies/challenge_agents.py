@@ -9,7 +9,10 @@ call was interrupted and skipped when finished (PPO: 0.8 M steps, an evaluation 
 observations: 1.2 M, every 0.1 M;
 :data:`RECIPES`; ``--steps`` overrides them). After every
 finished run it copies the run's ``curve.json`` into
-``renders/challenge_agents/<algo>_<level>_seed<S>.json`` and picks, per algorithm and
+``renders/challenge_agents/<algo>_<level>_seed<S>.json`` (SAC's mixed
+runs ``sac_mixed_ag<G>_seed<S>``,
+:func:`twolink.control.learned.challenge_stem`; the gain-1 runs ``sac_mixed_seed<S>``
+stay as a lever) and picks, per algorithm and
 level, per seed its best agent (the curve's best point, kept by ``twolink train``; the
 final agent of a run that kept none), then the seed whose pick scored most on the curve's
 own evaluation (the level on 8 plants of seed 20061122: the training seeds' side, never
@@ -34,6 +37,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from twolink.artifacts import write_json  # noqa: E402
+from twolink.control.learned import MIXED_GAIN, challenge_stem  # noqa: E402
 
 OUT = Path("renders/challenge_agents")
 #: Per algorithm: the options every run shares (beside level, seed and steps), its
@@ -59,13 +63,16 @@ RECIPES = {
 #: arm and both scored levels; its arms per batch per algorithm (a multiple of three). A
 #: mixed run of PPO or SAC learns from ``--reward shaped_time`` (the shaped reward less one
 #: per sample outside the goal band), the minimum-time term for the nominal settle target.
+#: SAC's mixed runs also take an action gain (``--action-gain``,
+#: :data:`twolink.control.learned.MIXED_GAIN`).
 MIXED = ("none+medium+hard", {"ppo": 18, "sac": 9, "ippo": 18, "mappo_local": 18})
 
 
 def _challenge_options(algo: str, level: str) -> list[str]:
     if level == "mixed":
         reward = ["--reward", "shaped_time"] if algo in ("ppo", "sac") else []
-        return ["--challenge", MIXED[0], "--envs", str(MIXED[1][algo]), *reward]
+        gain = ["--action-gain", f"{MIXED_GAIN[algo]:g}"] if algo in MIXED_GAIN else []
+        return ["--challenge", MIXED[0], "--envs", str(MIXED[1][algo]), *reward, *gain]
     return ["--challenge", level]
 
 
@@ -82,7 +89,7 @@ def _state(folder: Path) -> str:
 def run(algo: str, level: str, seed: int, steps: int, work: Path) -> dict:
     """Train (or resume, or reuse) one run; its curve record, copied under :data:`OUT`,
     and its folder."""
-    folder = work / f"{algo}_{level}_seed{seed}"
+    folder = work / f"{challenge_stem(algo, level)}_seed{seed}"
     state = _state(folder)
     if state != "finished":
         cmd = [sys.executable, "-m", "twolink.cli", "train", *RECIPES[algo][0],
@@ -159,7 +166,7 @@ def main(argv=None) -> int:
                 run(algo, level, seed, steps(algo), args.work)
         for level in args.levels:
             done = [run(algo, level, s, steps(algo), args.work) for s in args.seeds
-                    if _state(args.work / f"{algo}_{level}_seed{s}") == "finished"]
+                    if _state(args.work / f"{challenge_stem(algo, level)}_seed{s}") == "finished"]
             if done:
                 select(algo, level, done)
     return 0

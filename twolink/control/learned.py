@@ -44,15 +44,31 @@ TRAINED_UNDER = {"medium": "under medium", "hard": "under hard",
                           "none+medium+hard) on the shaped_time reward"}
 
 
+#: The action gain (``twolink train --action-gain``, :mod:`twolink.control.action_gain`)
+#: of the study's mixed runs, by algorithm (absent: 1): SAC's squashed actions stay off
+#: the torque limit without one. ``docs/studies/challenge_agents.py`` trains with it.
+MIXED_GAIN = {"sac": 1.3}
+
+
+def challenge_stem(algo: str, level: str) -> str:
+    """The name of the study's runs of ``algo`` under ``level`` before ``_seed<S>``:
+    ``<algo>_<level>``, with ``_ag<G>`` for a mixed run with an action gain
+    (:data:`MIXED_GAIN`)."""
+    gain = f"_ag{MIXED_GAIN[algo]:g}" if level == "mixed" and algo in MIXED_GAIN else ""
+    return f"{algo}_{level}{gain}"
+
+
 def _challenge(algo: str, level: str) -> Learned:
     """The ``algo`` agent of ``docs/studies/challenge_agents.py`` for ``level``: seeds 1-3
     trained, the best on the training side's plants shipped."""
+    gain = (f", action gain {MIXED_GAIN[algo]:g}"
+            if level == "mixed" and algo in MIXED_GAIN else "")
     return Learned(f"renders/challenge_agents/{algo}_{level}.zip",
                    description=f"{CHALLENGE_ALGOS[algo]} trained {TRAINED_UNDER[level]}: "
-                               f"history 3, action rate 1, the best of seeds 1-3 on training "
-                               f"plants (docs/studies/challenge_agents.py)",
-                   curves=tuple(f"renders/challenge_agents/{algo}_{level}_seed{s}.json"
-                                for s in (1, 2, 3)))
+                               f"history 3, action rate 1{gain}, the best of seeds 1-3 on "
+                               f"training plants (docs/studies/challenge_agents.py)",
+                   curves=tuple(f"renders/challenge_agents/{challenge_stem(algo, level)}"
+                                f"_seed{s}.json" for s in (1, 2, 3)))
 
 
 #: The shipped learned agents, by name.
