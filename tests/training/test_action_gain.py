@@ -148,3 +148,41 @@ def test_bad_gains_are_one_line(tmp_path, capsys):
     assert "--action-gain does not apply to --algo ippo|mappo" in _err(
         capsys, ["train", "--algo", "mappo", "--action-gain", "1.3", "--out", str(out)])
     assert not out.exists()
+
+
+def test_a_warm_start_keeps_the_gain(gained_run, tmp_path, capsys):
+    run, record = gained_run
+    agent = str(run / record["agent"])
+    assert f"--init {agent}: its action gain is 1.5, this run's 1.0" in _err(
+        capsys, ["train", "--algo", "sac", "--init", agent, "--steps", "64",
+                 "--out", str(tmp_path / "warm")])
+    assert not (tmp_path / "warm").exists()
+    config = TrainConfig(algo="sac", steps=64, envs=2, init=agent, action_gain=1.5)
+    model, env = build(config)                  # the same gain: warm-started
+    env.close()
+
+
+def test_a_residual_gets_the_gained_action():
+    from twolink.control.residual import base_controller, residual_torques
+    from twolink.training.run import arm_of
+
+    config = TrainConfig(algo="ppo", links=3, steps=64, envs=2, n_steps=32, base="pd",
+                         action_gain=2.0)
+    model, env = build(config)
+    env.reset()
+    arms = env
+    while hasattr(arms, "venv"):
+        arms = arms.venv
+    live = arms._live()
+    sent = []
+    torques = live.torques
+    live.torques = lambda action, **kw: sent.append(torques(action, **kw)) or sent[-1]
+    x = arms.states
+    a = np.array([[0.3, -0.2, 0.05], [-0.45, 0.1, 0.2]], np.float32)
+    want = residual_torques(base_controller("pd", arm_of(config)), x, gained(a, 2.0),
+                            live.params.tau_max)
+    env.step(a)
+    np.testing.assert_allclose(sent[0], want, rtol=1e-12)
+    plain = residual_torques(base_controller("pd", arm_of(config)), x, a, live.params.tau_max)
+    assert not np.allclose(sent[0], plain)                 # the gain made a difference
+    env.close()

@@ -127,15 +127,17 @@ def warm_start(model, config: TrainConfig) -> None:
     """Load the policy weights of the saved agent ``config.init`` into ``model`` (read as
     data: :class:`twolink.control.sb3_agent.SB3Agent`), so training starts from it. One
     line when the agent is not one this run could have saved: another algorithm, arm,
-    observation history, base or network."""
+    observation history, base, action gain or network."""
     from twolink.control.sb3_agent import SB3Agent
 
     agent = SB3Agent(config.init)
     want = {"algorithm": config.algo, "links": config.links,
             "rule": config.rule if config.links > 2 else None,
-            "history": config.history, "base": config.base}
+            "history": config.history, "base": config.base,
+            "action gain": config.action_gain}
     have = {"algorithm": agent.algo, "links": agent.links, "rule": agent.rule,
-            "history": agent.history, "base": agent.base_name or "none"}
+            "history": agent.history, "base": agent.base_name or "none",
+            "action gain": agent.action_gain}
     for key in want:
         if want[key] != have[key]:
             raise ValueError(f"--init {config.init}: its {key} is {have[key]}, this run's "
