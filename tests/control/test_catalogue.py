@@ -21,6 +21,7 @@ from twolink.control.catalogue import (
     read_catalogue_file,
     shipped_entries,
 )
+from twolink.control.handover import HANDOVERS
 from twolink.control.learned import LEARNED, LEARNED_AGENTS
 from twolink.control.catalogue import links_pd_name
 from twolink.control.links_pd import TUNED
@@ -39,7 +40,8 @@ def test_the_shipped_entries_are_every_registry_once():
     names = [e.name for e in shipped_entries()]
     assert len(names) == len(set(names))
     links_pd = {links_pd_name(n, rule) for n, rule in TUNED}     # the N-link PD entries
-    assert set(names) == set(SHIPPED) | set(BASELINES) | links_pd | set(LEARNED_AGENTS)
+    assert set(names) == (set(SHIPPED) | set(BASELINES) | links_pd | set(LEARNED_AGENTS)
+                          | set(HANDOVERS))
     bench = [e.name for e in entries(tag="benchmark")]
     assert sorted(bench) == sorted(BENCHMARK) and len(bench) <= 12
     assert {e.name for e in entries(tag="paper")} == {n for n, p in SHIPPED.items() if p.paper}

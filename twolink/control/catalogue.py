@@ -10,7 +10,8 @@ The shipped entries are read from the registries that define them, so nothing is
 twice: the shipped fuzzy policies (:data:`twolink.policy.registry.SHIPPED`), the
 classical baselines (:data:`twolink.control.baselines.BASELINES`), the per-joint PD of
 N-link arms with its tuned gains (:data:`twolink.control.links_pd.TUNED`, entries
-``pd_<N>link_<rule>``, tagged ``baseline`` and ``n-link``) and the shipped learned agents
+``pd_<N>link_<rule>``, tagged ``baseline`` and ``n-link``), the handovers between two
+fuzzy designs (:data:`twolink.control.handover.HANDOVERS`) and the shipped learned agents
 (:data:`twolink.control.learned.LEARNED_AGENTS`). :data:`BENCHMARK` names the rows of
 the default leaderboard.
 
@@ -153,6 +154,18 @@ def _baselines() -> list:
             for name, b in BASELINES.items()]
 
 
+def _handovers() -> list:
+    from twolink.control.handover import HANDOVERS
+
+    return [Entry(name=name, kind="centralized", tags=("fuzzy", "tuned", *(
+                      ("benchmark",) if name in BENCHMARK else ())),
+                  entry="twolink.control.handover:handover_policy",
+                  data={"approach": h.approach, "hold": h.hold,
+                        "regions": h.regions.as_dict(), "name": name},
+                  description=h.description)
+            for name, h in HANDOVERS.items()]
+
+
 def _learned() -> list:
     from twolink.control.learned import LEARNED
 
@@ -194,9 +207,10 @@ def _links_pd() -> list:
 
 
 def shipped_entries() -> list:
-    """The entries twolink ships, in report order: fuzzy policies, baselines (the
-    two-link ones, then the tuned N-link PD: :func:`links_pd_name`), learned."""
-    return [*_shipped_policies(), *_baselines(), *_links_pd(), *_learned()]
+    """The entries twolink ships, in report order: fuzzy policies, the handovers between
+    two of them (:mod:`twolink.control.handover`), baselines (the two-link ones, then the
+    tuned N-link PD: :func:`links_pd_name`), learned."""
+    return [*_shipped_policies(), *_handovers(), *_baselines(), *_links_pd(), *_learned()]
 
 
 def catalogue_files(files=()) -> list:

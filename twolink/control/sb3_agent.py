@@ -24,22 +24,19 @@ Anything else (a member too large, another policy class or features extractor, m
 or extra weights, weights of other shapes) is one :class:`ControllerError` line.
 
 :class:`SB3Agent` maps states (n, 2N) to torques (n, N) as the training environment
-(:class:`twolink.envs.sb3.TwoLinkSB3VecEnv`, ``actions='normalized'``) does: the
-observation :func:`twolink.arm.observations.features` of the states (``'cos_sin'``, 3N
-numbers, or ``'state'``, 2N, told apart by the saved observation space's size; with a
-``history`` K > 1 in ``twolink.json`` the last K of them and the last K - 1 actions of
-each row, :mod:`twolink.control.history`, reset by ``reset(n)``), the policy's
-deterministic action, clipped to [-1, 1], times the ``action_gain`` G its
-``twolink.json`` records (1 without one; clipped again, :mod:`twolink.control.action_gain`)
-and scaled to +-tau_max (added to its base
-controller's torques and clipped when ``twolink.json`` names a ``base``,
-:mod:`twolink.control.residual`). N is the size of the saved action space (2 to 6); an
-agent of N > 2 links names its arm's link rule in the optional member ``twolink.json``
-(:mod:`twolink.control.agent_meta`), whose ``links`` must agree with the spaces; tau_max
-is then that of :func:`twolink.arm.parameters.links_parameters` (Table I's for two links). SB3 is
-imported only when an agent is built: without it, one line saying the rl extras are
-needed. Its ``meta`` holds the algorithm, seed, steps trained, base and file; no
-``"model"`` (nothing for a compensator to predict with: plain leaderboard rows only).
+(:class:`twolink.envs.sb3.TwoLinkSB3VecEnv`, ``actions='normalized'``) does: the policy's
+deterministic action on the features of the states (:func:`twolink.arm.observations.features`:
+``'cos_sin'``, 3N numbers, or ``'state'``, 2N, by the saved space's size; with a
+``history`` K > 1 in ``twolink.json`` the last K of them and K - 1 actions,
+:mod:`twolink.control.history`, reset by ``reset(n)``), clipped to [-1, 1], times its
+recorded ``action_gain`` (:mod:`twolink.control.action_gain`), scaled to +-tau_max and
+added to a ``base`` controller's torques where one is named (:mod:`twolink.control.residual`).
+N is the size of the saved action space (2 to 6); an agent of N > 2 links names its link
+rule in ``twolink.json`` (:mod:`twolink.control.agent_meta`), whose ``links`` must agree
+with the spaces; tau_max is that of :func:`twolink.arm.parameters.links_parameters`
+(Table I's for two links). SB3 is imported only when an agent is built (without it, one
+line naming the rl extras). ``meta`` holds the algorithm, seed, steps, base, gain and
+file; no ``"model"`` (nothing for a compensator to predict with: plain rows only).
 """
 from __future__ import annotations
 
@@ -67,15 +64,13 @@ SIGNATURES = {"ppo": ("n_epochs", "clip_range", "gae_lambda"),
               "sac": ("target_entropy", "replay_buffer_class", "ent_coef")}
 #: The message of a missing Stable-Baselines3.
 NEEDS_RL = "needs the rl extras: pip install 'twolink[rl]'"
-#: The most bytes a save's member may inflate to, and all its members together (the
-#: committed agents are about 0.2-2 MB).
+#: The most bytes a member, and all members together, may inflate to (agents: 0.2-2 MB).
 MAX_BYTES = 32 * 2**20
 #: The most members a save may hold (SB3 writes six to eight).
 MAX_MEMBERS = 64
 #: The members read (the optimizer states and the rest are never read).
 READ = ("data", "policy.pth")
-#: Activation functions a save may name (``policy_kwargs["activation_fn"]``), by the
-#: class name of ``torch.nn``.
+#: Activation functions (``torch.nn`` class names) a save's ``activation_fn`` may name.
 ACTIVATIONS = ("Tanh", "ReLU", "ELU", "LeakyReLU", "GELU", "SiLU", "Mish", "SELU",
                "CELU", "Sigmoid", "Softplus", "ReLU6", "Hardtanh")
 #: The ``policy_kwargs`` rebuilt per algorithm, with the JSON type each must have.
@@ -463,8 +458,7 @@ class SB3Agent:
         self.tau_max = np.asarray(params.tau_max, dtype=float)
         self.base_name, self.base = agent_base(path, members.get(AGENT_MEMBER), params)
         self.action_gain = agent_action_gain(path, members.get(AGENT_MEMBER))
-        self.name = name or path.stem
-        self.path = path
+        self.name, self.path = name or path.stem, path
         self.meta = {"algo": self.algo, "seed": data.get("seed"),
                      "steps": data.get("num_timesteps"), "observation": self.observation,
                      "links": self.links, "rule": self.rule, "history": self.history,
@@ -478,17 +472,17 @@ class SB3Agent:
         if x.shape[-1:] != (2 * self.links,):
             raise ValueError(f"a {self.links}-link agent maps states (..., {2 * self.links}) "
                              f"to torques, got states of shape {x.shape}")
-        if self.history == 1:       # the action (tau_max 1) over the base, scaled
-            return residual_torques(self.base, x, gained(model_torques(
-                self.policy, x, self.observation, 1.0), self.action_gain), self.tau_max)
-        obs = features(x, self.observation).reshape(x.size // x.shape[-1], -1)
-        if self._buffer is None or self._buffer.rows != len(obs):
-            self.reset(len(obs))
-        action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
-        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-        self._buffer.act(a)
-        return residual_torques(self.base, x, gained(a, self.action_gain).reshape(
-            x.shape[:-1] + (-1,)), self.tau_max)
+        if self.history == 1:       # the clipped action (tau_max 1)
+            a = model_torques(self.policy, x, self.observation, 1.0)
+        else:
+            obs = features(x, self.observation).reshape(x.size // x.shape[-1], -1)
+            if self._buffer is None or self._buffer.rows != len(obs):
+                self.reset(len(obs))
+            action, _ = self.policy.predict(self._buffer.observe(obs), deterministic=True)
+            a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+            self._buffer.act(a)
+            a = a.reshape(x.shape[:-1] + (-1,))
+        return residual_torques(self.base, x, gained(a, self.action_gain), self.tau_max)
 
     def reset(self, n: int) -> None:
         """Start ``n`` rows afresh: with a history K > 1, its buffers of zeros."""

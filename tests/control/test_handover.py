@@ -1,0 +1,109 @@
+"""The handover (twolink.control.handover): the approach design acts until the arm is in
+the enter region, the hold design until it leaves the exit region; its parts must drive
+one arm on one model; the shipped entry is a catalogue controller."""
+from __future__ import annotations
+
+import importlib.util
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twolink.control.handover import HANDOVERS, Handover, Regions, handover_policy
+from twolink.sim.controller import ControllerError
+
+
+class Const:
+    def __init__(self, value, meta=None, links=2):
+        self.value, self.meta, self.links, self.resets = value, meta or {}, links, 0
+        self.name = f"const{value}"
+
+    def reset(self, n):
+        self.resets += 1
+
+    def __call__(self, x):
+        return np.full((len(x), self.links), float(self.value))
+
+
+def _x(deg, speed):
+    return np.array([[math.radians(deg), math.radians(deg), speed, speed]])
+
+
+def test_the_hold_acts_from_the_band_until_the_exit_region():
+    h = Handover(Const(1.0), Const(-1.0))                  # in: goal band; out: 10 deg, 0.3
+    h.reset(1)
+    seq = [(30, 0.0, 1.0), (4, 0.2, 1.0),      # near but too fast: still the approach
+           (4, 0.05, -1.0), (8, 0.25, -1.0),   # settled: the hold, kept inside the exit
+           (12, 0.0, 1.0), (8, 0.0, 1.0),      # beyond 10 deg: the approach again
+           (2, 0.0, -1.0), (2, 0.5, 1.0)]      # in again; out by speed
+    for deg, speed, want in seq:
+        np.testing.assert_array_equal(h(_x(deg, speed)), [[want, want]])
+
+
+def test_every_joint_must_be_in_the_band_and_rows_switch_alone():
+    h = Handover(Const(1.0), Const(-1.0))
+    x = np.array([[0.01, 0.5, 0.0, 0.0],            # joint 2 far: approach
+                  [0.01, -0.02, 0.05, 0.0],          # both in: hold
+                  [2 * math.pi - 0.01, 0.0, 0.0, 0.0]])   # wrapped angle: in
+    np.testing.assert_array_equal(h(x)[:, 0], [1.0, -1.0, -1.0])
+
+
+def test_reset_releases_every_row_and_resets_both_designs():
+    a, b = Const(1.0), Const(-1.0)
+    h = Handover(a, b)
+    h(_x(1, 0.0))
+    h.reset(1)
+    assert a.resets == b.resets == 2 and not h.held.any()
+    np.testing.assert_array_equal(h(_x(8, 0.0)), [[1.0, 1.0]])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"exit_deg": 3.0}, "exit_deg must be"),
+    ({"enter_speed": 0.0}, "enter_speed must be"),
+    ({"enter_deg": float("nan")}, "enter_deg must be"),
+    ({"exit_speed": 0.05}, "exit_speed must be")])
+def test_bad_regions_are_one_line(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        Regions(**kwargs)
+    with pytest.raises(ControllerError, match=f"handover h: {match}"):
+        handover_policy("centralized_9levels", "lqr", kwargs, name="h")
+    with pytest.raises(ControllerError, match="handover h: regions: .*unexpected keyword"):
+        handover_policy("centralized_9levels", "lqr", {"enter": 1}, name="h")
+
+
+def test_its_designs_drive_one_arm_on_one_model():
+    with pytest.raises(ControllerError, match="its designs drive arms of 2 and 3 links"):
+        Handover(Const(1.0), Const(1.0, links=3), name="h")
+    with pytest.raises(ControllerError, match="name the models full and simplified"):
+        Handover(Const(1.0, {"model": "full"}), Const(1.0, {"model": "simplified"}), name="h")
+    h = Handover(Const(1.0, {"model": "full"}), Const(1.0), name="h")
+    assert h.meta["model"] == "full"
+    assert h.meta["handover"]["enter_deg"] == pytest.approx(5.0)
+
+
+def test_the_shipped_handover_is_a_catalogue_controller():
+    from twolink.control.controllers import resolve_controller
+    from twolink.sim.evaluation import evaluate
+
+    c = resolve_controller("centralized_handover")
+    h = HANDOVERS["centralized_handover"]
+    assert c.meta["handover"]["approach"] == h.approach
+    assert c.meta["handover"]["hold"] == h.hold
+    assert c.meta["model"] == "full"                 # --compensate predicts with (6)
+    e = evaluate(c)                                  # the 65 states, nominal
+    assert e.score.successes == 65
+
+
+def test_the_study_s_rule_reads_the_targets():
+    path = Path(__file__).resolve().parents[2] / "docs/studies/handover.py"
+    spec = importlib.util.spec_from_file_location("handover_study", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    cells = {"none": 48, "n_none": 48, "ratio_median": 1.25, "medium": 254,
+             "n_challenge": 256, "hard compensated": 200}
+    assert module.meets(cells)
+    assert not module.meets(dict(cells, ratio_median=1.26))
+    assert not module.meets(dict(cells, medium=253))          # 98.8 %
+    assert not module.meets(dict(cells, none=47))
+    assert not module.meets(dict(cells, ratio_median=None))

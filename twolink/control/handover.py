@@ -1,0 +1,143 @@
+"""A handover between two designs: a fast one brings the arm into the goal band, a robust
+one holds it there.
+
+The fastest centralized design, ``centralized_9levels``, settles at 1.22 T* nominally,
+but under delays and noise its full-torque answers near the goal push the arm out of the
+band again; the designs with a near-goal gain hold the band under ``hard`` but approach
+slowly. :class:`Handover` runs ``approach`` until the reading of every joint lies within
+``enter_deg`` degrees and ``enter_speed`` rad/s of the goal (by default the goal band of
+(15): the arm has settled), then ``hold`` until a reading of any joint lies beyond
+``exit_deg`` or ``exit_speed`` (hysteresis: exit >= enter), then ``approach`` again. Both
+controllers are called on every sample, so each keeps its own state (a history, a fading
+gain) whichever acts. The switch reads the whole state, so a handover is a centralized
+controller whatever its parts are.
+
+:data:`HANDOVERS` holds the shipped handovers, catalogue entries by name
+(:mod:`twolink.control.catalogue`); :func:`handover_policy` makes one from the names of
+its two designs and its regions, as a catalogue entry's data gives them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
+from twolink.sim.controller import ControllerError
+from twolink.validate import real
+
+
+@dataclasses.dataclass(frozen=True)
+class Regions:
+    """Where a :class:`Handover` hands over: ``enter_*`` (every joint inside: to
+    ``hold``) and ``exit_*`` (any joint beyond: back to ``approach``); checked on
+    creation."""
+
+    enter_deg: float = math.degrees(GOAL_ANGLE)
+    enter_speed: float = GOAL_SPEED
+    exit_deg: float = 10.0
+    exit_speed: float = 0.3
+
+    def __post_init__(self):
+        real(self.enter_deg, "enter_deg", 0.0, 180.0, open_low=True)
+        real(self.enter_speed, "enter_speed", 0.0, 2 * math.pi, open_low=True)
+        real(self.exit_deg, "exit_deg", self.enter_deg, 180.0)
+        real(self.exit_speed, "exit_speed", self.enter_speed, 2 * math.pi)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+class Handover:
+    """``approach`` until the arm enters ``regions``' enter region, ``hold`` until it
+    leaves the exit region (module docstring); ``name`` labels it. Both controllers map
+    states (n, 2N) to torques (n, N) for the same N; where both name the model they were
+    designed on (``meta["model"]``, what ``--compensate`` predicts with) it must be one."""
+
+    kind = "centralized"
+
+    def __init__(self, approach, hold, regions: Regions | None = None, *,
+                 name: str = "handover"):
+        regions = Regions() if regions is None else regions
+        if not isinstance(regions, Regions):
+            raise TypeError(f"regions must be a Regions, got {type(regions).__name__}")
+        links = {getattr(c, "links", 2) for c in (approach, hold)}
+        if len(links) != 1:
+            raise ControllerError(f"handover {name}: its designs drive arms of "
+                                  f"{' and '.join(map(str, sorted(links)))} links")
+        metas = [dict(getattr(c, "meta", None) or {}) for c in (approach, hold)]
+        models = {m["model"] for m in metas if "model" in m}
+        if len(models) > 1:
+            raise ControllerError(f"handover {name}: its designs name the models "
+                                  f"{' and '.join(sorted(models))}; compensation predicts "
+                                  f"with one")
+        self.approach, self.hold, self.regions = approach, hold, regions
+        self.links, self.name = links.pop(), name
+        self.meta = {**metas[0], "handover": {
+            "approach": getattr(approach, "name", "approach"),
+            "hold": getattr(hold, "name", "hold"), **regions.as_dict()}}
+        self.held = None
+
+    def reset(self, n: int) -> None:
+        """``n`` rows, each with ``approach`` acting; both designs reset."""
+        self.held = np.zeros(n, dtype=bool)
+        for c in (self.approach, self.hold):
+            inner = getattr(c, "reset", None)
+            if callable(inner):
+                inner(n)
+
+    def __call__(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        n = self.links
+        if self.held is None or self.held.shape[0] != x.shape[0]:
+            self.reset(x.shape[0])
+        theta = np.abs(np.mod(x[:, :n] + math.pi, 2 * math.pi) - math.pi)
+        speed = np.abs(x[:, n:])
+        r = self.regions
+        inside = ((theta <= math.radians(r.enter_deg)) & (speed <= r.enter_speed)).all(1)
+        beyond = ((theta > math.radians(r.exit_deg)) | (speed > r.exit_speed)).any(1)
+        self.held = (self.held | inside) & ~beyond
+        fast = np.asarray(self.approach(x), dtype=float)
+        slow = np.asarray(self.hold(x), dtype=float)
+        return np.where(self.held[:, None], slow, fast)
+
+
+@dataclasses.dataclass(frozen=True)
+class ShippedHandover:
+    """A shipped handover: its two designs (catalogue names) and regions."""
+
+    approach: str
+    hold: str
+    description: str
+    regions: Regions = Regions()
+
+
+#: The shipped handovers by catalogue name (tag ``tuned``: the hold design was chosen on
+#: the tuning seeds, ``docs/studies/handover.py``).
+HANDOVERS = {
+    "centralized_handover": ShippedHandover(
+        "centralized_9levels", "centralized_robust_edge_gain_medium",
+        "centralized_9levels until the arm has settled in the goal band, then "
+        "centralized_robust_edge_gain_medium until a joint leaves 10 deg or 0.3 rad/s "
+        "(twolink.control.handover)"),
+}
+
+
+def handover_policy(approach: str, hold: str, regions: dict | None = None,
+                    name: str = "handover") -> Handover:
+    """The handover from the shipped fuzzy policy (or policy file) ``approach`` to
+    ``hold`` over ``regions`` (the fields of :class:`Regions`; default the goal band in,
+    10 deg or 0.3 rad/s out): the entry point of the shipped handovers' catalogue
+    entries."""
+    from twolink.policy.fuzzy_policy import load_policy
+
+    try:
+        spec = Regions(**(regions or {}))
+    except TypeError as exc:
+        raise ControllerError(f"handover {name}: regions: {exc}") from None
+    except ValueError as exc:
+        raise ControllerError(f"handover {name}: {exc}") from None
+    h = Handover(load_policy(approach), load_policy(hold), spec, name=name)
+    h.meta["handover"].update(approach=approach, hold=hold)
+    return h
