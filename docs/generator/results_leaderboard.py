@@ -35,15 +35,23 @@ def leaderboard_page(report: dict) -> str:
                     "renders/leaderboard, then `python docs/generate.py`).\n"])
 
 
-def _kinds(names) -> dict:
-    """``{controller: "centralized" | "decentralized"}`` of the shipped ones among ``names``."""
-    from twolink.control.baselines import BASELINES, baseline
-    from twolink.policy.registry import SHIPPED
+def _fuzzy() -> dict:
+    """``{name: kind}`` of the two-link catalogue entries tagged ``fuzzy``: the shipped
+    fuzzy policies and the handovers between two of them."""
+    from twolink.control.catalogue import shipped_entries
 
-    out = {}
+    return {e.name: e.kind for e in shipped_entries() if "fuzzy" in e.tags and e.links == 2}
+
+
+def _kinds(names) -> dict:
+    """``{controller: "centralized" | "decentralized"}`` of the fuzzy and baseline ones
+    among ``names``."""
+    from twolink.control.baselines import BASELINES, baseline
+
+    fuzzy, out = _fuzzy(), {}
     for n in names:
-        if n in SHIPPED:
-            out[n] = SHIPPED[n].kind
+        if n in fuzzy:
+            out[n] = fuzzy[n]
         elif n in BASELINES:
             out[n] = baseline(n).kind
     return out
@@ -53,20 +61,21 @@ def fuzzy_designs_page(report: dict) -> str:
     """The tuned fuzzy designs against their targets and against the best controller of
     their kind at every level, from the committed leaderboard; then the tuning table of
     docs/studies/fuzzy_design.py when its data is committed."""
-    from twolink.policy.registry import SHIPPED
     from twolink.sim.metrics import wilson_interval
     from twolink.studies.leaderboard.ranking import ranked
     from twolink.viz.formatting import format_rate
 
     rows = {(r["controller"], r["level"], r["mode"]): r for r in report["rows"]}
     kinds = _kinds(dict.fromkeys(r["controller"] for r in report["rows"]))
+    fuzzy_kinds = _fuzzy()
     out = [_stamp("renders/leaderboard/leaderboard.json"),
            "# Fuzzy designs against the yardstick\n\n",
            "The tuned fuzzy designs (`*_tuned` and `centralized_9levels`: more torque "
            "levels, other bins, a read-out with a speed dead zone and the argmax of Q far "
            "from the goal; `*_edge`: the same designs on bins with no centre on the goal "
            "band's edge; `*_locked`: agent 2's transitions holding joint 1; `*_gain`: "
-           "a read-out that lowers the torque near the goal; "
+           "a read-out that lowers the torque near the goal; `centralized_handover`: "
+           "`centralized_9levels` handing the settled arm to a robust design; "
            "[Synthesis](../guides/synthesis.md)) on the committed "
            f"leaderboard: {report['states']} evaluation states, {report['plants']} plants "
            f"per perturbed level, seed {report['seed']}, on MuJoCo. Their designs were "
@@ -88,7 +97,7 @@ def fuzzy_designs_page(report: dict) -> str:
     body = []
     for kind, level, mode, rate, worst, ratio in FUZZY_TARGETS:
         cands = [r for (n, lv, m), r in rows.items() if lv == level and m == mode
-                 and n in SHIPPED and SHIPPED[n].kind == kind and SHIPPED[n].links == 2]
+                 and fuzzy_kinds.get(n) == kind]
         if not cands:
             continue
         judged = [(verdict(r, rate, worst, ratio), r) for r in cands]
@@ -114,7 +123,7 @@ def fuzzy_designs_page(report: dict) -> str:
                 if not cands:
                     continue
                 best = ranked(cands)[0]
-                fuzzy = [r for r in cands if r["controller"] in SHIPPED]
+                fuzzy = [r for r in cands if r["controller"] in fuzzy_kinds]
                 if not fuzzy:
                     continue
                 f = ranked(fuzzy)[0]

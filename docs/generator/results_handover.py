@@ -1,0 +1,64 @@
+"""The handover section of docs/results/fuzzy-designs.md, from
+``renders/fuzzy_design/handover.json`` (``docs/studies/handover.py``) and the handover's
+rows of the committed leaderboard."""
+from __future__ import annotations
+
+from .common import SCHEMAS, _load, _table
+
+HANDOVER = "renders/fuzzy_design/handover.json"
+
+
+def _region(r: dict) -> str:
+    return (f"in {r['enter_deg']:g} deg, {r['enter_speed']:g} rad/s; out {r['exit_deg']:g} "
+            f"deg, {r['exit_speed']:g} rad/s")
+
+
+def _cells(c: dict) -> tuple:
+    ratio = "never" if c["ratio_median"] is None else f"{c['ratio_median']:.2f}"
+    return (f"{c['none']}/{c['n_none']}", ratio, f"{c['medium']}/{c['n_challenge']}",
+            f"{c['hard compensated']}/{c['n_challenge']}")
+
+
+def handover_block(report: dict) -> str:
+    """The study's table, its pick on the wider tuning-side set, and the shipped
+    handover's leaderboard rows (empty when the study's data are not committed)."""
+    from twolink.viz.formatting import format_rate
+
+    data = _load(HANDOVER, SCHEMAS[HANDOVER])
+    if data is None:
+        return ""
+    out = ["\n## The handover\n\n`python docs/studies/handover.py`: "
+           f"`{data['approach']}` until the arm enters a region around the goal, then a "
+           "robust design until it leaves a wider one (`twolink.control.handover`), "
+           "measured on the tuning seeds as the tuning table is. The pick meets the "
+           "nominal, speed and `medium` targets on these cells with the most `hard` "
+           "compensated successes.\n\n"]
+    rows = [(f"`{data['approach']}` alone", "", *_cells(data["approach_alone"]))]
+    rows += [(f"`{r['hold']}`", _region(r["regions"]), *_cells(r["cells"]))
+             for r in data["rows"]]
+    out.append(_table(("hold design", "regions", "nominal", "settle / T*", "medium plain",
+                       "hard compensated"), rows))
+    pick, wide = data.get("pick"), data.get("wide")
+    if pick and wide:
+        p, a = wide["pick"], wide["approach_alone"]
+        out.append(f"\n\nThe pick, `{pick['hold']}` ({_region(pick['regions'])}), on the 65 "
+                   f"evaluation states and {p['plants']} plants of the tuning plant seed "
+                   f"{p['seed']}: `medium` plain {format_rate(p['medium'], p['n'])} "
+                   f"(`{data['approach']}` alone {format_rate(a['medium'], a['n'])}), "
+                   f"`hard` compensated {format_rate(p['hard compensated'], p['n'])} (alone "
+                   f"{format_rate(a['hard compensated'], a['n'])}). It is the catalogue's "
+                   "`centralized_handover`.")
+    mine = {(r["level"], r["mode"]): r for r in report["rows"]
+            if r["controller"] == "centralized_handover"}
+    if mine:
+        cells = []
+        for level, mode in (("none", "plain"), ("medium", "plain"), ("medium", "compensated"),
+                            ("hard", "plain"), ("hard", "compensated")):
+            r = mine.get((level, mode))
+            if r is not None:
+                ratio = r.get("settle_ratio_median")
+                cells.append((f"`{level}`", mode, format_rate(r["successes"], r["n"]),
+                              "never" if ratio is None else f"{ratio:.2f}"))
+        out.append(f"\n\nOn the leaderboard (seed {report['seed']}, never used in tuning):\n\n")
+        out.append(_table(("level", "mode", "successes", "settle / T*"), cells))
+    return "".join(out) + "\n"
