@@ -15,7 +15,8 @@ set for 5 s on MuJoCo:
 It compares training recipes for the centralized target of the learned rows (65/65
 nominally at ≤ 1.5 × T*, ≥ 99 % ``medium``, ≥ 90 % ``hard``) without looking at the
 plants that judge the shipped row. The training guide quotes its output,
-``renders/challenge_agents/sac_mixed_levers.json``.
+``renders/challenge_agents/sac_mixed_levers.json`` and ``sac_mixed_gain_levers.json``
+(the ``--action-gain`` runs).
 """
 from __future__ import annotations
 
