@@ -23,6 +23,8 @@ K observations and K - 1 actions (:mod:`twolink.envs.history`). ``base`` ``'pd'`
 the agent's action a residual over the tuned per-joint PD (3 to 6 links, no challenge):
 torque = clip(PD(x) + tau_max a, +-tau_max) (:mod:`twolink.control.residual`,
 :class:`twolink.envs.residual.ResidualVecEnv`), so an agent of zero action is the PD.
+``action_gain`` G > 1 drives the arms with clip(G a, -1, 1) for the normalized action a
+(:mod:`twolink.control.action_gain`): full torque within reach of SAC's squashed actions.
 
 Training stops, evaluates and checkpoints at update boundaries only: every
 :meth:`TrainConfig.unit` environment steps (PPO: one rollout of ``n_steps`` per arm;
