@@ -29,6 +29,16 @@ from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
 from twolink.validate import real, whole
 
 
+def check_band(region) -> None:
+    """A ValueError line unless ``region``'s ``enter_deg`` (0 to 180) and ``enter_speed``
+    (0 to 2 pi rad/s) are positive and its ``exit_deg``, ``exit_speed`` are at least
+    those (hysteresis)."""
+    real(region.enter_deg, "enter_deg", 0.0, 180.0, open_low=True)
+    real(region.enter_speed, "enter_speed", 0.0, 2 * math.pi, open_low=True)
+    real(region.exit_deg, "exit_deg", region.enter_deg, 180.0)
+    real(region.exit_speed, "exit_speed", region.enter_speed, 2 * math.pi)
+
+
 @dataclasses.dataclass(frozen=True)
 class Fade:
     """The settings of a fading gain (see the module docstring); checked on creation."""
@@ -41,15 +51,25 @@ class Fade:
     enter_speed: float = GOAL_SPEED
 
     def __post_init__(self):
-        real(self.enter_deg, "enter_deg", 0.0, 180.0, open_low=True)
-        real(self.enter_speed, "enter_speed", 0.0, 2 * math.pi, open_low=True)
-        real(self.exit_deg, "exit_deg", self.enter_deg, 180.0)
-        real(self.exit_speed, "exit_speed", self.enter_speed, 2 * math.pi)
+        check_band(self)
         real(self.floor, "floor", 0.0, 1.0)
         whole(self.fade_samples, "fade_samples", 1, 10_000)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+
+def band_readings(x, links: int, region) -> tuple:
+    """(inside, beyond), each (n, links): whether each joint's reading of the states x
+    (n, 2 links) lies within ``region``'s ``enter_deg`` degrees (the angle wrapped to
+    [-pi, pi)) and ``enter_speed`` rad/s of the goal, and whether it lies beyond its
+    ``exit_deg`` or ``exit_speed``: the hold regions of :class:`FadingGain` and
+    :class:`twolink.control.handover.Handover`."""
+    theta = np.abs(np.mod(x[:, :links] + math.pi, 2 * math.pi) - math.pi)
+    speed = np.abs(x[:, links:])
+    inside = (theta <= math.radians(region.enter_deg)) & (speed <= region.enter_speed)
+    beyond = (theta > math.radians(region.exit_deg)) | (speed > region.exit_speed)
+    return inside, beyond
 
 
 class FadingGain:
@@ -84,11 +104,8 @@ class FadingGain:
         n = self.links
         if self.held is None or self.held.shape[0] != x.shape[0]:
             self.reset(x.shape[0])
-        theta = np.abs(np.mod(x[:, :n] + math.pi, 2 * math.pi) - math.pi)
-        speed = np.abs(x[:, n:])
         f = self.fade
-        inside = (theta <= math.radians(f.enter_deg)) & (speed <= f.enter_speed)
-        beyond = (theta > math.radians(f.exit_deg)) | (speed > f.exit_speed)
+        inside, beyond = band_readings(x, n, f)
         self.held = (self.held | inside) & ~beyond
         step = (1.0 - f.floor) / f.fade_samples
         self.gain = np.where(self.held, np.maximum(f.floor, self.gain - step), 1.0)

@@ -24,8 +24,8 @@ import math
 import numpy as np
 
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
+from twolink.control.fading import band_readings, check_band
 from twolink.sim.controller import ControllerError
-from twolink.validate import real
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,10 +40,7 @@ class Regions:
     exit_speed: float = 0.3
 
     def __post_init__(self):
-        real(self.enter_deg, "enter_deg", 0.0, 180.0, open_low=True)
-        real(self.enter_speed, "enter_speed", 0.0, 2 * math.pi, open_low=True)
-        real(self.exit_deg, "exit_deg", self.enter_deg, 180.0)
-        real(self.exit_speed, "exit_speed", self.enter_speed, 2 * math.pi)
+        check_band(self)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -92,12 +89,8 @@ class Handover:
         n = self.links
         if self.held is None or self.held.shape[0] != x.shape[0]:
             self.reset(x.shape[0])
-        theta = np.abs(np.mod(x[:, :n] + math.pi, 2 * math.pi) - math.pi)
-        speed = np.abs(x[:, n:])
-        r = self.regions
-        inside = ((theta <= math.radians(r.enter_deg)) & (speed <= r.enter_speed)).all(1)
-        beyond = ((theta > math.radians(r.exit_deg)) | (speed > r.exit_speed)).any(1)
-        self.held = (self.held | inside) & ~beyond
+        inside, beyond = band_readings(x, n, self.regions)
+        self.held = (self.held | inside.all(1)) & ~beyond.any(1)
         fast = np.asarray(self.approach(x), dtype=float)
         slow = np.asarray(self.hold(x), dtype=float)
         return np.where(self.held[:, None], slow, fast)
