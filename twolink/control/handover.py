@@ -25,7 +25,7 @@ import numpy as np
 
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
 from twolink.control.fading import band_readings, check_band
-from twolink.sim.controller import ControllerError
+from twolink.sim.controller import ControllerError, reset_controller
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,10 +79,8 @@ class Handover:
     def reset(self, n: int) -> None:
         """``n`` rows, each with ``approach`` acting; both designs reset."""
         self.held = np.zeros(n, dtype=bool)
-        for c in (self.approach, self.hold):
-            inner = getattr(c, "reset", None)
-            if callable(inner):
-                inner(n)
+        reset_controller(self.approach, n)
+        reset_controller(self.hold, n)
 
     def __call__(self, x) -> np.ndarray:
         x = np.asarray(x, dtype=float)
