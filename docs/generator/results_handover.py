@@ -13,6 +13,12 @@ def _region(r: dict) -> str:
             f"deg, {r['exit_speed']:g} rad/s")
 
 
+def _rescue(r: dict) -> str:
+    if r.get("rescue_deg") is None:
+        return "none"
+    return f"within {r['rescue_deg']:g} deg for {r['rescue_s']:g} s"
+
+
 def _cells(c: dict) -> tuple:
     ratio = "never" if c["ratio_median"] is None else f"{c['ratio_median']:.2f}"
     return (f"{c['none']}/{c['n_none']}", ratio, f"{c['medium']}/{c['n_challenge']}",
@@ -38,16 +44,29 @@ def handover_block(report: dict) -> str:
              for r in data["rows"]]
     out.append(_table(("hold design", "regions", "nominal", "settle / T*", "medium plain",
                        "hard compensated"), rows))
-    pick, wide = data.get("pick"), data.get("wide")
-    if pick and wide:
-        p, a = wide["pick"], wide["approach_alone"]
-        out.append(f"\n\nThe pick, `{pick['hold']}` ({_region(pick['regions'])}), on the 65 "
-                   f"evaluation states and {p['plants']} plants of the tuning plant seed "
-                   f"{p['seed']}: `medium` plain {format_rate(p['medium'], p['n'])} "
-                   f"(`{data['approach']}` alone {format_rate(a['medium'], a['n'])}), "
-                   f"`hard` compensated {format_rate(p['hard compensated'], p['n'])} (alone "
-                   f"{format_rate(a['hard compensated'], a['n'])}). It is the catalogue's "
-                   "`centralized_handover`.")
+    pick, final = data.get("pick"), data.get("final")
+    if pick and data.get("rescues"):
+        a = data["wide_approach_alone"] if final else None
+        out.append(f"\n\nThe pick, `{pick['hold']}` ({_region(pick['regions'])}), with "
+                   "each rescue (every joint within a region around the goal for a dwell "
+                   "without the hold acting: the hold design acts until the arm enters "
+                   "the band; it catches limit cycles around the band), on the same cells "
+                   "and on the 65 evaluation states x 32 plants of the tuning plant seed "
+                   "(*wide*):\n\n")
+        out.append(_table(
+            ("rescue", "nominal", "settle / T*", "medium plain", "hard compensated",
+             "wide medium plain", "wide hard compensated"),
+            [(_rescue(r["regions"]), *_cells(r["cells"]),
+              format_rate(r["wide"]["medium"], r["wide"]["n"]),
+              format_rate(r["wide"]["hard compensated"], r["wide"]["n"]))
+             for r in data["rescues"]]))
+        if final:
+            out.append(f"\n\n`{data['approach']}` alone on the wide set: `medium` plain "
+                       f"{format_rate(a['medium'], a['n'])}, `hard` compensated "
+                       f"{format_rate(a['hard compensated'], a['n'])}. The final pick (the "
+                       "most wide successes among the rescues that meet the targets on "
+                       f"the cells), rescue {_rescue(final['regions'])}, is the "
+                       "catalogue's `centralized_handover`.")
     mine = {(r["level"], r["mode"]): r for r in report["rows"]
             if r["controller"] == "centralized_handover"}
     if mine:

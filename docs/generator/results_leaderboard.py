@@ -109,6 +109,29 @@ def fuzzy_designs_page(report: dict) -> str:
     out += ["The best fuzzy policy of each kind for each target (one that meets it, if any "
             "does).\n\n",
             _table(("kind", "level", "mode", "target", "measured", ""), body), "\n\n"]
+    # one design for every target of its kind: the recommended design
+    one = []
+    for kind in dict.fromkeys(t[0] for t in FUZZY_TARGETS):
+        targets = [t for t in FUZZY_TARGETS if t[0] == kind]
+        met = {}
+        for name, k in fuzzy_kinds.items():
+            if k != kind:
+                continue
+            met[name] = [t for t in targets if (name, t[1], t[2]) in rows
+                         and verdict(rows[name, t[1], t[2]], *t[3:])[0]]
+        if not met:
+            continue
+        full = sorted(n for n, m in met.items() if len(m) == len(targets))
+        if full:
+            one.append(f"- {kind}: {', '.join(f'`{n}`' for n in full)} meets all "
+                       f"{len(targets)}.\n")
+        else:
+            best = max(sorted(met), key=lambda n: len(met[n]))
+            missed = [f"`{t[1]}` {t[2]}" for t in targets if t not in met[best]]
+            one.append(f"- {kind}: **none**; the closest, `{best}`, meets "
+                       f"{len(met[best])} of {len(targets)} (misses {', '.join(missed)}).\n")
+    out += ["One design that meets every target of its kind (the recommended design):\n\n",
+            *one, "\n"]
     out.append("## Best of each kind\n\nPer level and mode, the controller of each kind "
                "ranked first by the [leaderboard's rule](leaderboard.md) (success, ties "
                "within overlapping 95 % intervals going to the shorter median settle / T\\*) "

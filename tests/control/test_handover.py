@@ -41,6 +41,26 @@ def test_the_hold_acts_from_the_band_until_the_exit_region():
         np.testing.assert_array_equal(h(_x(deg, speed)), [[want, want]])
 
 
+def test_a_rescue_hands_a_cycle_near_the_goal_to_the_hold_until_it_settles():
+    h = Handover(Const(1.0), Const(-1.0), Regions(rescue_deg=15.0, rescue_s=0.1))
+    assert h.regions.rescue_samples == 2
+    h.reset(1)
+    seq = [(12, 2.0, 1.0), (20, 2.0, 1.0),     # near once, then out: the dwell restarts
+           (12, 2.0, 1.0), (-9, 2.5, -1.0),    # two samples near: rescued
+           (14, 3.0, -1.0), (30, 3.0, -1.0),   # held while rescued, whatever the reading
+           (3, 0.05, -1.0), (12, 0.0, 1.0),    # settled: the plain hold, left beyond 10 deg
+           (12, 0.0, -1.0)]                    # (that was near once) near twice: rescued
+    for deg, speed, want in seq:
+        np.testing.assert_array_equal(h(_x(deg, speed)), [[want, want]], err_msg=str(deg))
+
+
+def test_without_a_rescue_a_cycle_near_the_goal_keeps_the_approach():
+    h = Handover(Const(1.0), Const(-1.0))
+    h.reset(1)
+    for _ in range(100):
+        np.testing.assert_array_equal(h(_x(8, 2.0)), [[1.0, 1.0]])
+
+
 def test_every_joint_must_be_in_the_band_and_rows_switch_alone():
     h = Handover(Const(1.0), Const(-1.0))
     x = np.array([[0.01, 0.5, 0.0, 0.0],            # joint 2 far: approach
@@ -62,7 +82,10 @@ def test_reset_releases_every_row_and_resets_both_designs():
     ({"exit_deg": 3.0}, "exit_deg must be"),
     ({"enter_speed": 0.0}, "enter_speed must be"),
     ({"enter_deg": float("nan")}, "enter_deg must be"),
-    ({"exit_speed": 0.05}, "exit_speed must be")])
+    ({"exit_speed": 0.05}, "exit_speed must be"),
+    ({"rescue_deg": 4.0}, "rescue_deg must be"),
+    ({"rescue_deg": 15.0, "rescue_s": 0.0}, "rescue_s must be"),
+    ({"rescue_deg": 15.0, "rescue_s": 1e9}, "rescue_s must be")])
 def test_bad_regions_are_one_line(kwargs, match):
     with pytest.raises(ValueError, match=match):
         Regions(**kwargs)

@@ -59,13 +59,19 @@ class Fade:
         return dataclasses.asdict(self)
 
 
+def goal_angles(x, links: int) -> np.ndarray:
+    """|theta| (n, links) in radians: each joint's reading of the states x (n, 2 links)
+    from the goal, the angle wrapped to [-pi, pi)."""
+    return np.abs(np.mod(x[:, :links] + math.pi, 2 * math.pi) - math.pi)
+
+
 def band_readings(x, links: int, region) -> tuple:
     """(inside, beyond), each (n, links): whether each joint's reading of the states x
     (n, 2 links) lies within ``region``'s ``enter_deg`` degrees (the angle wrapped to
     [-pi, pi)) and ``enter_speed`` rad/s of the goal, and whether it lies beyond its
     ``exit_deg`` or ``exit_speed``: the hold regions of :class:`FadingGain` and
     :class:`twolink.control.handover.Handover`."""
-    theta = np.abs(np.mod(x[:, :links] + math.pi, 2 * math.pi) - math.pi)
+    theta = goal_angles(x, links)
     speed = np.abs(x[:, links:])
     inside = (theta <= math.radians(region.enter_deg)) & (speed <= region.enter_speed)
     beyond = (theta > math.radians(region.exit_deg)) | (speed > region.exit_speed)

@@ -12,6 +12,14 @@ controllers are called on every sample, so each keeps its own state (a history, 
 gain) whichever acts. The switch reads the whole state, so a handover is a centralized
 controller whatever its parts are.
 
+A rescue (``rescue_deg``, off by default) catches the other way a fast design fails on a
+mismatched plant: a limit cycle *around* the goal band that never enters it (amplitudes
+of 5-10 deg at 1-3 rad/s under ``medium``). When every joint has read within
+``rescue_deg`` of the goal for ``rescue_s`` seconds in a row without the hold acting,
+``hold`` takes over until the arm enters the enter region (then the hold's own
+hysteresis applies). A nominal approach crosses that region in well under a second, so
+the rescue leaves the fast design's settle times alone.
+
 :data:`HANDOVERS` holds the shipped handovers, catalogue entries by name
 (:mod:`twolink.control.catalogue`); :func:`handover_policy` makes one from the names of
 its two designs and its regions, as a catalogue entry's data gives them.
@@ -23,24 +31,39 @@ import math
 
 import numpy as np
 
-from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED
-from twolink.control.fading import band_readings, check_band
+from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, TS
+from twolink.control.fading import band_readings, check_band, goal_angles
 from twolink.sim.controller import ControllerError, reset_controller
+from twolink.validate import real
+
+#: The longest rescue dwell (s) a region may name.
+MAX_RESCUE_S = 60.0
 
 
 @dataclasses.dataclass(frozen=True)
 class Regions:
     """Where a :class:`Handover` hands over: ``enter_*`` (every joint inside: to
-    ``hold``) and ``exit_*`` (any joint beyond: back to ``approach``); checked on
-    creation."""
+    ``hold``), ``exit_*`` (any joint beyond: back to ``approach``) and the rescue
+    (``rescue_deg``, None: none; every joint within it for ``rescue_s`` seconds: to
+    ``hold`` until the enter region); checked on creation."""
 
     enter_deg: float = math.degrees(GOAL_ANGLE)
     enter_speed: float = GOAL_SPEED
     exit_deg: float = 10.0
     exit_speed: float = 0.3
+    rescue_deg: float | None = None
+    rescue_s: float = 1.0
 
     def __post_init__(self):
         check_band(self)
+        if self.rescue_deg is not None:
+            real(self.rescue_deg, "rescue_deg", self.enter_deg, 180.0)
+        real(self.rescue_s, "rescue_s", TS, MAX_RESCUE_S)
+
+    @property
+    def rescue_samples(self) -> int:
+        """The rescue's dwell in samples Ts."""
+        return max(1, round(self.rescue_s / TS))
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -74,11 +97,13 @@ class Handover:
         self.meta = {**metas[0], "handover": {
             "approach": getattr(approach, "name", "approach"),
             "hold": getattr(hold, "name", "hold"), **regions.as_dict()}}
-        self.held = None
+        self.held = self.rescued = self.dwell = None
 
     def reset(self, n: int) -> None:
         """``n`` rows, each with ``approach`` acting; both designs reset."""
         self.held = np.zeros(n, dtype=bool)
+        self.rescued = np.zeros(n, dtype=bool)
+        self.dwell = np.zeros(n, dtype=int)
         reset_controller(self.approach, n)
         reset_controller(self.hold, n)
 
@@ -87,11 +112,17 @@ class Handover:
         n = self.links
         if self.held is None or self.held.shape[0] != x.shape[0]:
             self.reset(x.shape[0])
-        inside, beyond = band_readings(x, n, self.regions)
-        self.held = (self.held | inside.all(1)) & ~beyond.any(1)
+        r = self.regions
+        inside, beyond = band_readings(x, n, r)
+        settled = inside.all(1)
+        self.held = (self.held | settled) & ~beyond.any(1)
+        if r.rescue_deg is not None:
+            near = (goal_angles(x, n) <= math.radians(r.rescue_deg)).all(1) & ~self.held & ~self.rescued
+            self.dwell = np.where(near, self.dwell + 1, 0)
+            self.rescued = (self.rescued | (self.dwell >= r.rescue_samples)) & ~settled
         fast = np.asarray(self.approach(x), dtype=float)
         slow = np.asarray(self.hold(x), dtype=float)
-        return np.where(self.held[:, None], slow, fast)
+        return np.where((self.held | self.rescued)[:, None], slow, fast)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,9 +140,10 @@ class ShippedHandover:
 HANDOVERS = {
     "centralized_handover": ShippedHandover(
         "centralized_9levels", "centralized_robust_edge_gain_medium",
-        "centralized_9levels until the arm has settled in the goal band, then "
+        "centralized_9levels until the arm has settled in the goal band (or has "
+        "stayed within 15 deg of the goal for 1 s: a rescue), then "
         "centralized_robust_edge_gain_medium until a joint leaves 10 deg or 0.3 rad/s "
-        "(twolink.control.handover)"),
+        "(twolink.control.handover)", Regions(rescue_deg=15.0, rescue_s=1.0)),
 }
 
 
