@@ -251,7 +251,10 @@ def test_rewards(reward):
         expected = {"individual": own, "paper": own,
                     "centralized": [float(centralized_reward(x))] * 2,
                     "sum": [sum(own)] * 2, "shaped": per_link,
-                    "shaped_team": [team] * 2}[reward]
+                    "shaped_team": [team] * 2,
+                    "shaped_time": [p - (o != REWARD_GOAL) for p, o in zip(per_link, own)],
+                    "shaped_team_time": [team - (not all(o == REWARD_GOAL for o in own))]
+                    * 2}[reward]
         assert [rewards[a] for a in tpz.AGENTS] == expected
         assert all(type(r) is float for r in rewards.values())
 

@@ -11,6 +11,7 @@ from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, see
 
 from twolink.arm.observations import features
 from twolink.arm.parameters import GOAL_ANGLE, GOAL_SPEED, state_names
+from twolink.arm.task import in_goal_band
 from twolink.control.catalogue import load
 from twolink.envs import pettingzoo as tpz
 from twolink.envs.core import (
@@ -19,6 +20,7 @@ from twolink.envs.core import (
     OBSERVE_OPTIONS,
     observation_names,
     shaped_reward,
+    shaped_time_reward,
 )
 from twolink.envs.gym import TwoLinkEnv
 from twolink.envs.pettingzoo_batched import BatchedParallelArms, batched_parallel_env
@@ -112,24 +114,28 @@ def test_normalized_actions_scale_to_the_torque_limits():
 
 @pytest.mark.parametrize("links", [2, 3])
 def test_shaped_rewards_per_link_and_for_the_team(links):
-    per, team = (tpz.parallel_env(links=links, reward=r, x0="random", time_limit=8.0)
-                 for r in ("shaped", "shaped_team"))
-    per.reset(seed=3)
-    team.reset(seed=3)
+    envs = [tpz.parallel_env(links=links, reward=r, x0="random", time_limit=8.0)
+            for r in ("shaped", "shaped_team", "shaped_time", "shaped_team_time")]
+    per, team, per_time, team_time = envs
+    for env in envs:
+        env.reset(seed=3)
     pd = load("pd" if links == 2 else "pd_3link_tapered")
     seen_goal = False
     for k in range(120):
         # The tuned per-joint PD brings the links into their bands one by one.
         tau = pd(per.state()[None])[0]
         step = {a: tau[i:i + 1] for i, a in enumerate(per.agents)}
-        r = per.step(step)[1]
-        rt = team.step(step)[1]
+        r, rt, r_time, rt_time = (env.step(step)[1] for env in envs)
         x = per.state()
         for i, a in enumerate(per.possible_agents):
             in_band = abs(x[i]) <= GOAL_ANGLE and abs(x[links + i]) <= GOAL_SPEED
             assert (r[a] == 0.0) == in_band and -1.0 <= r[a] <= 0.0
             seen_goal |= in_band
             assert rt[a] == float(shaped_reward(x))
+            # the minimum-time variants: one less outside the link's own band, the arm's
+            assert r_time[a] == r[a] - (not in_band)
+            assert rt_time[a] == float(shaped_time_reward(x))
+            assert rt_time[a] == rt[a] - (not in_goal_band(x))
     assert seen_goal
 
 
@@ -139,6 +145,7 @@ BATCHED_CASES = [
     dict(links=3, reward="shaped", actions="normalized", observation="cos_sin",
          observe="global", link1_tau2="previous", time_limit=0.6),
     dict(links=3, observe="local", reward="shaped_team", rule="copied", time_limit=0.5),
+    dict(links=3, observe="neighbours", reward="shaped_team_time", time_limit=0.5),
     dict(challenge="hard", time_limit=0.5, reward="sum"),
     dict(perturbation=0.3, angle_noise=0.01, delay=1, time_limit=0.4, x0="random",
          link1_tau2="previous"),

@@ -1,6 +1,7 @@
 """``twolink train --reward shaped_time``: the arms' rewards are the shaped reward less one
 outside the goal band, the run is named and checkpointed with it, a resume with another
-reward is refused, and IPPO/MAPPO refuse the option in one line."""
+reward is refused; IPPO's agents learn from their link's shaped reward less one outside
+its band, MAPPO's team from the arm's."""
 from __future__ import annotations
 
 import json
@@ -57,8 +58,28 @@ def test_bad_rewards_are_one_line(tmp_path, capsys):
         main(["train", "--reward", "dense", "--out", str(out)])
     assert exit_.value.code == 2
     assert "--reward: invalid choice: 'dense'" in capsys.readouterr().err
-    assert "--reward does not apply to --algo ippo|mappo" in _err(
-        capsys, ["train", "--algo", "ippo", "--reward", "shaped_time", "--out", str(out)])
     assert not out.exists()
     with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time'"):
         TrainConfig(reward="paper")
+
+
+def test_marl_runs_take_the_shaped_time_reward(tmp_path, capsys):
+    pytest.importorskip("skrl")
+    from twolink.training.marl import MarlConfig, run_name as marl_name, train as marl_train
+
+    assert MarlConfig(algo="ippo", reward="shaped_time").env_options()["reward"] == \
+        "shaped_time"
+    assert MarlConfig(algo="mappo", reward="shaped_time").env_options()["reward"] == \
+        "shaped_team_time"
+    assert MarlConfig(algo="mappo").env_options()["reward"] == "shaped_team"
+    config = MarlConfig(algo="mappo", links=3, reward="shaped_time", envs=4, n_steps=32,
+                        steps=128, eval_every=128)
+    assert marl_name(config) == "mappo_3links_neighbours_rt_seed0"
+    run = tmp_path / "run"
+    marl_train(config, run)
+    curve = json.loads((run / "curve.json").read_text())
+    assert curve["config"]["reward"] == "shaped_time"
+    assert curve["env"]["reward"] == "shaped_team_time"
+    assert (run / "mappo_3links_neighbours_rt_seed0.marl.pt").is_file()
+    with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time'"):
+        MarlConfig(algo="ippo", reward="shaped_team")

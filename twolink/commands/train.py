@@ -161,10 +161,11 @@ def add_parser(sub):
                         f"(default ppo, sac {','.join(map(str, HYPERPARAMETERS['ppo']['net_arch']))}"
                         f"; ippo, mappo {','.join(map(str, MARL_HYPERPARAMETERS['hidden']))})")
     p.add_argument("--reward", choices=TRAIN_REWARDS, default=None,
-                   help="ppo, sac: the reward learnt from, shaped (default: dm_control-style "
+                   help="the reward learnt from, shaped (default: dm_control-style "
                         "tolerances of angles and speeds, 0 in the goal band) or shaped_time "
                         "(the shaped reward minus 1 for every sample outside the goal band: "
-                        "a minimum-time term, as the paper's reward (15))")
+                        "a minimum-time term, as the paper's reward (15)); ippo: each "
+                        "agent's link and its own band, mappo: the team's")
     p.add_argument("--action-gain", default=None, metavar="G",
                    help=f"ppo, sac: the torque is clip(G a, -1, 1) tau_max for the normalized "
                         f"action a, so full torque lies at |a| = 1/G (1 to "

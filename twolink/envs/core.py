@@ -260,8 +260,12 @@ def shaped_time_reward(x) -> np.ndarray:
 #: (15) to every agent, ``'sum'`` the sum of every link's (17) to every agent,
 #: ``'shaped'`` the dense :func:`shaped_reward` of its own link (per link: 0 when link I
 #: is in its goal band, in [-1, 0) outside), ``'shaped_team'`` the Gymnasium env's
-#: :func:`shaped_reward` of the whole arm, the same number to every agent.
-AGENT_REWARD_OPTIONS = ("paper", "individual", "centralized", "sum", "shaped", "shaped_team")
+#: :func:`shaped_reward` of the whole arm, the same number to every agent;
+#: ``'shaped_time'`` and ``'shaped_team_time'`` the same less :data:`TIME_PENALTY` for
+#: every sample outside the band (its own link's band, the arm's goal band): the
+#: minimum-time term of :func:`shaped_time_reward`.
+AGENT_REWARD_OPTIONS = ("paper", "individual", "centralized", "sum", "shaped", "shaped_team",
+                        "shaped_time", "shaped_team_time")
 #: Action options of the multi-agent environments: ``'box'`` a torque in
 #: +-tau_i_max (float64), ``'normalized'`` a float32 Box [-1, 1] scaled to +-tau_i_max
 #: (as :data:`twolink.envs.gym_arms.ACTIONS` names them for the Gymnasium env).
@@ -277,7 +281,7 @@ def check_agent_reward(reward) -> str:
     """``reward`` if it is one of :data:`AGENT_REWARD_OPTIONS`, else a ValueError; the
     shaped ones need dm-control (an ImportError now, as :func:`check_reward`)."""
     choice(reward, "reward", AGENT_REWARD_OPTIONS)
-    if reward in ("shaped", "shaped_team"):
+    if reward.startswith("shaped"):
         check_reward("shaped")
     return reward
 

@@ -15,7 +15,9 @@ is exactly the Gymnasium env's cos/sin observation.
 
 Rewards (:data:`twolink.envs.core.AGENT_REWARD_OPTIONS`): (17) per link, (15) or the sum
 of (17) to every agent, the per-link shaped reward :func:`shaped_link_rewards`, or the
-arm's :func:`twolink.envs.core.shaped_reward` to every agent.
+arm's :func:`twolink.envs.core.shaped_reward` to every agent; the ``_time`` variants less
+:data:`twolink.envs.core.TIME_PENALTY` per sample outside the band (the link's own, the
+arm's: :func:`twolink.envs.core.shaped_time_reward`).
 """
 from __future__ import annotations
 
@@ -32,9 +34,11 @@ from twolink.envs.core import (
     SHAPED_SIGMOID,
     SHAPED_SPEED_MARGIN,
     SHAPED_VALUE_AT_MARGIN,
+    TIME_PENALTY,
     check_policy_links,
     observation_names,
     shaped_reward,
+    shaped_time_reward,
 )
 
 
@@ -127,7 +131,11 @@ def agent_rewards(x, reward: str) -> np.ndarray:
         return np.repeat(own.sum(-1, keepdims=True), n, -1)
     if reward == "shaped":
         return shaped_link_rewards(x)
-    team = centralized_reward(x) if reward == "centralized" else shaped_reward(x)
+    if reward == "shaped_time":
+        outside = ~link_in_band(x[..., :n], x[..., n:])
+        return shaped_link_rewards(x) - TIME_PENALTY * outside
+    team = {"centralized": centralized_reward, "shaped_team": shaped_reward,
+            "shaped_team_time": shaped_time_reward}[reward](x)
     return np.repeat(np.asarray(team, dtype=np.float64)[..., None], n, -1)
 
 

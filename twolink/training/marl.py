@@ -19,6 +19,12 @@ policy sees.
   :func:`twolink.envs.core.shaped_reward`, the reward PPO trains with), the cooperative
   setting MAPPO's critic is made for.
 
+``reward='shaped_time'`` (``twolink train --reward shaped_time``) adds the minimum-time
+term of PPO's ``shaped_time`` (:func:`twolink.envs.core.shaped_time_reward`): IPPO's agent
+earns ``'shaped_time'`` (its link's shaped reward less one per sample outside its link's
+band), MAPPO's team ``'shaped_team_time'`` (the arm's shaped reward less one per sample
+outside the goal band).
+
 One hyperparameter set (:data:`HYPERPARAMETERS`, PPO's of
 :data:`twolink.training.config.HYPERPARAMETERS` where they have a counterpart: 16 arms,
 rollouts of 128 steps, 10 epochs of minibatches of 256, lr 3e-4, gamma 0.98, GAE 0.95,
@@ -77,13 +83,16 @@ from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
-    check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
+    TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
 from twolink.validate import choice, real, whole
 
 #: The multi-agent algorithms (skrl).
 MARL_ALGOS = ("ippo", "mappo")
-#: What each algorithm's agents earn (the env's ``reward``).
-REWARDS = {"ippo": "shaped", "mappo": "shaped_team"}
+#: What each algorithm's agents earn (the env's ``reward``) under each ``reward`` of
+#: :data:`twolink.training.config.TRAIN_REWARDS`.
+REWARDS = {("ippo", "shaped"): "shaped", ("mappo", "shaped"): "shaped_team",
+           ("ippo", "shaped_time"): "shaped_time",
+           ("mappo", "shaped_time"): "shaped_team_time"}
 #: ``observe``: what each agent's policy sees.
 OBSERVE = ("local", "neighbours", "global")
 #: The skrl this code is written against (``pyproject.toml``'s ``marl`` extra).
@@ -147,11 +156,12 @@ class MarlConfig:
     epochs: int | None = None
     net: tuple[int, ...] | None = None
     std_floor: float | None = None
+    reward: str = "shaped"
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
-                "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor")
+                "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -159,6 +169,7 @@ class MarlConfig:
         choice(self.rule, "rule", LINK_RULES)
         choice(self.observe, "observe", OBSERVE)
         choice(self.device, "device", DEVICES)
+        choice(self.reward, "reward", TRAIN_REWARDS)
         whole(self.steps, "steps", 1, MAX_STEPS)
         whole(self.seed, "seed", 0, 2**31 - 1 - MAX_ENVS)
         whole(self.threads, "threads", 1, MAX_THREADS)
@@ -219,7 +230,7 @@ class MarlConfig:
     def env_options(self) -> dict:
         """The options of :func:`batched_parallel_env` for this run."""
         return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
-                    reward=REWARDS[self.algo], observe=self.observe, nthread=1,
+                    reward=REWARDS[self.algo, self.reward], observe=self.observe, nthread=1,
                     challenge=self.challenge)
 
     def as_dict(self) -> dict:
@@ -240,7 +251,6 @@ class MarlConfig:
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
             "start": "the multi-agent runs start from uniform poses only",
             "init": "a multi-agent run starts from random policies",
-            "reward": "IPPO learns from the per-link shaped reward, MAPPO from the team's",
             "action_gain": "skrl's Gaussian policies are not squashed: their actions reach "
                            "the torque limit without a gain"}
 
@@ -266,7 +276,7 @@ def check_std_floor(value) -> float:
 
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_b<B>][_e<E>]
-    [_net<W>x<W>][_sf<S>]_seed<S>`` (PPO's
+    [_net<W>x<W>][_sf<S>][_rt]_seed<S>`` (``_rt``: ``reward='shaped_time'``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -275,8 +285,9 @@ def run_name(config: MarlConfig) -> str:
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
+    reward = "_rt" if config.reward == "shaped_time" else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{recipe_suffix(config)}{floor}_seed{config.seed}")
+            f"{discount}{recipe_suffix(config)}{floor}{reward}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:

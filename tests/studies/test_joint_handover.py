@@ -1,0 +1,76 @@
+"""docs/studies/joint_handover.py: the decentralized handover switches each joint on its
+own reading only; the target check reads the decentralized targets."""
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PATH = ROOT / "docs/studies/joint_handover.py"
+
+
+def _module():
+    sys.path.insert(0, str(PATH.parent))
+    try:
+        spec = importlib.util.spec_from_file_location("joint_handover", PATH)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(PATH.parent))
+    return module
+
+
+class Const:
+    links, meta = 2, {"model": "full"}
+
+    def __init__(self, value):
+        self.value = value
+
+    def __call__(self, x):
+        return np.full((len(x), 2), float(self.value))
+
+
+def _x(deg1, deg2, speed=1.0):
+    return np.array([[math.radians(deg1), math.radians(deg2), speed, speed]])
+
+
+def test_each_joint_switches_on_its_own_reading():
+    m = _module()
+    h = m.JointHandover(Const(1.0), Const(-1.0), rescue_deg=10.0, rescue_s=0.1,
+                        exit_deg=30.0, band=False)
+    h.reset(1)
+    np.testing.assert_array_equal(h(_x(5, 50)), [[1.0, 1.0]])     # joint 1 near once
+    np.testing.assert_array_equal(h(_x(5, 50)), [[-1.0, 1.0]])    # twice: joint 1 held
+    np.testing.assert_array_equal(h(_x(25, 8)), [[-1.0, 1.0]])    # kept inside 30 deg
+    np.testing.assert_array_equal(h(_x(35, 8)), [[1.0, -1.0]])    # 1 released, 2 held
+    assert h.meta == {"model": "full"} and h.kind == "decentralized"
+
+
+def test_with_the_band_a_settled_joint_switches_at_once():
+    m = _module()
+    h = m.JointHandover(Const(1.0), Const(-1.0), rescue_deg=10.0, rescue_s=5.0,
+                        exit_deg=30.0, band=True)
+    np.testing.assert_array_equal(h(_x(2, 20, speed=0.05)), [[-1.0, 1.0]])
+
+
+def test_bad_switches_are_one_line():
+    m = _module()
+    with pytest.raises(ValueError, match="need 0 < rescue_deg <= exit_deg <= 180"):
+        m.JointHandover(Const(1.0), Const(-1.0), rescue_deg=40.0, rescue_s=1.0,
+                        exit_deg=30.0, band=False)
+
+
+def test_meets_reads_every_decentralized_target():
+    m = _module()
+    good = {"none": 48, "n_none": 48, "ratio_median": 1.55, "medium": 250,
+            "n_challenge": 256, "hard compensated": 231}
+    assert m.meets(good)
+    assert not m.meets({**good, "ratio_median": 1.61})
+    assert not m.meets({**good, "medium": 248})          # 248/256 < 97 %
+    assert not m.meets({**good, "hard compensated": 230})
+    assert not m.meets({**good, "none": 47})
