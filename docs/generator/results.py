@@ -8,7 +8,7 @@ from .common import _load, SCHEMAS
 from .results_finer_grids import finer_grids_page
 from .results_identification import identification_page
 from .results_fading import fading_gain_block
-from .results_handover import handover_block
+from .results_handover import handover_block, joint_handover_block
 from .results_leaderboard import fuzzy_designs_page, leaderboard_page
 from .results_learners import learners_page
 from .results_learning import learning_page
@@ -33,7 +33,7 @@ RESULTS = (
      leaderboard_page),
     ("results/fuzzy-designs.md", "Fuzzy designs", "renders/leaderboard/leaderboard.json",
      lambda report: fuzzy_designs_page(report) + fading_gain_block()
-     + handover_block(report)),
+     + handover_block(report) + joint_handover_block()),
     ("results/round-off.md", "Round-off and ties",
      "renders/tie_sensitivity/tie_sensitivity.json", round_off_page),
     ("results/finer-grids.md", "Finer grids", "renders/grid_study/grid_study.json",

@@ -1,11 +1,13 @@
-"""The handover section of docs/results/fuzzy-designs.md, from
-``renders/fuzzy_design/handover.json`` (``docs/studies/handover.py``) and the handover's
-rows of the committed leaderboard."""
+"""The handover sections of docs/results/fuzzy-designs.md, from
+``renders/fuzzy_design/handover.json`` (``docs/studies/handover.py``), the handover's rows
+of the committed leaderboard, and ``renders/fuzzy_design/joint_handover.json``
+(``docs/studies/joint_handover.py``, the decentralized handover joint by joint)."""
 from __future__ import annotations
 
 from .common import SCHEMAS, _load, _table
 
 HANDOVER = "renders/fuzzy_design/handover.json"
+JOINT_HANDOVER = "renders/fuzzy_design/joint_handover.json"
 
 
 def _region(r: dict) -> str:
@@ -80,4 +82,32 @@ def handover_block(report: dict) -> str:
                               "never" if ratio is None else f"{ratio:.2f}"))
         out.append(f"\n\nOn the leaderboard (seed {report['seed']}, never used in tuning):\n\n")
         out.append(_table(("level", "mode", "successes", "settle / T*"), cells))
+    return "".join(out) + "\n"
+
+
+def _switch(s: dict) -> str:
+    band = "goal band or " if s["band"] else ""
+    return (f"{band}within {s['rescue_deg']:g} deg for {s['rescue_s']:g} s; out "
+            f"{s['exit_deg']:g} deg")
+
+
+def joint_handover_block() -> str:
+    """The decentralized handover's table (empty when its data are not committed)."""
+    data = _load(JOINT_HANDOVER, SCHEMAS[JOINT_HANDOVER])
+    if data is None:
+        return ""
+    ratio, medium, hard = data["targets"]
+    out = ["\n## A handover joint by joint (decentralized)\n\n"
+           "`python docs/studies/joint_handover.py`: each joint's torque from "
+           f"`{data['approach']}` until that joint's own reading switches it to a robust "
+           "decentralized design, so each agent keeps to its own information; on the "
+           f"tuning cells. The decentralized targets: nominal 48/48, settle / T* <= "
+           f"{ratio:g}, `medium` plain >= {100 * medium:g} %, `hard` compensated >= "
+           f"{100 * hard:g} %. **{data['meeting']} of {len(data['rows'])} handovers meet "
+           "them.**\n\n"]
+    rows = [(f"`{data['approach']}` alone", "", *_cells(data["approach_alone"]))]
+    rows += [(f"`{r['hold']}`", _switch(r["switch"]), *_cells(r["cells"]))
+             for r in data["rows"]]
+    out.append(_table(("hold design", "switch", "nominal", "settle / T*", "medium plain",
+                       "hard compensated"), rows))
     return "".join(out) + "\n"
