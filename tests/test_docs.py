@@ -258,6 +258,21 @@ def test_the_scaling_targets_are_judged_on_the_report():
     assert "## Targets" in gen.result_pages()["results/scaling.md"]
 
 
+def test_the_learners_study_duration_is_judged_on_complete_seeds():
+    _generator()                             # puts docs/ on the path for the generator
+    from generator.results_learners import _duration
+    from twolink.studies.learners.plan import plan
+
+    ids = [p.id for p in plan() if p.seed == 0]
+    assert "not yet measured" in _duration({"runs": [{"id": ids[0], "wall_s": 60.0}]})
+    runs = [{"id": i, "wall_s": 3600.0 / len(ids)} for i in ids]     # one hour a seed
+    line = _duration({"runs": runs})
+    assert line.startswith("- met: ") is (len(plan()) // len(ids) <= 8)
+    assert "1.0 h (seed 0)" in line and f"the {len(plan())} runs take about" in line
+    slow = _duration({"runs": [{**r, "wall_s": r["wall_s"] * 3} for r in runs]})
+    assert slow.startswith("- **missed**: ") and "3.0 h (seed 0)" in slow
+
+
 def test_no_acceptance_targets_in_the_package():
     """What a study should reach is the documentation's to judge (docs/generate.py)."""
     import twolink.studies.robustness as robustness

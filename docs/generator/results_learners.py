@@ -18,6 +18,8 @@ TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses"
             (4, "copied"), True, 0.90))
 #: Training cost target at N = 6: CPU microseconds per environment step.
 COST_TARGET_US = 150.0
+#: Study duration targets on this 2-core machine: the full study and one seed, hours.
+STUDY_HOURS, SEED_HOURS = 8.0, 2.0
 #: Runs outside the plan that test one lever: each ``<id>.json`` is the run's curve
 #: (``twolink train``'s ``curve.json``), ``<id>.fresh.json`` its final agent's ``twolink
 #: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored, and
@@ -25,8 +27,8 @@ COST_TARGET_US = 150.0
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
-                 "envs", "n_steps", "batch_size", "epochs", "net", "eval_every", "steps",
-                 "seed")
+                 "envs", "n_steps", "batch_size", "epochs", "net", "reward", "eval_every",
+                 "steps", "seed")
 #: The training benchmark's data, and the stem of the lever runs of its lighter PPO recipe
 #: (one per seed).
 BENCH = "benchmarks/results.json"
@@ -74,6 +76,31 @@ def _targets(rows: list) -> list:
         out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
                    "per environment step")
     return out
+
+
+def _duration(data: dict) -> str:
+    """The study's wall-time targets against the committed runs: each complete seed's
+    runs added up (they run one at a time), and the whole plan at that pace."""
+    from twolink.studies.learners.plan import plan
+
+    planned = plan()
+    per_seed = {}
+    for p in planned:
+        per_seed.setdefault(p.seed, set()).add(p.id)
+    walls = {r["id"]: r["wall_s"] for r in data["runs"]}
+    complete = {seed: sum(walls[i] for i in ids) / 3600 for seed, ids in per_seed.items()
+                if ids <= set(walls)}
+    what = (f"the full study <= {STUDY_HOURS:g} h on this 2-core machine, one seed <= "
+            f"{SEED_HOURS:g} h")
+    if not complete:
+        return f"- not yet measured: {what} (no seed is complete)"
+    one = max(complete.values())
+    whole = sum(complete.values()) / len(complete) * len(per_seed)
+    met = one <= SEED_HOURS and whole <= STUDY_HOURS
+    return (f"- {'met' if met else '**missed**'}: {what}: a complete seed's runs took "
+            + ", ".join(f"{h:.1f} h (seed {s})" for s, h in sorted(complete.items()))
+            + f" of wall time one at a time, so the {len(planned)} runs take about "
+            f"{whole:.0f} h at that pace")
 
 
 def _light_cost() -> str:
@@ -141,7 +168,7 @@ def _lever_command(config: dict) -> str:
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
     defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
-                "start": "random", "init": None}
+                "start": "random", "init": None, "reward": "shaped"}
     for key in LEVER_OPTIONS:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
@@ -237,7 +264,7 @@ def learners_page(data: dict) -> str:
         "but settled by 16 s was late, not lost; — where the run's agent was not kept "
         "to score it, `docs/studies/learners_late.py`).\n\n",
         table(rs) if rs else "No run has finished yet.", "\n\n",
-        "## Targets\n\n", "\n".join(_targets(rs)), "\n\n",
+        "## Targets\n\n", "\n".join(_targets(rs) + [_duration(data)]), "\n\n",
         "## Transfer: trained on the model, run on MuJoCo\n\n", _transfer(rs), "\n\n",
         levers_block(),
         "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",
