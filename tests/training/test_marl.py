@@ -161,6 +161,15 @@ def test_bad_inputs_are_one_line(runs, tmp_path, capsys):
         capsys, ["train", "--resume", "--algo", "mappo", "--links", "2", "-o", str(part)])
     assert "with observe 'neighbours', not 'local'" in _err(
         capsys, ["train", "--resume", "--observe", "local", "-o", str(part)])
+    # the checkpoint alone (no curve): its header says it is a multi-agent run
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    shutil.copy(part / "checkpoint.pt", alone / "checkpoint.pt")
+    assert "with links 3, not 2" in _err(
+        capsys, ["train", "--resume", "--links", "2", "-o", str(alone)])
+    with pytest.raises(ValueError, match="checkpoint of a mappo run .skrl., not of a ppo or "
+                                         "sac run: resume it with --algo mappo"):
+        checkpoint.load(alone / "checkpoint.pt")
     # a Stable-Baselines3 run's checkpoint, and a truncated one
     checkpoint.save(tmp_path / "sb3.pt", {"config": {"algo": "ppo"}}, {})
     with pytest.raises(ValueError, match="checkpoint of a ppo run .Stable-Baselines3."):

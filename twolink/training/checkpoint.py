@@ -205,6 +205,11 @@ def load(path) -> tuple[dict, dict]:
     one-line ValueError for another schema or version too."""
     header, state = read(path)
     if header.get("schema") != SCHEMA:
+        algo = (header.get("config") or {}).get("algo") if isinstance(
+            header.get("config"), dict) else None
+        if algo in ("ippo", "mappo"):
+            raise ValueError(f"{path} is a checkpoint of a {algo} run (skrl), not of a ppo "
+                             f"or sac run: resume it with --algo {algo}")
         raise ValueError(f"{path} is not a twolink training checkpoint")
     if header.get("version") != VERSION:
         raise ValueError(f"{path} is a training checkpoint of version "

@@ -440,11 +440,18 @@ def _loop(config, learner, out, record, clocks, total, every, say) -> None:
 
 
 def run_algo(out) -> str | None:
-    """The algorithm of the run in the folder ``out`` (from its ``curve.json``), None
-    where there is none to read."""
+    """The algorithm of the run in the folder ``out`` (from its ``curve.json``, else from
+    its checkpoint's header: a folder holding the checkpoint alone), None where there is
+    none to read."""
     import json
+
+    from twolink.training import checkpoint
 
     try:
         return json.loads((Path(out) / "curve.json").read_text())["config"]["algo"]
     except (OSError, ValueError, KeyError, TypeError):
+        pass
+    try:
+        return checkpoint.read(Path(out) / "checkpoint.pt")[0]["config"]["algo"]
+    except (ValueError, KeyError, TypeError):
         return None
