@@ -34,12 +34,14 @@ import numpy as np
 from benchmarks.common import Row
 
 SECTION = "training"
-#: The lighter recipe per algorithm (``twolink train`` options; the learners page's lever
-#: runs ``ppo-pd-light_6t_seed*`` and ``mappo-neighbours-b8192_6t_seed0`` say how it
-#: learns).
+#: The lighter recipe per algorithm (``twolink train`` options, with the section's rollout
+#: of 64 steps per arm; the learners page's lever runs ``ppo-pd-light_6t_seed*`` and
+#: ``mappo-neighbours-cheap_6t_seed0`` / ``-cheap12m`` say how it learns): PPO with a
+#: small network and large minibatches; IPPO/MAPPO over 256 arms with minibatches of
+#: 4096 and 5 epochs, so the per-call costs of skrl and torch spread over many samples.
 LIGHT = {"ppo": dict(batch_size=1024, net=(64, 64)),
-         "ippo": dict(envs=64, batch_size=8192),
-         "mappo": dict(envs=64, batch_size=8192)}
+         "ippo": dict(envs=256, batch_size=4096, epochs=5),
+         "mappo": dict(envs=256, batch_size=4096, epochs=5)}
 
 
 def _recipe(options: dict) -> str:

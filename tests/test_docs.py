@@ -580,17 +580,26 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
     bench.write_text(json.dumps({"command": "x", "machine": {}, "mode": "full", "seconds": {},
                                  "rows": [
         {"section": "training: PPO, 6 links, 16 arms", "name": name, "value": 290.0},
+        {"section": "training: PPO, 6 links, 16 arms",
+         "name": "physics alone: CPU per env step", "value": 73.0},
         {"section": "training: PPO, 6 links, lighter recipe (batch size 1024, net 64x64)",
-         "name": name, "value": 140.4}]}))
-    lever = tmp_path / rl.LEVERS / f"{rl.LIGHT_LEVER}0.fresh.json"
+         "name": name, "value": 140.4},
+        {"section": "training: MAPPO, 6 links, 16 arms", "name": name, "value": 700.0},
+        {"section": "training: MAPPO, 6 links, lighter recipe (envs 256)", "name": name,
+         "value": 155.2}]}))
+    ppo = rl.LIGHT_LEVERS["PPO"]
+    lever = tmp_path / rl.LEVERS / f"{ppo}0.fresh.json"
     lever.parent.mkdir(parents=True)
     lever.write_text(json.dumps({"successes": 196, "n": 256}))
-    lever.with_name(f"{rl.LIGHT_LEVER}1.fresh.json").write_text(json.dumps(
+    lever.with_name(f"{ppo}1.fresh.json").write_text(json.dumps(
         {"successes": 0, "n": 256}))
     line = rl._targets([six])[-1]
     assert line.endswith("cheapest MAPPO (local) 600 µs. The training benchmark (updates "
-                         "included, no evaluations; one run): the default PPO recipe 290 µs, "
+                         "included, no evaluations; one run; the physics alone 73 µs): the "
+                         "default PPO recipe 290 µs, "
                          "the lighter recipe (batch size 1024, net 64x64) 140 µs (meets the "
                          "target); its runs (below) on the fresh poses: "
                          "`ppo-pd-light_6t_seed0` 196/256 = 76.6 % [71, 81], "
-                         "`ppo-pd-light_6t_seed1` 0/256 = 0.0 % [0, 1]")
+                         "`ppo-pd-light_6t_seed1` 0/256 = 0.0 % [0, 1]; the default MAPPO "
+                         "recipe 700 µs, the lighter recipe (envs 256) 155 µs (misses the "
+                         "target)")

@@ -29,10 +29,10 @@ LEVERS = "renders/learners/levers"
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
                  "envs", "n_steps", "batch_size", "epochs", "net", "reward", "eval_every",
                  "steps", "seed")
-#: The training benchmark's data, and the stem of the lever runs of its lighter PPO recipe
-#: (one per seed).
+#: The training benchmark's data, and per algorithm the stem of the lever runs of its
+#: lighter recipe (one per seed).
 BENCH = "benchmarks/results.json"
-LIGHT_LEVER = "ppo-pd-light_6t_seed"
+LIGHT_LEVERS = {"PPO": "ppo-pd-light_6t_seed", "MAPPO": "mappo-neighbours-cheap12m_6t_seed"}
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -104,8 +104,9 @@ def _duration(data: dict) -> str:
 
 
 def _light_cost() -> str:
-    """The training benchmark's lighter PPO recipe at six links (updates included, no
-    evaluations) beside the default's, measured in one run, and how its lever runs learnt."""
+    """The training benchmark's lighter recipes at six links (updates included, no
+    evaluations) beside the default ones and the physics alone, measured in one run, and
+    how their lever runs learnt."""
     import json
 
     from twolink.viz.formatting import format_rate
@@ -113,26 +114,37 @@ def _light_cost() -> str:
     from . import common
 
     bench = _load(BENCH, SCHEMAS[BENCH])
-    found = {}
+    found, physics = {}, None
     for r in (bench or {}).get("rows", []):
-        if r["section"].startswith("training: PPO, 6 links") and r["name"].startswith(
-                "training, updates included"):
-            found["light" if "lighter recipe" in r["section"] else "default"] = r
-    if set(found) != {"light", "default"}:
+        sec = r["section"]
+        if r["name"].startswith("physics alone") and sec.startswith("training: PPO, 6 links"):
+            physics = r["value"]
+        for algo in LIGHT_LEVERS:
+            if sec.startswith(f"training: {algo}, 6 links") and r["name"].startswith(
+                    "training, updates included"):
+                found[algo, "light" if "lighter recipe" in sec else "default"] = r
+    parts = []
+    for algo, stem in LIGHT_LEVERS.items():
+        if (algo, "light") not in found or (algo, "default") not in found:
+            continue
+        light, default = found[algo, "light"]["value"], found[algo, "default"]["value"]
+        scored = sorted((common.ROOT / LEVERS).glob(f"{stem}*.fresh.json"))
+        learnt = ""
+        if scored:
+            runs = ", ".join(
+                f"`{p.name[:-len('.fresh.json')]}` {format_rate(f['successes'], f['n'])}"
+                for p, f in ((p, json.loads(p.read_text())) for p in scored))
+            learnt = f"; its runs (below) on the fresh poses: {runs}"
+        recipe = found[algo, "light"]["section"].split("lighter recipe ")[-1]
+        met = light <= COST_TARGET_US
+        parts.append(f"the default {algo} recipe {default:.0f} µs, the lighter recipe "
+                     f"{recipe} {light:.0f} µs ({'meets' if met else 'misses'} the "
+                     f"target){learnt}")
+    if not parts:
         return ""
-    light, default = found["light"]["value"], found["default"]["value"]
-    scored = sorted((common.ROOT / LEVERS).glob(f"{LIGHT_LEVER}*.fresh.json"))
-    learnt = ""
-    if scored:
-        runs = ", ".join(
-            f"`{p.name[:-len('.fresh.json')]}` {format_rate(f['successes'], f['n'])}"
-            for p, f in ((p, json.loads(p.read_text())) for p in scored))
-        learnt = f"; its runs (below) on the fresh poses: {runs}"
-    recipe = found["light"]["section"].split("lighter recipe ")[-1]
-    met = light <= COST_TARGET_US
-    return (f". The training benchmark (updates included, no evaluations; one run): the "
-            f"default PPO recipe {default:.0f} µs, the lighter recipe {recipe} "
-            f"{light:.0f} µs ({'meets' if met else 'misses'} the target){learnt}")
+    floor = "" if physics is None else f"; the physics alone {physics:.0f} µs"
+    return (". The training benchmark (updates included, no evaluations; one run"
+            f"{floor}): " + "; ".join(parts))
 
 
 def _transfer(rows: list) -> str:
