@@ -27,8 +27,8 @@ STUDY_HOURS, SEED_HOURS = 8.0, 2.0
 LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
-                 "envs", "n_steps", "batch_size", "epochs", "net", "reward", "eval_every",
-                 "steps", "seed")
+                 "envs", "n_steps", "batch_size", "epochs", "net", "reward", "value_norm",
+                 "eval_every", "steps", "seed")
 #: The training benchmark's data, and per algorithm the stem of the lever runs of its
 #: lighter recipe (one per seed).
 BENCH = "benchmarks/results.json"
@@ -180,10 +180,13 @@ def _lever_command(config: dict) -> str:
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
     defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
-                "start": "random", "init": None, "reward": "shaped"}
+                "start": "random", "init": None, "reward": "shaped", "value_norm": False}
     for key in LEVER_OPTIONS:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
+            continue
+        if value is True:                                 # a flag
+            words.append(f"--{key.replace('_', '-')}")
             continue
         if isinstance(value, (list, tuple)):
             value = ",".join(map(str, value))

@@ -218,3 +218,32 @@ def test_a_missing_skrl_is_one_line_naming_the_extra(tmp_path, capsys, monkeypat
                         "-o", str(tmp_path / "r")])
     assert "needs skrl, the marl extra: pip install 'twolink[marl]'" in err
     assert not (tmp_path / "r").exists()
+
+
+def test_value_norm_standardizes_the_critics_returns_and_resumes_exactly(tmp_path, capsys):
+    common = dict(algo="mappo", links=3, envs=4, n_steps=16, eval_every=64, seed=3,
+                  value_norm=True)
+    assert MarlConfig(**common).as_dict()["value_norm"] is True
+    whole = train(MarlConfig(steps=128, **common), tmp_path / "whole")
+    assert whole["agent"] == "mappo_3links_neighbours_vn_seed3.marl.pt"
+    train(MarlConfig(steps=64, **common), tmp_path / "part")
+    _, tensors = marl_state.load(tmp_path / "part" / "checkpoint.pt")
+    scaler = tensors["value_scalers"]["link1"]
+    assert scaler["current_count"] > 1 and scaler["running_variance"] > 0
+    record = json.loads((tmp_path / "part" / "curve.json").read_text())
+    (tmp_path / "part" / record["agent"]).unlink()              # as if stopped at 64
+    assert main(["train", "--resume", "-o", str(tmp_path / "part"), "--steps", "128"]) == 0
+    resumed = json.loads((tmp_path / "part" / "curve.json").read_text())
+    a = torch.load(tmp_path / "whole" / whole["agent"], weights_only=True)["policies"]
+    b = torch.load(tmp_path / "part" / resumed["agent"], weights_only=True)["policies"]
+    assert all(torch.equal(a[k][n], b[k][n]) for k in a for n in a[k])
+    alone = tmp_path / "alone"                   # the checkpoint alone, resumed without it
+    alone.mkdir()
+    shutil.copy(tmp_path / "whole" / "checkpoint.pt", alone / "checkpoint.pt")
+    with pytest.raises(ValueError, match="with value_norm True, not False"):
+        train(MarlConfig(steps=192, **dict(common, value_norm=False)), alone, resume=True)
+    capsys.readouterr()
+    assert "--value-norm is for --algo ippo|mappo" in _err(
+        capsys, ["train", "--value-norm", "-o", str(tmp_path / "ppo")])
+    with pytest.raises(ValueError, match="value_norm must be true or false"):
+        MarlConfig(value_norm="yes")

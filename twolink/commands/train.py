@@ -176,6 +176,10 @@ def add_parser(sub):
                         f"deviation S, in units of the normalized action, and never falls "
                         f"below it, {STD_FLOOR_RANGE[0]:g} to {STD_FLOOR_RANGE[1]:g} "
                         f"(default: starts at 1, no floor)")
+    p.add_argument("--value-norm", action="store_true", default=None,
+                   help="ippo, mappo: each critic learns standardized returns (a running "
+                        "mean and variance, skrl's RunningStandardScaler: MAPPO's value "
+                        "normalization)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -201,6 +205,8 @@ def given_options(args) -> dict:
         choice(args.observe, "--observe", OBSERVE)
     if args.std_floor is not None and args.algo not in MARL_ALGOS and not args.resume:
         raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
+    if args.value_norm and args.algo not in MARL_ALGOS and not args.resume:
+        raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
     given = {"algo": args.algo, "links": args.links, "rule": args.rule,
              "steps": _count(args.steps, "--steps"),
              "seed": None if args.seed is None else seed_option(args.seed, high=2**32 - 1),
@@ -224,7 +230,8 @@ def given_options(args) -> dict:
              "action_gain": None if args.action_gain is None else _number(
                  args.action_gain, "--action-gain", check_action_gain, 1.0, MAX_ACTION_GAIN),
              "std_floor": None if args.std_floor is None else _number(
-                 args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE)}
+                 args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE),
+             "value_norm": args.value_norm}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -267,6 +274,8 @@ def run(args) -> int:
     given.pop("observe", None)
     if given.pop("std_floor", None) is not None:     # a resumed PPO/SAC run
         raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
+    if given.pop("value_norm", None):
+        raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
                                        if k in ("algo", "links", "seed", "challenge", "history",

@@ -65,6 +65,10 @@ over the agents (PPO's penalty of the arm).
 the normalized action; by default 1, the whole torque limit) and is clipped from below at
 S (skrl's ``min_log_std``), so the learner never stops exploring: the policy's mean, which
 the controller runs, is learnt under noise of at least S.
+``value_norm``: each critic learns the returns standardized by their running mean and
+variance (skrl's ``RunningStandardScaler`` as ``value_preprocessor``), the value
+normalization Yu et al. (2021) count among MAPPO's implementation details; the critics
+then fit returns of any scale (the minimum-time reward's reach -100) at the same speed.
 """
 from __future__ import annotations
 
@@ -157,11 +161,13 @@ class MarlConfig:
     net: tuple[int, ...] | None = None
     std_floor: float | None = None
     reward: str = "shaped"
+    value_norm: bool = False
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
-                "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward")
+                "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward",
+                "value_norm")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -170,6 +176,8 @@ class MarlConfig:
         choice(self.observe, "observe", OBSERVE)
         choice(self.device, "device", DEVICES)
         choice(self.reward, "reward", TRAIN_REWARDS)
+        if not isinstance(self.value_norm, bool):
+            raise ValueError(f"value_norm must be true or false, got {self.value_norm!r}")
         whole(self.steps, "steps", 1, MAX_STEPS)
         whole(self.seed, "seed", 0, 2**31 - 1 - MAX_ENVS)
         whole(self.threads, "threads", 1, MAX_THREADS)
@@ -276,7 +284,8 @@ def check_std_floor(value) -> float:
 
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_b<B>][_e<E>]
-    [_net<W>x<W>][_sf<S>][_rt]_seed<S>`` (``_rt``: ``reward='shaped_time'``; PPO's
+    [_net<W>x<W>][_sf<S>][_rt][_vn]_seed<S>`` (``_rt``: ``reward='shaped_time'``; ``_vn``:
+    ``value_norm``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -286,8 +295,9 @@ def run_name(config: MarlConfig) -> str:
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     reward = "_rt" if config.reward == "shaped_time" else ""
+    norm = "_vn" if config.value_norm else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{recipe_suffix(config)}{floor}{reward}_seed{config.seed}")
+            f"{discount}{recipe_suffix(config)}{floor}{reward}{norm}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:

@@ -21,7 +21,8 @@ so it need not be saved. What the rest of the run depends on is saved, and a res
 is bit for bit an uninterrupted one (on the CPU, the same torch and skrl, the same
 threads):
 
-* per agent the policy's and value's ``state_dict`` and the Adam optimizer's;
+* per agent the policy's and value's ``state_dict`` and the Adam optimizer's (and, with
+  ``value_norm``, its value scaler's running statistics);
 * skrl's rollout counter; torch's generator (Gaussian actions, minibatch permutations;
   CUDA's too on ``--device cuda``), numpy's and Python's global ones;
 * the env: every arm's state, clock, last sample outside the band and generator, the last
@@ -147,6 +148,12 @@ class Learner:
         for name in ("learning_rate_scheduler_kwargs", "observation_preprocessor_kwargs",
                      "state_preprocessor_kwargs", "value_preprocessor_kwargs"):
             cfg[name] = {a: {} for a in self.agents}
+        if config.value_norm:
+            from skrl.resources.preprocessors.torch import RunningStandardScaler
+
+            cfg["value_preprocessor"] = {a: RunningStandardScaler for a in self.agents}
+            cfg["value_preprocessor_kwargs"] = {a: {"size": 1, "device": device}
+                                                for a in self.agents}
         cls = MAPPO if mappo else IPPO
         self.agent = cls(possible_agents=self.agents, models=models, memories=memories,
                          observation_spaces=obs_spaces, action_spaces=act,
@@ -268,6 +275,9 @@ class Learner:
                    "optimizers": {a: self.agent.optimizers[a].state_dict()
                                   for a in self.agents},
                    "torch_rng": torch.get_rng_state()}
+        if self.config.value_norm:
+            tensors["value_scalers"] = {a: self.agent._value_preprocessor[a].state_dict()
+                                        for a in self.agents}
         if self.config.device == "cuda":
             tensors["cuda_rng"] = torch.cuda.get_rng_state_all()
         np_state = np.random.get_state(legacy=False)
@@ -303,6 +313,9 @@ class Learner:
             for k, m in self.models[a].items():
                 m.load_state_dict(tensors["models"][a][k])
             self.agent.optimizers[a].load_state_dict(tensors["optimizers"][a])
+            if self.config.value_norm:
+                self.agent._value_preprocessor[a].load_state_dict(
+                    tensors["value_scalers"][a])
         self.agent._rollout = plain["rollout"]
         self.steps = plain["steps"]
         if plain["started"]:
