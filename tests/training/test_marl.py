@@ -115,19 +115,27 @@ def test_evaluate_scores_the_saved_agent(runs, capsys):
     assert "drives an arm of 3 links" in _err(capsys, ["evaluate", str(agent)])
 
 
-@pytest.mark.parametrize("algo", ["ippo", "mappo"])
-def test_a_resumed_run_is_bit_for_bit_the_uninterrupted_one(tmp_path, algo):
-    common = dict(algo=algo, links=3, envs=4, n_steps=16, eval_every=64, seed=3,
-                  observe="local")
-    whole = train(MarlConfig(steps=192, **common), tmp_path / "whole")
+def _resumed_equals_whole(tmp_path, common: dict, steps: int):
+    """A run of ``steps`` and the same run stopped at 64 and resumed by the command: their
+    final policies are equal; (whole record, resumed curve, final policies)."""
+    whole = train(MarlConfig(steps=steps, **common), tmp_path / "whole")
     train(MarlConfig(steps=64, **common), tmp_path / "part")
     record = json.loads((tmp_path / "part" / "curve.json").read_text())
     (tmp_path / "part" / record["agent"]).unlink()              # as if stopped at 64
-    assert main(["train", "--resume", "-o", str(tmp_path / "part"), "--steps", "192"]) == 0
+    assert main(["train", "--resume", "-o", str(tmp_path / "part"), "--steps",
+                 str(steps)]) == 0
     resumed = json.loads((tmp_path / "part" / "curve.json").read_text())
     a = torch.load(tmp_path / "whole" / whole["agent"], weights_only=True)["policies"]
     b = torch.load(tmp_path / "part" / resumed["agent"], weights_only=True)["policies"]
     assert all(torch.equal(a[k][n], b[k][n]) for k in a for n in a[k])
+    return whole, resumed, a
+
+
+@pytest.mark.parametrize("algo", ["ippo", "mappo"])
+def test_a_resumed_run_is_bit_for_bit_the_uninterrupted_one(tmp_path, algo):
+    common = dict(algo=algo, links=3, envs=4, n_steps=16, eval_every=64, seed=3,
+                  observe="local")
+    whole, resumed, a = _resumed_equals_whole(tmp_path, common, 192)
     strip = [{k: v for k, v in p.items() if k not in CLOCKS} for p in whole["curve"]]
     assert strip == [{k: v for k, v in p.items() if k not in CLOCKS}
                      for p in resumed["curve"]]
@@ -224,19 +232,11 @@ def test_value_norm_standardizes_the_critics_returns_and_resumes_exactly(tmp_pat
     common = dict(algo="mappo", links=3, envs=4, n_steps=16, eval_every=64, seed=3,
                   value_norm=True)
     assert MarlConfig(**common).as_dict()["value_norm"] is True
-    whole = train(MarlConfig(steps=128, **common), tmp_path / "whole")
+    whole, _, _ = _resumed_equals_whole(tmp_path, common, 128)
     assert whole["agent"] == "mappo_3links_neighbours_vn_seed3.marl.pt"
-    train(MarlConfig(steps=64, **common), tmp_path / "part")
-    _, tensors = marl_state.load(tmp_path / "part" / "checkpoint.pt")
+    _, tensors = marl_state.load(tmp_path / "whole" / "checkpoint.pt")
     scaler = tensors["value_scalers"]["link1"]
     assert scaler["current_count"] > 1 and scaler["running_variance"] > 0
-    record = json.loads((tmp_path / "part" / "curve.json").read_text())
-    (tmp_path / "part" / record["agent"]).unlink()              # as if stopped at 64
-    assert main(["train", "--resume", "-o", str(tmp_path / "part"), "--steps", "128"]) == 0
-    resumed = json.loads((tmp_path / "part" / "curve.json").read_text())
-    a = torch.load(tmp_path / "whole" / whole["agent"], weights_only=True)["policies"]
-    b = torch.load(tmp_path / "part" / resumed["agent"], weights_only=True)["policies"]
-    assert all(torch.equal(a[k][n], b[k][n]) for k in a for n in a[k])
     alone = tmp_path / "alone"                   # the checkpoint alone, resumed without it
     alone.mkdir()
     shutil.copy(tmp_path / "whole" / "checkpoint.pt", alone / "checkpoint.pt")
