@@ -117,7 +117,8 @@ class Handover:
         settled = inside.all(1)
         self.held = (self.held | settled) & ~beyond.any(1)
         if r.rescue_deg is not None:
-            near = (goal_angles(x, n) <= math.radians(r.rescue_deg)).all(1) & ~self.held & ~self.rescued
+            near = ((goal_angles(x, n) <= math.radians(r.rescue_deg)).all(1)
+                    & ~self.held & ~self.rescued)
             self.dwell = np.where(near, self.dwell + 1, 0)
             self.rescued = (self.rescued | (self.dwell >= r.rescue_samples)) & ~settled
         fast = np.asarray(self.approach(x), dtype=float)

@@ -68,7 +68,7 @@ the controller runs, is learnt under noise of at least S.
 ``value_norm``: each critic learns the returns standardized by their running mean and
 variance (skrl's ``RunningStandardScaler`` as ``value_preprocessor``), the value
 normalization Yu et al. (2021) count among MAPPO's implementation details; the critics
-then fit returns of any scale (the minimum-time reward's reach -100) at the same speed.
+then fit returns of any scale (the minimum-time reward's returns reach -100) alike.
 """
 from __future__ import annotations
 
