@@ -1,7 +1,7 @@
 """x0 'slow' and 'mixed' (twolink.envs.starts, `twolink train --start`): the poses drawn are
 beyond the own motors' reach (all of them, or about half plus the uniform draw's share),
-at rest, reproducible from the seed; arms without such poses, the two-link arm and the
-multi-agent runs refuse them in one line."""
+at rest, reproducible from the seed; arms without such poses and the two-link arm refuse
+them in one line; IPPO/MAPPO runs start their arms from them."""
 from __future__ import annotations
 
 import numpy as np
@@ -85,8 +85,8 @@ def test_the_training_config_names_and_checks_the_start():
 
 @pytest.mark.parametrize("argv, message", [
     (["--links", "5", "--start", "mixed"], "start='mixed': no pose of this 5-link arm"),
-    (["--algo", "mappo", "--links", "6", "--start", "slow"],
-     "--start does not apply to --algo ippo|mappo"),
+    (["--algo", "mappo", "--links", "5", "--start", "slow"],
+     "start='slow': no pose of this 5-link arm"),
 ])
 def test_bad_starts_are_one_line_exit_2_nothing_written(tmp_path, capsys, argv, message):
     out = tmp_path / "run"
@@ -94,6 +94,26 @@ def test_bad_starts_are_one_line_exit_2_nothing_written(tmp_path, capsys, argv, 
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
     assert not out.exists()
+
+
+def test_a_multi_agent_run_names_checks_and_starts_from_them():
+    from twolink.envs.pettingzoo_batched import batched_parallel_env
+    from twolink.training.marl import MarlConfig, run_name as marl_name
+
+    config = MarlConfig(algo="mappo", links=6, start="slow", envs=8)
+    assert config.env_options()["x0"] == "slow" and "start" in MarlConfig.IDENTITY
+    assert marl_name(config) == "mappo_6links_neighbours_slow_seed0"
+    assert MarlConfig(links=6).env_options()["x0"] == "random"
+    env = batched_parallel_env(8, **config.env_options())
+    env.reset(seed=config.arm_seed())
+    assert np.all(_own(env.state()) > 7.0) and np.all(env.state()[:, 6:] == 0.0)
+    mixed = batched_parallel_env(64, **MarlConfig(links=6, start="mixed").env_options())
+    mixed.reset(seed=11)
+    assert 16 <= int(np.sum(_own(mixed.state()) > 7.0)) <= 60    # half, plus uniform's share
+    with pytest.raises(ValueError, match="start='mixed': no pose of this 4-link arm"):
+        MarlConfig(links=4, rule="copied", start="mixed")
+    with pytest.raises(ValueError, match="start must be one of"):
+        MarlConfig(links=6, start="fast")
 
 
 def test_the_multi_agent_and_dm_envs_start_beyond_the_deadline_too():

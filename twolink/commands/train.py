@@ -141,8 +141,8 @@ def add_parser(sub):
                    help="the training episodes' initial poses: random (default: uniform "
                         "angles at rest), slow (only poses whose slowest joint its own motor "
                         "cannot bring home 1 s before the episode's end, so the other joints "
-                        "must turn it; six tapered links) or mixed (half of each); the "
-                        "curve is evaluated on uniform poses (ppo, sac)")
+                        "must turn it; six tapered links) or mixed (half of each); every "
+                        "algorithm; the curve is evaluated on uniform poses")
     p.add_argument("--init", default=None, metavar="AGENT.zip",
                    help="start from the policy of this saved agent (ppo, sac: the same "
                         "algorithm, arm, history and base; read as data) instead of a "

@@ -4,7 +4,7 @@
 agent per joint (``link1`` .. ``linkN``) on
 :func:`twolink.envs.pettingzoo_batched.batched_parallel_env` (all arms in one MuJoCo call
 per Ts, same-step autoreset): cos/sin angles (``observation='cos_sin'``), normalized
-actions (a float32 [-1, 1] per agent, scaled to +-tau_max), random initial poses at rest,
+actions (a float32 [-1, 1] per agent, scaled to +-tau_max), initial poses at rest (``start``),
 episodes of :func:`twolink.arm.parameters.horizon` seconds; ``observe`` (``local``,
 ``neighbours``, ``global``: :data:`twolink.envs.core.OBSERVE_OPTIONS`) is what each
 policy sees.
@@ -69,6 +69,9 @@ the controller runs, is learnt under noise of at least S.
 variance (skrl's ``RunningStandardScaler`` as ``value_preprocessor``), the value
 normalization Yu et al. (2021) count among MAPPO's implementation details; the critics
 then fit returns of any scale (the minimum-time reward's returns reach -100) alike.
+``start`` (``twolink train --start``, PPO's option): the training episodes' initial poses,
+``'random'`` (uniform angles at rest), ``'slow'`` (only poses beyond the own motors' reach,
+:mod:`twolink.envs.starts`) or ``'mixed'`` (half of each); the curve stays on uniform poses.
 """
 from __future__ import annotations
 
@@ -79,7 +82,7 @@ import platform
 import time
 from pathlib import Path
 
-from twolink.arm.parameters import LINK_RULES, check_links, horizon
+from twolink.arm.parameters import LINK_RULES, check_links, horizon, links_parameters
 from twolink.artifacts import VERSION as TWOLINK_VERSION
 from twolink.artifacts import write_json
 from twolink.control.history import check_history
@@ -87,7 +90,7 @@ from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
-    TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
+    START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
 from twolink.validate import choice, real, whole
 
 #: The multi-agent algorithms (skrl).
@@ -118,7 +121,7 @@ EVAL_EVERY = 50_000
 #: The run's learning curve (as PPO's, :data:`twolink.training.run.CURVE`).
 CURVE_NAME = "curve.json"
 #: The env's options (beside links, rule, reward, observe).
-ENV = dict(observation="cos_sin", actions="normalized", x0="random")
+ENV = dict(observation="cos_sin", actions="normalized")
 
 
 def skrl_modules():
@@ -162,12 +165,13 @@ class MarlConfig:
     std_floor: float | None = None
     reward: str = "shaped"
     value_norm: bool = False
+    start: str = "random"
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
                 "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward",
-                "value_norm")
+                "value_norm", "start")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -196,6 +200,11 @@ class MarlConfig:
         check_recipe(self)
         if self.std_floor is not None:
             object.__setattr__(self, "std_floor", check_std_floor(self.std_floor))
+        choice(self.start, "start", START_OPTIONS)
+        if self.start != "random":
+            from twolink.envs.starts import check_slow_starts
+
+            check_slow_starts(self.start, links_parameters(self.links, self.rule), "start")
         check_challenge_run(self.challenge, self.links, self.seed)
         check_mix_arms(self.challenge, self.hyperparameters()["n_envs"])
 
@@ -237,7 +246,8 @@ class MarlConfig:
 
     def env_options(self) -> dict:
         """The options of :func:`batched_parallel_env` for this run."""
-        return dict(ENV, links=self.links, rule=None if self.links == 2 else self.rule,
+        return dict(ENV, x0=self.start, links=self.links,
+                    rule=None if self.links == 2 else self.rule,
                     reward=REWARDS[self.algo, self.reward], observe=self.observe, nthread=1,
                     challenge=self.challenge)
 
@@ -257,7 +267,6 @@ class MarlConfig:
 
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
 NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
-            "start": "the multi-agent runs start from uniform poses only",
             "init": "a multi-agent run starts from random policies",
             "action_gain": "skrl's Gaussian policies are not squashed: their actions reach "
                            "the torque limit without a gain"}
@@ -283,7 +292,8 @@ def check_std_floor(value) -> float:
 
 
 def run_name(config: MarlConfig) -> str:
-    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_b<B>][_e<E>]
+    """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]
+    [_b<B>][_e<E>]
     [_net<W>x<W>][_sf<S>][_rt][_vn]_seed<S>`` (``_rt``: ``reward='shaped_time'``; ``_vn``:
     ``value_norm``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
@@ -293,11 +303,12 @@ def run_name(config: MarlConfig) -> str:
     base = f"_{config.base}" if config.base != "none" else ""
     rate = f"_ar{config.action_rate:g}" if config.action_rate > 0 else ""
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
+    start = f"_{config.start}" if config.start != "random" else ""
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     reward = "_rt" if config.reward == "shaped_time" else ""
     norm = "_vn" if config.value_norm else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{recipe_suffix(config)}{floor}{reward}{norm}_seed{config.seed}")
+            f"{discount}{start}{recipe_suffix(config)}{floor}{reward}{norm}_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:
