@@ -63,7 +63,7 @@ def _targets(rows: list) -> list:
                  f"{format_rate(late['successes'], late['n'])}")
         out.append(f"- {'met' if met else '**missed**'}: {what}: best {best['learner']} "
                    f"{format_rate(f['successes'], f['n'])} over {len(best['seeds'])} seed(s)"
-                   + later)
+                   + later + ("" if met else _beyond_reach(arm, share)))
     six = [r for r in rows if r["links"] == 6]
     if six:
         cheapest = min(six, key=lambda r: r["cpu_us_per_step"])
@@ -76,6 +76,35 @@ def _targets(rows: list) -> list:
         out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
                    "per environment step")
     return out
+
+
+def _beyond_reach(arm: tuple, share: float) -> str:
+    """What the target asks of the poses beyond the own motors' reach on the scaling
+    table's poses of ``arm``, and how many of them the learned agents of the own-motor
+    study (``docs/studies/links_own_motor.py``) settle by 8 s; empty where that study has
+    no such poses or no learned agent on the arm."""
+    import math
+
+    import numpy as np
+
+    from .results_own_motor import OWN_MOTOR, OWN_MOTOR_EDGES
+
+    data = _load(OWN_MOTOR, SCHEMAS[OWN_MOTOR]) or {"runs": []}
+    run = next((r for r in data["runs"] if (r["links"], r["rule"]) == arm), None)
+    if run is None or not run.get("learned"):
+        return ""
+    deadline = OWN_MOTOR_EDGES[-1]
+    late = np.asarray(run["own_motor_s"]) > deadline
+    if not late.any():
+        return ""
+    need = math.ceil(share * run["poses"]) - int((~late).sum())
+    settled = ", ".join(f"`{k}` {int(np.asarray(run['success'][k])[late].sum())}"
+                        for k in run["learned"])
+    return (f". Cause, on the table's {run['poses']} poses: {int(late.sum())} are beyond "
+            f"the own motors' reach (own-motor time over {deadline:g} s, "
+            "[scaling page](scaling.md#what-a-joints-own-motor-can-do)), so "
+            f"{share * 100:g} % asks for at least {need} of them even with every other pose "
+            f"settled; the learned agents settle {settled} of them by 8 s")
 
 
 def _duration(data: dict) -> str:

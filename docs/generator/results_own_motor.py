@@ -64,10 +64,11 @@ def own_motor_block(report: dict) -> str:
            "speed (`own_motor_seconds`), a lower bound on the time its slowest joint needs "
            f"on its own. Above {deadline:g} s (settled 1 s before the end of 8 s) a pose can "
            "succeed only if the other joints' motion turns that joint too. "
-           "`python docs/studies/links_own_motor.py --links N --rule R` runs the table's "
-           "controllers and the catalogue's learned agents of the arm again on the table's "
-           "poses and records each pose's success beside its own-motor time (— : the "
-           "controller was not run on that arm):\n\n",
+           "`python docs/studies/links_own_motor.py --links N --rule R [--agent FILE ...]` "
+           "runs the table's controllers, the catalogue's learned agents of the arm and the "
+           "saved agents it is given (named by their file, e.g. the final agents of runs of "
+           "`twolink learners`) again on the table's poses and records each pose's success "
+           "beside its own-motor time (— : the controller was not run on that arm):\n\n",
            "| N | links | own-motor time | poses | "
            + " | ".join(t for _, t in columns) + " |\n|---|---|---|---|"
            + "---|" * len(columns) + "\n"]

@@ -1,10 +1,12 @@
 """Which N-link poses a joint's own motor cannot bring home in time, and who settles them.
 
-``python docs/studies/links_own_motor.py --links N [--rule tapered|copied] [--json FILE]``
-runs the scaling table's N-link controllers (the default decentralized agents, the
-5-level agents plain and read through the argmax of Q, and the tuned per-joint PD, built
-as ``twolink scaling`` builds them) and the catalogue's learned agents of that arm
-(tag ``learned``, e.g. ``ppo_pd_6link_tapered``) on
+``python docs/studies/links_own_motor.py --links N [--rule tapered|copied] [--agent FILE
+...] [--json FILE]`` runs the scaling table's N-link controllers (the default
+decentralized agents, the 5-level agents plain and read through the argmax of Q, and the
+tuned per-joint PD, built as ``twolink scaling`` builds them), the catalogue's learned
+agents of that arm (tag ``learned``, e.g. ``ppo_pd_6link_tapered``) and the saved agents
+given by ``--agent`` (a ``.zip`` or ``.marl.pt`` of ``twolink train``, e.g. a run of
+``twolink learners``, named by its file's stem) on
 the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 16 s on MuJoCo, and
 records each pose's success at 8 s (the table's horizon) and at the longer horizons of
 :data:`LATER` (the same rollout cut there, :func:`twolink.sim.pose_scoring.truncated`:
@@ -36,6 +38,7 @@ from twolink.arm.task import own_motor_seconds  # noqa: E402
 from twolink.arm.parameters import LINK_RULES, LINKS_HORIZON, links_parameters  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.control import catalogue  # noqa: E402
+from twolink.control.controllers import resolve_controller  # noqa: E402
 from twolink.control.links_pd import tuned  # noqa: E402
 from twolink.sim.metrics import random_poses, success  # noqa: E402
 from twolink.sim.pose_scoring import truncated  # noqa: E402
@@ -54,6 +57,23 @@ CONTROLLERS = ("decentralized", "decentralized_levels", "decentralized_argmax", 
 #: does a controller fail a pose or only settle it late?
 LATER = (12.0, 16.0)
 DEFAULT_JSON = Path("renders/links_reach/own_motor.json")
+#: The files ``--agent`` takes: a saved SB3 agent, a multi-agent save.
+AGENT_SUFFIXES = (".marl.pt", ".zip")
+
+
+def check_agents(agents, links: int, rule: str) -> None:
+    """A one-line ValueError for an ``--agent`` that is not a file of a saved agent of this
+    arm, or whose name repeats another's (a table controller's, the catalogue's, or another
+    file's)."""
+    taken = set(CONTROLLERS) | set(learned(links, rule))
+    for path in agents:
+        name = agent_name(path)
+        if not Path(path).is_file():
+            raise ValueError(f"--agent {path}: no such file")
+        if name in taken:
+            raise ValueError(f"--agent {path}: the name {name!r} is taken; rename the file")
+        taken.add(name)
+        resolve_controller(str(path), links=links)      # a foreign or broken file: one line
 
 
 def learned(links: int, rule: str) -> tuple:
@@ -62,9 +82,21 @@ def learned(links: int, rule: str) -> tuple:
                  if e.rule == rule)
 
 
-def controller(links: int, rule: str, scheme: str):
-    """The scaling table's controller of row ``scheme`` for this arm, or the catalogue's
-    agent of that name."""
+def agent_name(path) -> str:
+    """The name an ``--agent`` file is recorded under: its file name without ``.zip`` or
+    ``.marl.pt``."""
+    name = Path(path).name
+    for suffix in AGENT_SUFFIXES:
+        if name.endswith(suffix):
+            return name[:-len(suffix)]
+    raise ValueError(f"{path}: an agent is a .zip or .marl.pt file of `twolink train`")
+
+
+def controller(links: int, rule: str, scheme: str, agents=None):
+    """The scaling table's controller of row ``scheme`` for this arm, the agent file
+    ``agents[scheme]``, or the catalogue's agent of that name."""
+    if agents and scheme in agents:
+        return resolve_controller(str(agents[scheme]), links=links)
     if scheme not in CONTROLLERS:
         return catalogue.load(scheme)
     if scheme == "pd":
@@ -72,9 +104,11 @@ def controller(links: int, rule: str, scheme: str):
     return cell_policy(links, rule, scheme, 2 * 2**30)[0]
 
 
-def measure(links: int, rule: str, poses: int = POSES) -> dict:
+def measure(links: int, rule: str, poses: int = POSES, agents=()) -> dict:
     """Every controller's success on the first ``poses`` poses of the table's set at 8 s,
-    with each pose's own-motor time and the joint that sets it."""
+    with each pose's own-motor time and the joint that sets it; ``agents``: agent files
+    run beside the catalogue's, recorded by :func:`agent_name`."""
+    files = {agent_name(a): Path(a) for a in agents}
     t0 = time.perf_counter()
     p = links_parameters(links, rule)
     x0 = random_poses(links, POSES, EVAL_SEED + links)[:poses]
@@ -83,10 +117,12 @@ def measure(links: int, rule: str, poses: int = POSES) -> dict:
            "horizon_s": LINKS_HORIZON,
            "own_motor_s": [round(float(v), 4) for v in own.max(axis=1)],
            "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {},
-           "later": {f"{h:g}": {} for h in LATER}, "learned": list(learned(links, rule))}
+           "later": {f"{h:g}": {} for h in LATER},
+           "learned": list(learned(links, rule)) + list(files),
+           "agent_files": {k: str(v) for k, v in files.items()}}
     for scheme in CONTROLLERS + tuple(out["learned"]):
         print(f"  {scheme}: building", flush=True)
-        policy = controller(links, rule, scheme)
+        policy = controller(links, rule, scheme, files)
         with make_plant("mujoco", p) as plant:
             traj = rollout(policy, plant, x0, duration=max(LATER))
         ok = success(truncated(traj, LINKS_HORIZON))
@@ -107,18 +143,22 @@ def main(argv=None) -> int:
     ap.add_argument("--poses", type=int, default=POSES,
                     help=f"the first K poses of the {POSES} of the scaling table "
                          f"(default {POSES})")
+    ap.add_argument("--agent", action="append", default=[], metavar="FILE",
+                    help="a saved agent of this arm (.zip or .marl.pt of `twolink train`) "
+                         "to run beside the catalogue's; repeatable")
     ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
     args = ap.parse_args(argv)
     try:
         whole(args.links, "--links", 3, 6)
         whole(args.poses, "--poses", 1, POSES)
+        check_agents(args.agent, args.links, args.rule)
         data = read_runs(args.json, SCHEMA, VERSION)
     except ValueError as exc:
         print(f"links_own_motor: error: {exc}", file=sys.stderr)
         return 2
     print(f"{args.links} {args.rule} links, {args.poses} poses, {LINKS_HORIZON:g} s",
           flush=True)
-    run = measure(args.links, args.rule, args.poses)
+    run = measure(args.links, args.rule, args.poses, args.agent)
     runs = [r for r in data["runs"] if (r["links"], r["rule"]) != (args.links, args.rule)]
     runs.append(run)
     runs.sort(key=lambda r: (r["rule"], r["links"]))

@@ -72,3 +72,58 @@ def test_a_foreign_file_is_refused_and_left_alone(study, tmp_path, capsys):
     assert study.main(["--links", "3", "--json", str(out)]) == 2
     assert "is not a twolink.links_own_motor version 2 file" in capsys.readouterr().err
     assert out.read_text() == before
+
+
+@pytest.fixture(scope="module")
+def agent_file(tmp_path_factory):
+    """A three-link IPPO agent of 128 steps (a saved agent as `twolink train` writes it)."""
+    pytest.importorskip("skrl")
+    from twolink.training.marl import MarlConfig, train
+
+    folder = tmp_path_factory.mktemp("ippo3")
+    record = train(MarlConfig(algo="ippo", links=3, envs=4, n_steps=32, eval_every=128,
+                              steps=128, seed=2), folder)
+    return folder / record["agent"]
+
+
+def test_an_agent_file_runs_beside_the_table_under_its_stem(study, agent_file, tmp_path):
+    from twolink.control.controllers import resolve_controller
+    from twolink.sim.metrics import success
+    from twolink.sim.plants import make_plant
+    from twolink.sim.pose_scoring import truncated
+    from twolink.sim.rollout import rollout
+
+    out = tmp_path / "own.json"
+    assert study.main(["--links", "3", "--poses", "3", "--agent", str(agent_file),
+                       "--json", str(out)]) == 0
+    (run,) = json.loads(out.read_text())["runs"]
+    name = "ippo_3links_neighbours_seed2"
+    assert run["learned"] == [name] and run["agent_files"] == {name: str(agent_file)}
+    x0 = random_poses(3, study.POSES, 20061122 + 3)[:3]
+    with make_plant("mujoco", links_parameters(3, "tapered")) as plant:
+        traj = rollout(resolve_controller(str(agent_file), links=3), plant, x0, duration=16.0)
+    assert run["success"][name] == [int(v) for v in success(truncated(traj, 8.0))]
+    assert run["later"]["16"][name] == [int(v) for v in success(truncated(traj, 16.0))]
+
+
+def test_bad_agent_files_are_one_line_exit_2_nothing_written(study, agent_file, tmp_path,
+                                                            capsys):
+    out = tmp_path / "own.json"
+    taken = tmp_path / "pd.marl.pt"
+    taken.write_bytes(agent_file.read_bytes())
+    junk = tmp_path / "junk.marl.pt"
+    junk.write_bytes(b"not a checkpoint")
+    for argv, message in [
+        (["--links", "3", "--agent", str(tmp_path / "gone.zip")], "gone.zip: no such file"),
+        (["--links", "3", "--agent", str(out.with_suffix(".npz"))],
+         "an agent is a .zip or .marl.pt file"),
+        (["--links", "3", "--agent", str(taken)], "the name 'pd' is taken"),
+        (["--links", "3", "--agent", str(agent_file), "--agent", str(agent_file)],
+         "the name 'ippo_3links_neighbours_seed2' is taken"),
+        (["--links", "4", "--agent", str(agent_file)], "not 4 (give --links 3)"),
+        (["--links", "3", "--agent", str(junk)], "junk.marl.pt"),
+    ]:
+        assert study.main(argv + ["--json", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("links_own_motor: error:") and message in err, err
+        assert len(err.splitlines()) == 1 and not out.exists()
