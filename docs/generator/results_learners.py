@@ -98,13 +98,16 @@ def _beyond_reach(arm: tuple, share: float) -> str:
     if not late.any():
         return ""
     need = math.ceil(share * run["poses"]) - int((~late).sum())
-    settled = ", ".join(f"`{k}` {int(np.asarray(run['success'][k])[late].sum())}"
-                        for k in run["learned"])
+    counts = {k: int(np.asarray(run["success"][k])[late].sum()) for k in run["learned"]}
+    settled = ", ".join(f"`{k}` {v}" for k, v in counts.items())
     return (f". Cause, on the table's {run['poses']} poses: {int(late.sum())} are beyond "
             f"the own motors' reach (own-motor time over {deadline:g} s, "
             "[scaling page](scaling.md#what-a-joints-own-motor-can-do)), so "
             f"{share * 100:g} % asks for at least {need} of them even with every other pose "
-            f"settled; the learned agents settle {settled} of them by 8 s")
+            f"settled; the learned agents the own-motor study ran settle at most "
+            f"{max(counts.values())} of them by 8 s ({settled})"
+            + ("; `_slow_` in a name: trained only on such poses (`--start slow`)"
+               if any("_slow_" in k for k in counts) else ""))
 
 
 def _duration(data: dict) -> str:
