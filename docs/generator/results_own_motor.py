@@ -9,6 +9,9 @@ from .common import SCHEMAS, _load
 
 #: The own-motor study's data (``docs/studies/links_own_motor.py``).
 OWN_MOTOR = "renders/links_reach/own_motor.json"
+#: The time-optimal answers of the guided lever (``docs/studies/links_guided.py demos``):
+#: poses of six tapered links beyond the own motors' reach, solved and replayed.
+DEMOS = "renders/learners/guided/demos"
 #: Own-motor time classes of the poses, in seconds (the last bound is the deadline, 7 s).
 OWN_MOTOR_EDGES = (3.0, 5.0, 7.0)
 #: The own-motor study's controllers, by scaling row name, and their column titles; the
@@ -111,7 +114,8 @@ def own_motor_block(report: dict) -> str:
         notes.append(line + (" (the table's controllers' totals equal its rows)" if same else
                              " (the table's controllers' totals differ from its rows)") + ".")
     out.append("\n" + "\n".join(f"- {t}" for t in notes) + "\n\n")
-    return "".join(out) + _later_block(data, columns, deadline)
+    return ("".join(out) + _later_block(data, columns, deadline)
+            + _swing_block(data, columns, deadline))
 
 
 def _later_block(data: dict, columns: list, deadline: float) -> str:
@@ -168,3 +172,63 @@ def _learned_note(run: dict, name: str, horizons: list, deadline: float) -> str:
                  "poses whose slowest joint must be turned by the others, not poses it "
                  "cannot bring home.")
     return text
+
+
+def _demo_swings(links: int, rule: str, horizon_s: float = 8.0):
+    """:func:`twolink.arm.task.inner_excursion` of every time-optimal answer of
+    :data:`DEMOS` for this arm over its first ``horizon_s`` seconds (None where there are
+    none)."""
+    import numpy as np
+
+    from twolink.arm.parameters import TS
+    from twolink.arm.task import inner_excursion
+    from twolink.studies.guided.demos import load
+
+    from .common import ROOT
+
+    folder = ROOT / DEMOS
+    demos = [d for d in (load(folder) if folder.is_dir() else [])
+             if (d["links"], d["rule"]) == (links, rule)]
+    if not demos:
+        return None
+    k = int(round(horizon_s / TS))
+    return np.array([float(inner_excursion(np.asarray(d["states"])[:k + 1, :links]))
+                     for d in demos])
+
+
+def _swing_block(data: dict, columns: list, deadline: float) -> str:
+    """On the poses over the deadline: each controller's successes by 8 s beside how far
+    its inner joints swing away from the goal within 8 s, and the same swing of the
+    time-optimal answers, which turn the outer joint by the inner ones' reactions."""
+    import numpy as np
+
+    runs = [r for r in data["runs"] if r.get("excursion")
+            and (np.asarray(r["own_motor_s"]) > deadline).any()]
+    if not runs:
+        return ""
+    out = ["### Do they swing the inner joints?\n\n",
+           "On the poses whose own-motor time is over " f"{deadline:g} s: how far the inner "
+           "joints (1 to N − 1) swing away from the goal within 8 s, the largest over "
+           "them of |θ_i(t)| − |θ_i(0)| (`twolink.arm.task.inner_excursion`, 0 for a "
+           "controller that only drives each joint home), as median and 90th percentile "
+           "over the poses. The time-optimal answers are the reach study's solver's "
+           "answers replayed on MuJoCo for other poses beyond the own motors' reach (the "
+           f"demonstrations of `docs/studies/links_guided.py`, `{DEMOS}`):\n\n",
+           "| N | links | controller | settled by 8 s | swing, median | swing, 90th "
+           "percentile |\n|---|---|---|---|---|---|\n"]
+    for run in runs:
+        late = np.asarray(run["own_motor_s"]) > deadline
+        for key, title in columns:
+            if key not in run["excursion"]:
+                continue
+            swing = np.asarray(run["excursion"][key])[late]
+            ok = int(np.asarray(run["success"][key])[late].sum())
+            out.append(f"| {run['links']} | {run['rule']} | {title} | {ok}/{int(late.sum())} "
+                       f"| {np.median(swing):.2f} rad | {np.percentile(swing, 90):.2f} rad |\n")
+        optimal = _demo_swings(run["links"], run["rule"])
+        if optimal is not None:
+            out.append(f"| {run['links']} | {run['rule']} | time-optimal answers "
+                       f"({optimal.size} poses) | {optimal.size}/{optimal.size} (replayed) | "
+                       f"{np.median(optimal):.2f} rad | {np.percentile(optimal, 90):.2f} rad "
+                       "|\n")
+    return "".join(out) + "\n"

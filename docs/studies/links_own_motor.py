@@ -10,9 +10,11 @@ given by ``--agent`` (a ``.zip`` or ``.marl.pt`` of ``twolink train``, e.g. a ru
 the table's 256 poses (``random_poses(N, 256, 20061122 + N)``) for 16 s on MuJoCo, and
 records each pose's success at 8 s (the table's horizon) and at the longer horizons of
 :data:`LATER` (the same rollout cut there, :func:`twolink.sim.pose_scoring.truncated`:
-settled 1 s before the cut), beside its own-motor time: the largest over the joints of
+settled 1 s before the cut) beside its own-motor time: the largest over the joints of
 :func:`twolink.arm.task.own_motor_seconds`, the time joint i's own motor needs at the
 least to turn it home with every other joint held (its speed stays below tau_i max / b_i).
+It also records how far each controller swings the inner joints away from the goal within
+8 s (:func:`twolink.arm.task.inner_excursion`).
 A pose whose own-motor time exceeds 7 s (settled 1 s before the end of 8 s) can be
 settled in time only if the other joints' motion turns that joint too; a controller whose
 joints act each on their own reading does not plan that. The runs merge into the JSON file
@@ -34,7 +36,7 @@ if __package__ in (None, ""):
 
 import numpy as np  # noqa: E402
 
-from twolink.arm.task import own_motor_seconds  # noqa: E402
+from twolink.arm.task import inner_excursion, own_motor_seconds  # noqa: E402
 from twolink.arm.parameters import LINK_RULES, LINKS_HORIZON, links_parameters  # noqa: E402
 from twolink.artifacts import provenance, read_runs, write_json  # noqa: E402
 from twolink.control import catalogue  # noqa: E402
@@ -117,7 +119,7 @@ def measure(links: int, rule: str, poses: int = POSES, agents=()) -> dict:
            "horizon_s": LINKS_HORIZON,
            "own_motor_s": [round(float(v), 4) for v in own.max(axis=1)],
            "slowest_joint": [int(j) + 1 for j in own.argmax(axis=1)], "success": {},
-           "later": {f"{h:g}": {} for h in LATER},
+           "later": {f"{h:g}": {} for h in LATER}, "excursion": {},
            "learned": list(learned(links, rule)) + list(files),
            "agent_files": {k: str(v) for k, v in files.items()}}
     for scheme in CONTROLLERS + tuple(out["learned"]):
@@ -127,6 +129,8 @@ def measure(links: int, rule: str, poses: int = POSES, agents=()) -> dict:
             traj = rollout(policy, plant, x0, duration=max(LATER))
         ok = success(truncated(traj, LINKS_HORIZON))
         out["success"][scheme] = [int(v) for v in ok]
+        swing = inner_excursion(truncated(traj, LINKS_HORIZON).x[..., :links])
+        out["excursion"][scheme] = [round(float(v), 4) for v in swing]
         for h in LATER:
             out["later"][f"{h:g}"][scheme] = [int(v) for v in success(truncated(traj, h))]
         print(f"  {scheme}: {int(ok.sum())}/{poses} settled by {LINKS_HORIZON:g} s, "

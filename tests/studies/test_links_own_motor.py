@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twolink.arm.task import own_motor_seconds
+from twolink.arm.task import inner_excursion, own_motor_seconds
 from twolink.arm.parameters import links_parameters
 from twolink.sim.metrics import random_poses
 
@@ -39,6 +39,8 @@ def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path,
     assert sorted(run["success"]) == sorted(study.CONTROLLERS)
     assert "decentralized_argmax" in study.CONTROLLERS
     assert all(len(v) == 3 and set(v) <= {0, 1} for v in run["success"].values())
+    assert sorted(run["excursion"]) == sorted(study.CONTROLLERS)
+    assert all(len(v) == 3 and min(v) >= 0.0 for v in run["excursion"].values())
     assert sorted(run["later"]) == ["12", "16"]
     for by in run["later"].values():                     # settled by 8 s: still by 12, 16 s
         assert sorted(by) == sorted(study.CONTROLLERS)
@@ -104,6 +106,8 @@ def test_an_agent_file_runs_beside_the_table_under_its_stem(study, agent_file, t
         traj = rollout(resolve_controller(str(agent_file), links=3), plant, x0, duration=16.0)
     assert run["success"][name] == [int(v) for v in success(truncated(traj, 8.0))]
     assert run["later"]["16"][name] == [int(v) for v in success(truncated(traj, 16.0))]
+    swing = inner_excursion(truncated(traj, 8.0).x[..., :3])
+    np.testing.assert_allclose(run["excursion"][name], swing, atol=1e-4)
 
 
 def test_bad_agent_files_are_one_line_exit_2_nothing_written(study, agent_file, tmp_path,

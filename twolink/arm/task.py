@@ -112,3 +112,19 @@ def own_motor_seconds(p: ArmParameters | LinksParameters, angles) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise ValueError("angles must be finite")
     return np.abs(wrap_angle(a)) / own_motor_speed(c)
+
+
+def inner_excursion(angles) -> np.ndarray:
+    """How far the inner joints swing away from the goal: for angle paths (..., K+1, N)
+    (N >= 2), the largest over joints 1..N-1 and samples of |wrap(theta_i(t))| less
+    |wrap(theta_i(0))|, at least 0, shape (...). A controller that only drives every joint
+    home reads 0 (up to overshoot); turning a slow outer joint by the reactions of the
+    inner ones, as the time-optimal answers of :mod:`twolink.limits.links` do, swings
+    them out first."""
+    a = np.asarray(angles, dtype=float)
+    if a.ndim < 2 or a.shape[-1] < 2 or a.shape[-2] < 1:
+        raise ValueError(f"angles must have shape (..., K+1, N) with N >= 2, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError("angles must be finite")
+    far = np.abs(wrap_angle(a[..., :-1]))
+    return np.maximum(far.max(axis=-2) - far[..., 0, :], 0.0).max(axis=-1)
