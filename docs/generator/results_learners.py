@@ -134,7 +134,27 @@ def _beyond_reach(arm: tuple, share: float) -> str:
             f"settled; the learned agents the own-motor study ran settle at most "
             f"{max(counts.values())} of them by 8 s ({settled})"
             + ("; `_slow_` in a name: trained only on such poses (`--start slow`)"
-               if any("_slow_" in k for k in counts) else ""))
+               if any("_slow_" in k for k in counts) else "") + _swing(run, late))
+
+
+def _swing(run: dict, late) -> str:
+    """The learned agents' largest median swing of the inner joints on the poses beyond
+    the own motors' reach, beside the time-optimal answers' (the scaling page's table)."""
+    import numpy as np
+
+    from .results_own_motor import _demo_swings
+
+    swings = [float(np.median(np.asarray(run["excursion"][k])[late]))
+              for k in run["learned"] if k in run.get("excursion", {})]
+    optimal = _demo_swings(run["links"], run["rule"])
+    if not swings or optimal is None:
+        return ""
+    far = float(np.median(optimal))
+    return (f". On those poses their inner joints swing away from the goal by a median of "
+            f"at most {max(swings):.2f} rad, where the time-optimal answers swing them "
+            f"{far:.2f} rad ([scaling page](scaling.md#do-they-swing-the-inner-joints))"
+            + (": none has found the manoeuvre that turns the outer joint in time"
+               if max(swings) < far / 2 else ""))
 
 
 def _duration(data: dict) -> str:
