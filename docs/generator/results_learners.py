@@ -293,7 +293,7 @@ def levers_block() -> str:
     out = ["## Levers tried outside the plan\n\n",
            f"Each run's curve is `{LEVERS}/<run>.json`; its final agent on the 256 fresh poses "
            "(seed 4180000 + N), where scored, is `<run>.fresh.json` (`twolink evaluate AGENT "
-           "--links N --poses 256 --seed 4180000 --json`), and `<run>.fresh16.json` the "
+           "--links N [--rule R] --poses 256 --seed 4180000 --json`), and `<run>.fresh16.json` the "
            "same poses run for 16 s (`--horizon 16`). A row without a command is an agent "
            "made outside `twolink train` ([the guide](../guides/learners-study.md"
            "#levers-tried-outside-the-plan) says how).\n\n",
