@@ -569,7 +569,7 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
     monkeypatch.setattr(gen.common, "ROOT", tmp_path)
     six = {"links": 6, "rule": "tapered", "algo": "mappo", "learner": "MAPPO (local)",
            "cpu_us_per_step": 600.0, "seeds": [0],
-           "fresh": {"successes": 100, "n": 256}}
+           "fresh": {"successes": 100, "n": 256}, "table": {"successes": 90, "n": 256}}
     line = rl._targets([six])[-1]
     assert line == ("- **missed**: training cost at N = 6 <= 150 µs CPU per environment "
                     "step (updates and the curve's evaluations included): cheapest MAPPO "
@@ -603,3 +603,37 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
                          "`ppo-pd-light_6t_seed1` 0/256 = 0.0 % [0, 1]; the default MAPPO "
                          "recipe 700 µs, the lighter recipe (envs 256) 155 µs (misses the "
                          "target)")
+
+
+def test_a_learning_target_picks_on_the_table_poses_and_judges_on_the_fresh(tmp_path,
+                                                                            monkeypatch):
+    """The learners page's copied N = 4 target: the study row and the lever run are each
+    picked by their table score (the lever by its final curve point), and the target is
+    met only by the fresh score of what was picked."""
+    import json
+
+    gen = _generator()
+    from generator import results_learners as rl
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+
+    def row(learner, table, fresh):
+        return {"links": 4, "rule": "copied", "algo": "mappo", "learner": learner,
+                "seeds": [0], "cpu_us_per_step": 400.0,
+                "table": {"successes": table, "n": 256}, "fresh": {"successes": fresh, "n": 256}}
+
+    rows = [row("MAPPO (local)", 200, 150), row("MAPPO (neighbours)", 100, 220)]
+    line = rl._targets(rows)[1]
+    assert line.startswith("- **missed**: copied N = 4") and "MAPPO (local) 150/256" in line
+    folder = tmp_path / rl.LEVERS
+    folder.mkdir(parents=True)
+    config = {"links": 4, "rule": "copied", "algo": "mappo"}
+    for stem, last, fresh in (("a_4c_seed0", 50, 240), ("b_4c_seed0", 60, 200)):
+        (folder / f"{stem}.json").write_text(json.dumps(
+            {"config": config, "curve": [{"successes": last, "n": 64}]}))
+        (folder / f"{stem}.fresh.json").write_text(json.dumps({"successes": fresh, "n": 256}))
+    line = rl._targets(rows)[1]
+    assert line.startswith("- **missed**") and "best of 2 lever run(s)" in line
+    assert "`b_4c_seed0` 200/256" in line                  # picked by its curve, not 240
+    (folder / "b_4c_seed0.fresh.json").write_text(json.dumps({"successes": 232, "n": 256}))
+    assert rl._targets(rows)[1].startswith("- met: copied N = 4")
