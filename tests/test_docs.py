@@ -635,5 +635,10 @@ def test_a_learning_target_picks_on_the_table_poses_and_judges_on_the_fresh(tmp_
     line = rl._targets(rows)[1]
     assert line.startswith("- **missed**") and "best of 2 lever run(s)" in line
     assert "`b_4c_seed0` 200/256" in line                  # picked by its curve, not 240
+    assert "(its only seed)" in line
+    (folder / "b_4c_seed1.json").write_text(json.dumps(
+        {"config": config, "curve": [{"successes": 40, "n": 64}]}))
+    (folder / "b_4c_seed1.fresh.json").write_text(json.dumps({"successes": 90, "n": 256}))
+    assert "(the same recipe's other seeds: `b_4c_seed1` 90/256" in rl._targets(rows)[1]
     (folder / "b_4c_seed0.fresh.json").write_text(json.dumps({"successes": 232, "n": 256}))
     assert rl._targets(rows)[1].startswith("- met: copied N = 4")

@@ -66,7 +66,7 @@ def _targets(rows: list) -> list:
                  f"{format_rate(late['successes'], late['n'])}")
         lever = ("" if top is None else f"; best of {len(levers)} lever run(s) (below) by "
                  f"its final curve point: `{top[0]}` "
-                 f"{format_rate(top[1]['successes'], top[1]['n'])}")
+                 f"{format_rate(top[1]['successes'], top[1]['n'])}" + _other_seeds(top, levers))
         out.append(f"- {'met' if met else '**missed**'}: {what} (each candidate picked on "
                    "the table's poses, judged on the fresh ones): best of the study "
                    f"{best['learner']} {format_rate(f['successes'], f['n'])} over "
@@ -107,6 +107,19 @@ def _lever_scores(arm: tuple, decentral: bool) -> list:
                 not decentral or config["algo"] in ("ippo", "mappo")):
             out.append((stem, json.loads(path.read_text()), last["successes"] / last["n"]))
     return out
+
+
+def _other_seeds(top: tuple, levers: list) -> str:
+    """The fresh scores of the lever runs that differ from ``top`` only in their seed
+    (``<name>_seed<S>``): is what met the target one seed or the recipe?"""
+    from twolink.viz.formatting import format_rate
+
+    stem = top[0].rsplit("_seed", 1)[0]
+    others = [(s, g) for s, g, _ in levers if s != top[0] and s.rsplit("_seed", 1)[0] == stem]
+    if not others:
+        return " (its only seed)"
+    return " (the same recipe's other seeds: " + ", ".join(
+        f"`{s}` {format_rate(g['successes'], g['n'])}" for s, g in others) + ")"
 
 
 def _beyond_reach(arm: tuple, share: float) -> str:
