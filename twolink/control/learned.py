@@ -113,6 +113,15 @@ LEARNED = {
         description="PPO as a residual over the per-joint PD on 6 tapered links, the "
                     "learners study's ppo-pd recipe, seed 0, 2 M steps (twolink train --base pd)",
         curves=("renders/learners/agents/ppo_pd_6link_tapered.json",)),
+    "mappo_4link_copied": Learned(
+        "renders/learners/agents/mappo_4link_copied.marl.pt", kind="decentralized", links=4,
+        rule="copied",
+        description="MAPPO on 4 copied links, one actor per joint reading its own and the "
+                    "next joint (neighbours), 6 M steps: seed 1, the better final curve "
+                    "point of seeds 0 and 1 (the learners page's lever runs "
+                    "mappo-neighbours-6m_4c)",
+        curves=tuple(f"renders/learners/levers/mappo-neighbours-6m_4c_seed{s}.json"
+                     for s in (0, 1))),
 }
 #: Name -> the agent's file, relative to the repository root.
 LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
