@@ -118,10 +118,10 @@ LEARNED = {
         rule="copied",
         description="MAPPO on 4 copied links, one actor per joint reading its own and the "
                     "next joint (neighbours), 6 M steps: seed 1, the better final curve "
-                    "point of seeds 0 and 1 (the learners page's lever runs "
+                    "point of seeds 0, 1 and 2 (the learners page's lever runs "
                     "mappo-neighbours-6m_4c)",
         curves=tuple(f"renders/learners/levers/mappo-neighbours-6m_4c_seed{s}.json"
-                     for s in (0, 1))),
+                     for s in (0, 1, 2))),
 }
 #: Name -> the agent's file, relative to the repository root.
 LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
