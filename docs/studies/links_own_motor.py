@@ -127,9 +127,10 @@ def measure(links: int, rule: str, poses: int = POSES, agents=()) -> dict:
         policy = controller(links, rule, scheme, files)
         with make_plant("mujoco", p) as plant:
             traj = rollout(policy, plant, x0, duration=max(LATER))
-        ok = success(truncated(traj, LINKS_HORIZON))
+        eight = truncated(traj, LINKS_HORIZON)
+        ok = success(eight)
         out["success"][scheme] = [int(v) for v in ok]
-        swing = inner_excursion(truncated(traj, LINKS_HORIZON).x[..., :links])
+        swing = inner_excursion(eight.x[..., :links])
         out["excursion"][scheme] = [round(float(v), 4) for v in swing]
         for h in LATER:
             out["later"][f"{h:g}"][scheme] = [int(v) for v in success(truncated(traj, h))]
