@@ -28,7 +28,11 @@ LEVERS = "renders/learners/levers"
 #: The options of ``twolink train`` a lever run's config spells out (beside the arm).
 LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
                  "envs", "n_steps", "batch_size", "epochs", "net", "reward", "value_norm",
-                 "eval_every", "steps", "seed")
+                 "bound_loss", "eval_every", "steps", "seed")
+#: ``docs/studies/agent_saturation.py``'s records of six-link agents (study and levers),
+#: and the final speed (rad/s) beyond which a joint counts as turning on.
+SATURATION = "renders/learners/saturation.json"
+SPINNING = 1.0
 #: The training benchmark's data, and per algorithm the stem of the lever runs of its
 #: lighter recipe (one per seed).
 BENCH = "benchmarks/results.json"
@@ -276,7 +280,8 @@ def _lever_command(config: dict) -> str:
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
     defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
-                "start": "random", "init": None, "reward": "shaped", "value_norm": False}
+                "start": "random", "init": None, "reward": "shaped", "value_norm": False,
+                "bound_loss": 0.0}
     for key in LEVER_OPTIONS:
         value = config.get(key)
         if value is None or defaults.get(key, object()) == value:
@@ -343,6 +348,65 @@ def levers_block() -> str:
     return "".join(out) + "\n"
 
 
+def saturation_block() -> str:
+    """The agents of :data:`SATURATION`: per agent its successes, the joint that turns
+    fastest at the end (median |speed| over poses) and that joint's share of the last 2 s
+    at its torque limit; and how many of the agents that settle nothing end with a joint
+    turning faster than :data:`SPINNING` rad/s, against how many of those that settle
+    some."""
+    import json
+
+    from . import common
+
+    path = common.ROOT / SATURATION
+    if not path.is_file():
+        return ""
+    try:
+        data = json.loads(path.read_text())
+        poses, tail = data["poses"], data["tail_s"]
+        rows = [(r["file"].split("/")[-2] if "/" in r["file"] else r["file"],
+                 r["successes"], r["n"], r["at_limit"], r["speed"], r["angle"])
+                for r in data["records"]]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: not agent_saturation records ({exc})") from None
+
+    def spins(speed):
+        return max(speed) > SPINNING
+
+    def far(row):
+        return max(range(len(row[5])), key=lambda i: row[5][i])
+
+    lost = [r for r in rows if r[1] == 0]
+    some = [r for r in rows if r[1] > 0]
+    out = ["## Runs that settle nothing\n\n",
+           f"`python docs/studies/agent_saturation.py AGENT ... --poses {poses} --json "
+           f"{SATURATION}`: each six-link agent on {poses} of the fresh poses for 8 s; the "
+           f"joint that turns fastest at the end (median |speed| over the poses; the goal "
+           f"band asks for 0.1 rad/s), and the share of the last {tail:g} s in which that "
+           f"joint's torque lies within 1 % of its limit. "
+           f"**{sum(spins(r[4]) for r in lost)} of the {len(lost)} agents that settle "
+           f"nothing end with a joint turning faster than {SPINNING:g} rad/s; "
+           f"{sum(spins(r[4]) for r in some)} of the {len(some)} that settle some do.** "
+           + (f"Every one of the {len(lost)} leaves joint "
+              f"{' or '.join(sorted({str(far(r) + 1) for r in lost}))} farthest from the goal, "
+              f"at least {min(r[5][far(r)] for r in lost):.2f} rad away (median over the "
+              f"poses); the agents that settle some leave every joint within "
+              f"{max(r[5][far(r)] for r in some):.2f} rad. " if lost and some else "")
+           + 
+           "The `--bound-loss` and `--std-floor` lever runs above test two remedies (the "
+           "[guide](../guides/learners-study.md#levers-tried-outside-the-plan) says what "
+           "they found).\n\n",
+           "| run | settled | fastest joint at the end | its share of the last "
+           f"{tail:g} s at the torque limit | joint farthest from the goal at the end |\n"
+           "|---|---|---|---|---|\n"]
+    for run, k, n, at, speed, angle in sorted(rows, key=lambda r: (r[1], r[0])):
+        j = max(range(len(speed)), key=lambda i: speed[i])
+        far = max(range(len(angle)), key=lambda i: angle[i])
+        out.append(f"| `{run}` | {k}/{n} | joint {j + 1}: {speed[j]:.2f} rad/s | "
+                   f"{at[j]:.0%} | joint {far + 1}: {angle[far]:.2f} rad |\n")
+    return "".join(out) + "\n"
+
+
 def learners_page(data: dict) -> str:
     from twolink.studies.learners.plan import plan
     from twolink.studies.learners.report import rows, table
@@ -377,7 +441,7 @@ def learners_page(data: dict) -> str:
         table(rs) if rs else "No run has finished yet.", "\n\n",
         "## Targets\n\n", "\n".join(_targets(rs) + [_duration(data)]), "\n\n",
         "## Transfer: trained on the model, run on MuJoCo\n\n", _transfer(rs), "\n\n",
-        levers_block(),
+        levers_block(), saturation_block(),
         "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",
         "Thin lines: one seed each, success of the deterministic policy on the curve's 64 "
         "poses of the scaling table; dashed: the ceiling.\n"])

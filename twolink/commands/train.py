@@ -44,6 +44,7 @@ from twolink.training.config import (
     check_net,
 )
 from twolink.training.marl import HYPERPARAMETERS as MARL_HYPERPARAMETERS
+from twolink.training.bound_loss import BOUND_LOSS_RANGE, check_bound_loss
 from twolink.training.marl import STD_FLOOR_RANGE, check_std_floor
 from twolink.viz.formatting import format_rate
 
@@ -180,6 +181,12 @@ def add_parser(sub):
                    help="ippo, mappo: each critic learns standardized returns (a running "
                         "mean and variance, skrl's RunningStandardScaler: MAPPO's value "
                         "normalization)")
+    p.add_argument("--bound-loss", default=None, metavar="C",
+                   help=f"ippo, mappo: each policy's update also minimizes C * mean(max(|mu| "
+                        f"- 1, 0)^2) of its mean actions mu (rl_games' bound loss), so no "
+                        f"agent's mean drifts beyond the torque limit where every sample "
+                        f"clips alike, {BOUND_LOSS_RANGE[0]:g} to {BOUND_LOSS_RANGE[1]:g} "
+                        f"(default 0: none)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="where torch runs the networks (default cpu; resume is bit for bit "
                         "on the CPU)")
@@ -207,6 +214,8 @@ def given_options(args) -> dict:
         raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
     if args.value_norm and args.algo not in MARL_ALGOS and not args.resume:
         raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
+    if args.bound_loss is not None and args.algo not in MARL_ALGOS and not args.resume:
+        raise ValueError("--bound-loss is for --algo ippo|mappo (skrl's Gaussian policies)")
     given = {"algo": args.algo, "links": args.links, "rule": args.rule,
              "steps": _count(args.steps, "--steps"),
              "seed": None if args.seed is None else seed_option(args.seed, high=2**32 - 1),
@@ -231,7 +240,9 @@ def given_options(args) -> dict:
                  args.action_gain, "--action-gain", check_action_gain, 1.0, MAX_ACTION_GAIN),
              "std_floor": None if args.std_floor is None else _number(
                  args.std_floor, "--std-floor", check_std_floor, *STD_FLOOR_RANGE),
-             "value_norm": args.value_norm}
+             "value_norm": args.value_norm,
+             "bound_loss": None if args.bound_loss is None else _number(
+                 args.bound_loss, "--bound-loss", check_bound_loss, *BOUND_LOSS_RANGE)}
     return {k: v for k, v in given.items() if v is not None}
 
 
@@ -276,6 +287,8 @@ def run(args) -> int:
         raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
     if given.pop("value_norm", None):
         raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
+    if given.pop("bound_loss", None) is not None:
+        raise ValueError("--bound-loss is for --algo ippo|mappo (skrl's Gaussian policies)")
     config = None if args.resume else TrainConfig(**given)
     default = config or TrainConfig(**{k: v for k, v in given.items()
                                        if k in ("algo", "links", "seed", "challenge", "history",

@@ -69,6 +69,9 @@ the controller runs, is learnt under noise of at least S.
 variance (skrl's ``RunningStandardScaler`` as ``value_preprocessor``), the value
 normalization Yu et al. (2021) count among MAPPO's implementation details; the critics
 then fit returns of any scale (the minimum-time reward's returns reach -100) alike.
+``bound_loss`` C > 0: each policy's update also minimizes C * mean(max(|mu| - 1, 0)^2) of
+its mean actions mu (rl_games' bound loss, :mod:`twolink.training.bound_loss`), so no
+agent's mean settles beyond the torque limit where every sample clips alike.
 ``start`` (``twolink train --start``, PPO's option): the training episodes' initial poses,
 ``'random'`` (uniform angles at rest), ``'slow'`` (only poses beyond the own motors' reach,
 :mod:`twolink.envs.starts`) or ``'mixed'`` (half of each); the curve stays on uniform poses.
@@ -88,6 +91,7 @@ from twolink.artifacts import write_json
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
+from twolink.training.bound_loss import check_bound_loss
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
     START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
@@ -166,12 +170,13 @@ class MarlConfig:
     reward: str = "shaped"
     value_norm: bool = False
     start: str = "random"
+    bound_loss: float = 0.0
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
                 "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward",
-                "value_norm", "start")
+                "value_norm", "start", "bound_loss")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -200,6 +205,7 @@ class MarlConfig:
         check_recipe(self)
         if self.std_floor is not None:
             object.__setattr__(self, "std_floor", check_std_floor(self.std_floor))
+        object.__setattr__(self, "bound_loss", check_bound_loss(self.bound_loss))
         choice(self.start, "start", START_OPTIONS)
         if self.start != "random":
             from twolink.envs.starts import check_slow_starts
@@ -229,6 +235,8 @@ class MarlConfig:
             hp["n_steps"] = self.n_steps
         if self.std_floor is not None:
             hp["log_std_init"] = hp["min_log_std"] = math.log(self.std_floor)
+        if self.bound_loss > 0:
+            hp["bound_loss"] = self.bound_loss
         hp["batch_size"] = min(hp["batch_size"], hp["n_steps"] * hp["n_envs"])
         hp["mini_batches"] = max(1, hp["n_steps"] * hp["n_envs"] // hp["batch_size"])
         return hp
@@ -294,8 +302,8 @@ def check_std_floor(value) -> float:
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]
     [_b<B>][_e<E>]
-    [_net<W>x<W>][_sf<S>][_rt][_vn]_seed<S>`` (``_rt``: ``reward='shaped_time'``; ``_vn``:
-    ``value_norm``; PPO's
+    [_net<W>x<W>][_sf<S>][_rt][_vn][_bl<C>]_seed<S>`` (``_rt``: ``reward='shaped_time'``;
+    ``_vn``: ``value_norm``; ``_bl``: ``bound_loss``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -307,8 +315,10 @@ def run_name(config: MarlConfig) -> str:
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     reward = "_rt" if config.reward == "shaped_time" else ""
     norm = "_vn" if config.value_norm else ""
+    bound = f"_bl{config.bound_loss:g}" if config.bound_loss > 0 else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{start}{recipe_suffix(config)}{floor}{reward}{norm}_seed{config.seed}")
+            f"{discount}{start}{recipe_suffix(config)}{floor}{reward}{norm}{bound}"
+            f"_seed{config.seed}")
 
 
 def agent_name(config: MarlConfig) -> str:

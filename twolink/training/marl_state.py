@@ -3,7 +3,9 @@
 :class:`Learner` holds skrl's agent (``IPPO`` or ``MAPPO`` of ``skrl.multi_agents.torch``,
 one ``RandomMemory`` of one rollout per agent), the agents' policy and value networks
 (skrl ``Model`` s: a Gaussian policy whose mean is
-:func:`twolink.control.marl_agent.policy_net` with a state-independent log std; a value
+:func:`twolink.control.marl_agent.policy_net` with a state-independent log std, its
+gradient carrying the bound loss of ``MarlConfig(bound_loss=C)``
+(:func:`twolink.training.bound_loss.bounded`); a value
 network of the same hidden sizes) and the batched env, and steps them itself: act,
 clip the actions to [-1, 1] (with a base, ``MarlConfig(base='pd')``, turn them into
 clip(PD_i + tau_max_i a_i, +-tau_max_i) per joint, :mod:`twolink.control.residual`,
@@ -46,6 +48,7 @@ from twolink.arm.parameters import links_parameters
 from twolink.control.residual import residual_torques
 from twolink.training import checkpoint, episodes
 from twolink.training.action_rate import agent_penalties
+from twolink.training.bound_loss import bounded
 from twolink.training.marl_history import AgentHistories
 from twolink.training.checkpoint import (
     generator_from_state,
@@ -60,7 +63,7 @@ SCHEMA, VERSION = "twolink.train.marl_checkpoint", 1
 MAX_BYTES = 2**30
 
 
-def _models(torch, hidden, activation, log_std_init, min_log_std=-20.0):
+def _models(torch, hidden, activation, log_std_init, min_log_std=-20.0, bound_loss=0.0):
     from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
 
     from twolink.control.marl_agent import policy_net
@@ -76,7 +79,8 @@ def _models(torch, hidden, activation, log_std_init, min_log_std=-20.0):
             self.log_std = torch.nn.Parameter(torch.full((1,), float(log_std_init)))
 
         def compute(self, inputs, role=""):
-            return self.net(inputs["observations"]), {"log_std": self.log_std}
+            mean = bounded(self.net(inputs["observations"]), bound_loss)
+            return mean, {"log_std": self.log_std}
 
     class Value(DeterministicMixin, Model):
         def __init__(self, space, key, device):
@@ -129,7 +133,7 @@ class Learner:
         state = spaces.Box(-np.inf, np.inf, (3 * config.links,), np.float32)
         act = {a: spaces.Box(-1.0, 1.0, (1,), np.float32) for a in self.agents}
         Policy, Value = _models(torch, hp["hidden"], hp["activation"], hp["log_std_init"],
-                                hp.get("min_log_std", -20.0))
+                                hp.get("min_log_std", -20.0), hp.get("bound_loss", 0.0))
         mappo = config.algo == "mappo"
         models = {a: {"policy": Policy(obs_spaces[a], act[a], device),
                       "value": Value(state if mappo else obs_spaces[a],
