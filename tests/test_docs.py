@@ -557,6 +557,44 @@ def test_the_learners_page_lists_the_lever_runs(tmp_path, monkeypatch):
         rl.levers_block()
 
 
+def test_every_lever_command_gives_back_its_run():
+    """Each committed lever run's command in the levers table, read by `twolink train`'s
+    own parser, gives every option of the run's config that is not the default, and the
+    command list covers every field of both config types."""
+    import dataclasses
+    import json
+    import shlex
+
+    from twolink.cli import build_parser
+    from twolink.commands.train import given_options
+    from twolink.training.config import TrainConfig
+    from twolink.training.marl import MARL_ALGOS, MarlConfig
+
+    _generator()
+    from generator import results_learners as rl
+
+    for cls in (TrainConfig, MarlConfig):
+        fields = {f.name for f in dataclasses.fields(cls)} - {"links", "rule"}
+        assert fields <= set(rl.LEVER_OPTIONS), sorted(fields - set(rl.LEVER_OPTIONS))
+    parser = build_parser()
+    curves = [p for p in sorted((ROOT / rl.LEVERS).glob("*.json")) if ".fresh" not in p.name]
+    assert curves
+    for path in curves:
+        config = json.loads(path.read_text())["config"]
+        words = shlex.split(rl._lever_command(config))[1:]
+        given = given_options(parser.parse_args(words))
+        cls = MarlConfig if config["algo"] in MARL_ALGOS else TrainConfig
+        for f in dataclasses.fields(cls):
+            value = config.get(f.name)
+            value = tuple(value) if isinstance(value, list) else value
+            if f.name in given:
+                mine = given[f.name]
+                assert (tuple(mine) if isinstance(mine, list) else mine) == value, \
+                    (path.name, f.name)
+            else:
+                assert value == f.default or value is None, (path.name, f.name)
+
+
 def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, monkeypatch):
     """The learners page's cost target: the cheapest study row at six links, then the
     training benchmark's default and lighter PPO recipes (one run) and how the lighter

@@ -25,10 +25,15 @@ STUDY_HOURS, SEED_HOURS = 8.0, 2.0
 #: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored, and
 #: ``<id>.fresh16.json`` the same with ``--horizon 16`` (failed, or settled late?).
 LEVERS = "renders/learners/levers"
-#: The options of ``twolink train`` a lever run's config spells out (beside the arm).
-LEVER_OPTIONS = ("algo", "observe", "base", "gamma", "start", "init", "history", "action_rate",
-                 "envs", "n_steps", "batch_size", "epochs", "net", "reward", "value_norm",
-                 "bound_loss", "eval_every", "steps", "seed")
+#: The options of ``twolink train`` a lever run's config spells out (beside the arm), in
+#: this order: every field of TrainConfig and MarlConfig but ``links`` and ``rule`` (a
+#: test holds the list to the two dataclasses). Each appears where its value differs from
+#: the field's default; those of :data:`ALWAYS` always.
+LEVER_OPTIONS = ("algo", "observe", "plant", "challenge", "base", "gamma", "start", "init",
+                 "history", "action_rate", "envs", "n_steps", "batch_size", "epochs", "net",
+                 "reward", "action_gain", "std_floor", "value_norm", "bound_loss", "device",
+                 "threads", "eval_every", "steps", "seed")
+ALWAYS = ("algo", "observe", "steps", "seed")
 #: ``docs/studies/agent_saturation.py``'s records of six-link agents (study and levers),
 #: and the final speed (rad/s) beyond which a joint counts as turning on.
 SATURATION = "renders/learners/saturation.json"
@@ -275,16 +280,22 @@ def _transfer(rows: list) -> str:
 
 
 def _lever_command(config: dict) -> str:
-    """The ``twolink train`` command line of a lever run's config."""
+    """The ``twolink train`` command line of a lever run's config: the arm, then every
+    option of :data:`LEVER_OPTIONS` whose value is not the default of the run's config
+    class (MarlConfig for IPPO/MAPPO, else TrainConfig)."""
+    import dataclasses
+
+    from twolink.training.config import TrainConfig
+    from twolink.training.marl import MARL_ALGOS, MarlConfig
+
+    cls = MarlConfig if config.get("algo") in MARL_ALGOS else TrainConfig
+    defaults = {f.name: f.default for f in dataclasses.fields(cls)}
     words = ["twolink train", f"--links {config['links']}"]
     if config["links"] > 2:
         words.append(f"--rule {config['rule']}")
-    defaults = {"base": "none", "history": 1, "action_rate": 0.0, "gamma": None,
-                "start": "random", "init": None, "reward": "shaped", "value_norm": False,
-                "bound_loss": 0.0}
     for key in LEVER_OPTIONS:
         value = config.get(key)
-        if value is None or defaults.get(key, object()) == value:
+        if value is None or (key not in ALWAYS and defaults.get(key, object()) == value):
             continue
         if value is True:                                 # a flag
             words.append(f"--{key.replace('_', '-')}")
