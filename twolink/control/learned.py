@@ -122,6 +122,16 @@ LEARNED = {
                     "mappo-neighbours-6m_4c)",
         curves=tuple(f"renders/learners/levers/mappo-neighbours-6m_4c_seed{s}.json"
                      for s in (0, 1, 2))),
+    "mappo_6link_tapered": Learned(
+        "renders/learners/agents/mappo_6link_tapered.marl.pt", kind="decentralized", links=6,
+        rule="tapered",
+        description="MAPPO on 6 tapered links, one actor per joint reading its own and the "
+                    "next joint (neighbours), policy noise held at 0.2 or more "
+                    "(--std-floor 0.2), 2 M steps: seed 0, the best final curve point of "
+                    "seeds 0, 1 and 2 (tied with seed 2; the lower seed; the learners "
+                    "page's lever runs mappo-neighbours-sf0.2_6t)",
+        curves=tuple(f"renders/learners/levers/mappo-neighbours-sf0.2_6t_seed{s}.json"
+                     for s in (0, 1, 2))),
 }
 #: Name -> the agent's file, relative to the repository root.
 LEARNED_AGENTS = {name: a.path for name, a in LEARNED.items()}
