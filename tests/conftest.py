@@ -24,3 +24,16 @@ def decentralized():
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)
+
+
+def load_study(name: str, monkeypatch):
+    """The development study ``docs/studies/<name>.py`` as a module (registered under
+    ``name`` for the test's duration, so its dataclasses and pickles resolve)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "studies" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, name, module)
+    spec.loader.exec_module(module)
+    return module

@@ -1,22 +1,15 @@
 """docs/studies/fuzzy_design.py: the tuning table's --merge keeps the committed rows and
 the order of VARIANTS, and refuses to run without a table to merge into."""
-import importlib.util
 import json
 import sys
-from pathlib import Path
 
 import pytest
-
-PATH = Path(__file__).resolve().parents[2] / "docs" / "studies" / "fuzzy_design.py"
+from conftest import load_study
 
 
 @pytest.fixture
 def study(monkeypatch):
-    spec = importlib.util.spec_from_file_location("fuzzy_design", PATH)
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, "fuzzy_design", module)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("fuzzy_design", monkeypatch)
 
 
 def _row(label, k):

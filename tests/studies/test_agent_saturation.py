@@ -1,16 +1,14 @@
 """docs/studies/agent_saturation.py: per joint, how much of the last 2 s a controller holds
 the torque at its limit and the joint's final speed; bad input is one line, exit 2,
 nothing written."""
-import importlib.util
 import json
 import sys
-from pathlib import Path
 
 import pytest
+from conftest import load_study
 
 from twolink.arm.parameters import links_parameters
 
-PATH = Path(__file__).resolve().parents[2] / "docs" / "studies" / "agent_saturation.py"
 
 SATURATED = """
 import numpy as np
@@ -24,11 +22,7 @@ def joint2_pushed(x):
 
 @pytest.fixture
 def study(monkeypatch):
-    spec = importlib.util.spec_from_file_location("agent_saturation", PATH)
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, "agent_saturation", module)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("agent_saturation", monkeypatch)
 
 
 def test_a_joint_held_at_its_limit_is_named_and_a_pd_is_not(study, tmp_path, capsys):

@@ -1,28 +1,21 @@
 """docs/studies/links_own_motor.py: each pose's own-motor time beside each controller's
 success on the scaling table's poses, merged per arm; bad options and foreign files get
 one error line, exit 2 and nothing written."""
-import importlib.util
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import load_study
 
 from twolink.arm.task import inner_excursion, own_motor_seconds
 from twolink.arm.parameters import links_parameters
 from twolink.sim.metrics import random_poses
 
-PATH = Path(__file__).resolve().parents[2] / "docs" / "studies" / "links_own_motor.py"
-
 
 @pytest.fixture
 def study(monkeypatch):
-    spec = importlib.util.spec_from_file_location("links_own_motor", PATH)
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, "links_own_motor", module)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("links_own_motor", monkeypatch)
 
 
 def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path, capsys):
@@ -35,7 +28,8 @@ def test_a_run_records_own_motor_times_and_successes_and_merges(study, tmp_path,
     own = own_motor_seconds(links_parameters(3, "tapered"), x0[:, :3])
     np.testing.assert_allclose(run["own_motor_s"], own.max(axis=1), atol=1e-4)
     assert run["slowest_joint"] == [int(j) + 1 for j in own.argmax(axis=1)]
-    assert run["learned"] == [] and study.learned(6, "tapered") == ("ppo_pd_6link_tapered",)
+    assert run["learned"] == [] and study.learned(6, "tapered") == ("ppo_pd_6link_tapered",
+                                                                 "mappo_6link_tapered")
     assert sorted(run["success"]) == sorted(study.CONTROLLERS)
     assert "decentralized_argmax" in study.CONTROLLERS
     assert all(len(v) == 3 and set(v) <= {0, 1} for v in run["success"].values())
