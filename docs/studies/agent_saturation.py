@@ -12,9 +12,9 @@ prints, beside its successes, per joint:
 * ``angle``: the median over poses of the joint's |angle| from the goal at the end (rad,
   wrapped to [0, pi]).
 
-An agent whose mean action has drifted beyond the bound (``twolink train --bound-loss``)
-holds that joint's torque at the limit and the joint turns on: ``at_limit`` near 1 with a
-speed far beyond the goal band's 0.1 rad/s. A missing or foreign file, or an agent of
+A joint its agent keeps turning shows a final speed far beyond the goal band's 0.1 rad/s,
+with ``at_limit`` near 1 where the agent's mean action lies beyond the torque limit. A
+missing or foreign file, or an agent of
 another arm: one line, exit 2, nothing written. About 5 s an agent at six links.
 """
 from __future__ import annotations
