@@ -9,9 +9,6 @@ from .common import SCHEMAS, _load
 
 #: The own-motor study's data (``docs/studies/links_own_motor.py``).
 OWN_MOTOR = "renders/links_reach/own_motor.json"
-#: The time-optimal answers of the guided lever (``docs/studies/links_guided.py demos``):
-#: poses of six tapered links beyond the own motors' reach, solved and replayed.
-DEMOS = "renders/learners/guided/demos"
 #: Own-motor time classes of the poses, in seconds (the last bound is the deadline, 7 s).
 OWN_MOTOR_EDGES = (3.0, 5.0, 7.0)
 #: The own-motor study's controllers, by scaling row name, and their column titles; the
@@ -175,14 +172,14 @@ def _learned_note(run: dict, name: str, horizons: list, deadline: float) -> str:
 
 
 def _demo_swings(links: int, rule: str, horizon_s: float = 8.0):
-    """:func:`twolink.arm.task.inner_excursion` of every time-optimal answer of
-    :data:`DEMOS` for this arm over its first ``horizon_s`` seconds (None where there are
-    none)."""
+    """:func:`twolink.arm.task.inner_excursion` of every time-optimal answer of the
+    demonstration set (:data:`twolink.studies.guided.demos.DEMOS`) for this arm over its
+    first ``horizon_s`` seconds (None where there are none)."""
     import numpy as np
 
     from twolink.arm.parameters import TS
     from twolink.arm.task import inner_excursion
-    from twolink.studies.guided.demos import load
+    from twolink.studies.guided.demos import DEMOS, load
 
     from .common import ROOT
 
@@ -206,6 +203,8 @@ def _swing_block(data: dict, columns: list, deadline: float) -> str:
             and (np.asarray(r["own_motor_s"]) > deadline).any()]
     if not runs:
         return ""
+    from twolink.studies.guided.demos import DEMOS
+
     out = ["### Do they swing the inner joints?\n\n",
            "On the poses whose own-motor time is over " f"{deadline:g} s: how far the inner "
            "joints (1 to N − 1) swing away from the goal within 8 s, the largest over "

@@ -33,7 +33,7 @@ from twolink.studies.guided import clone as C  # noqa: E402
 from twolink.studies.guided import demos as D  # noqa: E402
 from twolink.validate import whole  # noqa: E402
 
-DEMOS = Path("renders/learners/guided/demos")
+DEMOS = Path(D.DEMOS)
 #: The agent cloned into by default: the catalogue's six-link residual PPO.
 DEFAULT_INIT = "ppo_pd_6link_tapered"
 #: Uniform poses whose rollouts give the init agent's own actions to keep, and their seed

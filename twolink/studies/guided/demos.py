@@ -29,6 +29,9 @@ DEADLINE = 140
 #: The seed of the demonstration poses (used by nothing else: not the scaling table's
 #: 20061122, the fresh 4180000, the tuning seeds or the training seeds 0-3).
 DEMO_SEED = 7_300_001
+#: The committed demonstration set, relative to the repository root: poses of six tapered
+#: links (``docs/studies/links_guided.py demos``; the scaling page reads it).
+DEMOS = "renders/learners/guided/demos"
 
 
 def pose(params, seed: int, i: int) -> np.ndarray:
