@@ -12,6 +12,7 @@ from .blocks_guides import (baselines_table, centralized_3link_block, compensati
 from .blocks_mismatch import mismatch_findings
 from .common import _cell, _table
 from .nav import nav_blocks
+from .results_handover import handovers_fresh_table
 
 
 def commands_table(link_prefix: str) -> str:
@@ -34,7 +35,8 @@ def blocks(pages: dict) -> dict:
                       "policies": policies_table(tuned=False),
                       "leaderboard": leaderboard_headline()},
         "docs/index.md": {"commands": commands_table("")},
-        "docs/guides/synthesis.md": {"policies": policies_table(), "tables": tables_table()},
+        "docs/guides/synthesis.md": {"policies": policies_table(), "tables": tables_table(),
+                                     "handovers-fresh": handovers_fresh_table()},
         "docs/guides/compensation.md": {"compensation": compensation_table()},
         "docs/guides/controllers.md": {"baselines": baselines_table()},
         "docs/guides/leaderboard.md": {"ranking": ranking_rule()},

@@ -1,7 +1,8 @@
 """The handover sections of docs/results/fuzzy-designs.md, from
 ``renders/fuzzy_design/handover.json`` (``docs/studies/handover.py``), the handover's rows
 of the committed leaderboard, and ``renders/fuzzy_design/joint_handover.json``
-(``docs/studies/joint_handover.py``, the decentralized handover joint by joint)."""
+(``docs/studies/joint_handover.py``, the decentralized handover joint by joint and on a
+clock)."""
 from __future__ import annotations
 
 from .common import SCHEMAS, _load, _table
@@ -110,4 +111,82 @@ def joint_handover_block() -> str:
              for r in data["rows"]]
     out.append(_table(("hold design", "switch", "nominal", "settle / T*", "medium plain",
                        "hard compensated"), rows))
+    clock = data["clock_rows"]
+    out.append("\n\nThe same hold designs **on a clock** (`twolink.control.handover."
+               f"TimedHandover`): `{data['approach']}` for the first seconds of the "
+               "rollout, the hold design from then on. The switch reads no state, so "
+               "every agent switches its own joint at the same instant without a message. "
+               "A row fast enough on the cells is also measured on the wider tuning-side "
+               "set (*wide*: the 65 evaluation states on 32 plants of the tuning plant "
+               "seed). "
+               f"**{sum(r['meets'] for r in clock)} of {len(clock)} meet every target** "
+               "(nominal and speed on the cells, `medium` plain and `hard` compensated on "
+               "the wide set).\n\n")
+
+    def wide(r, key):
+        from twolink.viz.formatting import format_rate
+        w = r["wide"]
+        return "–" if w is None else format_rate(w[key], w["n"])
+
+    out.append(_table(("hold design", "switch after", "nominal", "settle / T*",
+                       "medium plain", "hard compensated", "wide medium plain",
+                       "wide hard compensated", "meets"),
+                      [(f"`{r['hold']}`", f"{r['after_s']:g} s", *_cells(r["cells"]),
+                        wide(r, "medium"), wide(r, "hard compensated"),
+                        "yes" if r["meets"] else "no") for r in clock]))
+    chosen = data["pick"]
+    if chosen is None:
+        out.append("\n\nNo handover on a clock is fast enough on the cells and meets the "
+                   "`hard` compensated target on the wide set.")
+    else:
+        verdict = ("It meets every decentralized target on the tuning side." if
+                   data["pick_meets"] else "It is the closest: no row meets every target "
+                   f"(its wide `medium` plain, {wide(chosen, 'medium')}, misses "
+                   f"{100 * medium:g} %).")
+        out.append("\n\nThe pick, by the study's rule (among the rows fast enough on the "
+                   "cells whose wide `hard` compensated meets its target, the most wide "
+                   "`medium` plain successes, then `hard` compensated, then speed, then the "
+                   f"earliest switch): `{chosen['hold']}` after {chosen['after_s']:g} s, "
+                   f"the catalogue's `decentralized_handover`. {verdict}")
     return "".join(out) + "\n"
+
+
+#: The handovers' scores on plants of a seed no tuning used, ``twolink evaluate NAME
+#: --challenge L [--compensate] --plants 64 --seed 31415 --json`` committed as
+#: ``renders/fuzzy_design/NAME.fresh31415.L[.compensated].json``.
+FRESH = "renders/fuzzy_design/{name}.fresh{seed}.{level}{suffix}.json"
+FRESH_SEED = 31415
+
+
+def handovers_fresh_table() -> str:
+    """Each shipped handover's committed fresh-plant scores beside the targets of its kind
+    (:data:`targets.FUZZY_TARGETS`) on the perturbed levels; empty when none is
+    committed."""
+    import json
+
+    from twolink.control.handover import HANDOVERS
+    from twolink.viz.formatting import format_rate
+
+    from .common import ROOT
+    from .targets import FUZZY_TARGETS
+
+    rows = []
+    for name, h in HANDOVERS.items():
+        for kind, level, mode, rate, worst, _ in FUZZY_TARGETS:
+            if kind != h.kind or level == "none":
+                continue
+            path = ROOT / FRESH.format(name=name, seed=FRESH_SEED, level=level,
+                                      suffix=".compensated" if mode == "compensated" else "")
+            if not path.is_file():
+                continue
+            r = json.loads(path.read_text())
+            met = r["rate"] >= rate and (worst is None or r["worst_plant_successes"] >= worst)
+            target = f"≥ {100 * rate:g} %" + (f", worst plant ≥ {worst}/65" if worst else "")
+            rows.append((f"`{name}`", f"`{level}`", mode,
+                         format_rate(r["successes"], r["n"]),
+                         f"{r['worst_plant_successes']}/{r['states']}", target,
+                         "met" if met else "**missed**"))
+    if not rows:
+        return ""
+    return _table(("handover", "level", "mode", f"successes (64 plants, seed {FRESH_SEED})",
+                   "worst plant", "target", ""), rows)

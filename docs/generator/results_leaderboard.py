@@ -76,7 +76,8 @@ def fuzzy_designs_page(report: dict) -> str:
            "band's edge; `*_locked`: agent 2's transitions holding joint 1; `*_gain`: "
            "a read-out that lowers the torque near the goal; `centralized_handover`: "
            "`centralized_9levels` handing the settled arm to a robust design; "
-           "[Synthesis](../guides/synthesis.md)) on the committed "
+           "`decentralized_handover`: `decentralized_edge_locked` handing every joint to "
+           "a robust design at the same time on a clock; [Synthesis](../guides/synthesis.md)) on the committed "
            f"leaderboard: {report['states']} evaluation states, {report['plants']} plants "
            f"per perturbed level, seed {report['seed']}, on MuJoCo. Their designs were "
            "chosen on other states and seeds (the tuning table below).\n\n## Targets\n\n"]

@@ -1,6 +1,7 @@
 """The handover (twolink.control.handover): the approach design acts until the arm is in
-the enter region, the hold design until it leaves the exit region; its parts must drive
-one arm on one model; the shipped entry is a catalogue controller."""
+the enter region, the hold design until it leaves the exit region; the timed handover
+switches on the rollout's clock; its parts must drive one arm on one model; the shipped
+entries are catalogue controllers."""
 from __future__ import annotations
 
 import importlib.util
@@ -10,14 +11,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twolink.control.handover import HANDOVERS, Handover, Regions, handover_policy
+from twolink.control.handover import (
+    HANDOVERS,
+    Handover,
+    Regions,
+    TimedHandover,
+    handover_policy,
+)
 from twolink.sim.controller import ControllerError
 
 
 class Const:
-    def __init__(self, value, meta=None, links=2):
+    def __init__(self, value, meta=None, links=2, kind="centralized"):
         self.value, self.meta, self.links, self.resets = value, meta or {}, links, 0
-        self.name = f"const{value}"
+        self.name, self.kind = f"const{value}", kind
 
     def reset(self, n):
         self.resets += 1
@@ -130,3 +137,46 @@ def test_the_study_s_rule_reads_the_targets():
     assert not module.meets(dict(cells, medium=253))          # 98.8 %
     assert not module.meets(dict(cells, none=47))
     assert not module.meets(dict(cells, ratio_median=None))
+
+
+def test_the_timed_handover_switches_at_its_sample_in_a_rollout():
+    from twolink.arm.parameters import TS
+    from twolink.sim.plants import MujocoPlant
+    from twolink.sim.rollout import rollout
+
+    h = TimedHandover(Const(0.5, kind="decentralized"), Const(-0.5, kind="decentralized"),
+                      after_s=0.5)
+    assert h.kind == "decentralized" and h.switch_sample == round(0.5 / TS) == 10
+    for _ in range(2):                                    # the clock restarts each rollout
+        traj = rollout(h, MujocoPlant(), np.zeros((2, 4)), duration=1.0)
+        u = np.asarray(traj.u)
+        assert (u[:, :10] == 0.5).all() and (u[:, 10:] == -0.5).all()
+    assert TimedHandover(Const(1.0), Const(1.0, kind="decentralized"), 1.0).kind \
+        == "centralized"
+
+
+def test_a_timed_handover_is_checked_in_one_line():
+    with pytest.raises(ControllerError, match="handover h: after_s must be"):
+        TimedHandover(Const(1.0), Const(1.0), after_s=float("nan"), name="h")
+    with pytest.raises(ControllerError, match="handover h: after_s must be"):
+        TimedHandover(Const(1.0), Const(1.0), after_s=600.0, name="h")
+    with pytest.raises(ControllerError, match="drive arms of 2 and 3 links"):
+        TimedHandover(Const(1.0), Const(1.0, links=3), after_s=1.0, name="h")
+    with pytest.raises(ControllerError, match="a timed handover .after_s. has no regions"):
+        handover_policy("decentralized_edge_locked", "decentralized_edge_gain", {},
+                        name="h", after_s=1.0)
+
+
+def test_the_shipped_timed_handover_is_a_decentralized_catalogue_controller():
+    from twolink.control.catalogue import shipped_entries
+    from twolink.control.controllers import resolve_controller
+
+    h = HANDOVERS["decentralized_handover"]
+    c = resolve_controller("decentralized_handover")
+    assert isinstance(c.controller, TimedHandover) and c.kind == "decentralized"
+    assert c.meta["handover"] == {"approach": h.approach, "hold": h.hold,
+                                  "after_s": h.after_s}
+    assert c.switch_sample == round(h.after_s / 0.05)
+    entry = {e.name: e for e in shipped_entries()}["decentralized_handover"]
+    assert entry.kind == "decentralized" and entry.data["after_s"] == h.after_s
+    assert "regions" not in entry.data

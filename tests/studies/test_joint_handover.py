@@ -74,3 +74,31 @@ def test_meets_reads_every_decentralized_target():
     assert not m.meets({**good, "medium": 248})          # 248/256 < 97 %
     assert not m.meets({**good, "hard compensated": 230})
     assert not m.meets({**good, "none": 47})
+
+
+def test_the_pick_follows_the_stated_rule():
+    m = _module()
+    cells = {"none": 48, "n_none": 48, "ratio_median": 1.55, "medium": 200,
+             "n_challenge": 256, "hard compensated": 200}
+    base = {"medium": 2030, "hard compensated": 1900, "n": 2080, "plants": 32}
+
+    def row(hold, after_s, ratio=1.55, **wide):
+        c = {**cells, "ratio_median": ratio}
+        w = {**base, **{k.replace("_", " "): v for k, v in wide.items()}}
+        return {"hold": hold, "after_s": after_s, "cells": c, "wide": w,
+                "meets": m.fast_enough(c) and m.wide_meets(w)}
+
+    rows = [row("a", 2.0, ratio=1.61, medium=2079),              # most medium, too slow
+            row("b", 3.0, medium=2030), row("c", 2.5, medium=2030, hard_compensated=1950),
+            row("d", 2.0, ratio=1.5, medium=2030, hard_compensated=1950),
+            row("e", 1.5, ratio=1.5, medium=2030, hard_compensated=1950),
+            row("f", 1.5, medium=2079, hard_compensated=1871)]      # 1871 < 90 % of 2080
+    assert [r["meets"] for r in rows] == [False, True, True, True, True, False]
+    assert m.pick(rows)["hold"] == "e"        # wide medium, wide hard, speed, earliest
+    assert m.pick(rows[:3])["hold"] == "c"
+    assert m.pick(rows[:1]) is None           # too slow
+    assert m.pick([rows[5]]) is None          # hard compensated below its target
+    close = [row("g", 3.0, medium=2000), row("h", 3.0, medium=1990)]
+    assert m.pick(close)["hold"] == "g" and not m.pick(close)["meets"]   # the closest
+    assert not m.wide_meets({**base, "medium": 2017})             # 2017/2080 < 97 %
+    assert m.wide_meets({**base, "medium": 2018})

@@ -159,11 +159,10 @@ def _baselines() -> list:
 def _handovers() -> list:
     from twolink.control.handover import HANDOVERS
 
-    return [Entry(name=name, kind="centralized", tags=("fuzzy", "tuned", *(
+    return [Entry(name=name, kind=h.kind, tags=("fuzzy", "tuned", *(
                       ("benchmark",) if name in BENCHMARK else ())),
                   entry="twolink.control.handover:handover_policy",
-                  data={"approach": h.approach, "hold": h.hold,
-                        "regions": h.regions.as_dict(), "name": name},
+                  data=h.data(name),
                   description=h.description)
             for name, h in HANDOVERS.items()]
 
