@@ -1,6 +1,7 @@
-"""`twolink train --algo ippo|mappo --std-floor S`: each policy's noise starts at S and is
-clipped from below at S while it learns; the floor names the run, is part of its identity,
-and bad values or another algorithm are one line with exit 2 and nothing written."""
+"""`twolink train --algo ppo|ippo|mappo --std-floor S`: each policy's noise starts at S and
+is held at S or more while it learns (skrl: clipped where the distribution is made; SB3's
+PPO: raised back before every rollout); the floor names the run, is part of its identity,
+and bad values or SAC are one line with exit 2 and nothing written."""
 from __future__ import annotations
 
 import math
@@ -44,8 +45,8 @@ def test_the_policy_noise_never_falls_below_the_floor():
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--algo", "ppo", "--std-floor", "0.3"], "--std-floor is for --algo ippo|mappo"),
-    (["--algo", "sac", "--std-floor", "0.3"], "--std-floor is for --algo ippo|mappo"),
+    (["--algo", "sac", "--std-floor", "0.3"], "--std-floor is for --algo ppo|ippo|mappo"),
+    (["--algo", "ppo", "--std-floor", "2"], "--std-floor must be a number from 0.01 to 1"),
     (["--algo", "ippo", "--std-floor", "0"], "--std-floor must be a number from 0.01 to 1"),
     (["--algo", "mappo", "--std-floor", "nan"], "--std-floor must be a number from 0.01"),
     (["--algo", "ippo", "--std-floor", "inf"], "--std-floor must be a number from 0.01"),
@@ -80,4 +81,56 @@ def test_a_ppo_resume_with_a_floor_is_refused(tmp_path, capsys):
     (out / "ppo_2links_seed0.zip").unlink()                    # as if stopped before the end
     assert main(["train", "--resume", "-o", str(out), "--steps", "256",
                  "--std-floor", "0.3"]) == 2
-    assert "--std-floor is for --algo ippo|mappo" in capsys.readouterr().err
+    assert "a checkpoint of a run with std_floor None, not 0.3" in capsys.readouterr().err
+
+
+def test_the_ppo_floor_names_the_run_and_sac_has_none():
+    from twolink.training.config import TrainConfig
+    from twolink.training.run import run_name
+
+    assert run_name(TrainConfig(links=6, base="pd", std_floor=0.2, seed=3)) == \
+        "ppo_6links_pd_sf0.2_seed3"
+    assert "std_floor" in TrainConfig.IDENTITY
+    old = TrainConfig().as_dict()
+    del old["std_floor"]                                       # a checkpoint from before it
+    assert TrainConfig.from_dict(old).std_floor is None
+    with pytest.raises(ValueError, match="std_floor is for ppo, ippo and mappo"):
+        TrainConfig(algo="sac", std_floor=0.2)
+    with pytest.raises(ValueError, match="std_floor must be a number from 0.01 to 1"):
+        TrainConfig(std_floor=0.0)
+
+
+def test_every_ppo_rollout_is_sampled_at_the_floor_or_above():
+    pytest.importorskip("stable_baselines3")
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+
+    from twolink.training.config import TrainConfig
+    from twolink.training.run import build
+    from twolink.training.std_floor import floor_callback
+
+    config = TrainConfig(std_floor=0.3, envs=4, n_steps=16, steps=128)
+    model, env = build(config)
+    try:
+        assert torch.allclose(model.policy.log_std, torch.full((2,), math.log(0.3)))
+        with torch.no_grad():
+            model.policy.log_std.fill_(-5.0)               # as if updates had driven it down
+        seen = []
+
+        class Record(BaseCallback):
+            def _on_step(self) -> bool:
+                seen.append(float(self.model.policy.log_std.min()))
+                return True
+
+        model.learn(64, callback=CallbackList([floor_callback(0.3), Record()]))
+    finally:
+        env.close()
+    assert len(seen) == 16 and min(seen) == pytest.approx(math.log(0.3))
+
+
+def test_a_ppo_run_with_a_floor_trains_and_saves_its_agent(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path / "ppo"
+    assert main(["train", "--std-floor", "0.3", "--steps", "128", "--envs", "4",
+                 "--n-steps", "32", "--eval-every", "128", "-o", str(out)]) == 0
+    assert (out / "ppo_2links_sf0.3_seed0.zip").is_file()

@@ -173,10 +173,11 @@ def add_parser(sub):
                         f"{MAX_ACTION_GAIN:g}; default 1). SAC's squashed actions seldom "
                         f"reach +-1; the agent file records G and every loader applies it")
     p.add_argument("--std-floor", default=None, metavar="S",
-                   help=f"ippo, mappo: each policy's exploration noise starts at standard "
-                        f"deviation S, in units of the normalized action, and never falls "
-                        f"below it, {STD_FLOOR_RANGE[0]:g} to {STD_FLOOR_RANGE[1]:g} "
-                        f"(default: starts at 1, no floor)")
+                   help=f"ppo, ippo, mappo: each policy's exploration noise starts at "
+                        f"standard deviation S, in units of the normalized action, and never "
+                        f"falls below it (ppo: raised back to S before every rollout), "
+                        f"{STD_FLOOR_RANGE[0]:g} to {STD_FLOOR_RANGE[1]:g} (default: starts "
+                        f"at 1, no floor)")
     p.add_argument("--value-norm", action="store_true", default=None,
                    help="ippo, mappo: each critic learns standardized returns (a running "
                         "mean and variance, skrl's RunningStandardScaler: MAPPO's value "
@@ -210,8 +211,9 @@ def given_options(args) -> dict:
         if args.algo not in MARL_ALGOS and not args.resume:
             raise ValueError("--observe is for --algo ippo|mappo (one agent per joint)")
         choice(args.observe, "--observe", OBSERVE)
-    if args.std_floor is not None and args.algo not in MARL_ALGOS and not args.resume:
-        raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
+    if args.std_floor is not None and args.algo == "sac":
+        raise ValueError("--std-floor is for --algo ppo|ippo|mappo: SAC's noise is an output "
+                         "of its network")
     if args.value_norm and args.algo not in MARL_ALGOS and not args.resume:
         raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
     if args.bound_loss is not None and args.algo not in MARL_ALGOS and not args.resume:
@@ -283,8 +285,6 @@ def run(args) -> int:
     if _is_marl(args, given):
         return _run_marl(args, given)
     given.pop("observe", None)
-    if given.pop("std_floor", None) is not None:     # a resumed PPO/SAC run
-        raise ValueError("--std-floor is for --algo ippo|mappo (skrl's Gaussian policies)")
     if given.pop("value_norm", None):
         raise ValueError("--value-norm is for --algo ippo|mappo (skrl's critics)")
     if given.pop("bound_loss", None) is not None:

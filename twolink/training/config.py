@@ -25,6 +25,8 @@ torque = clip(PD(x) + tau_max a, +-tau_max) (:mod:`twolink.control.residual`,
 :class:`twolink.envs.residual.ResidualVecEnv`), so an agent of zero action is the PD.
 ``action_gain`` G > 1 drives the arms with clip(G a, -1, 1) for the normalized action a
 (:mod:`twolink.control.action_gain`): full torque within reach of SAC's squashed actions.
+``std_floor`` S (PPO only): the policy's noise starts at standard deviation S and is
+raised back to S before every rollout (:mod:`twolink.training.std_floor`).
 
 Training stops, evaluates and checkpoints at update boundaries only: every
 :meth:`TrainConfig.unit` environment steps (PPO: one rollout of ``n_steps`` per arm;
@@ -43,6 +45,7 @@ from twolink.control.action_gain import check_action_gain
 from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
+from twolink.training.std_floor import check_std_floor
 from twolink.sim.challenges import LEVELS, is_mix, levels_of, mix
 from twolink.validate import choice, whole
 
@@ -275,6 +278,7 @@ class TrainConfig:
     net: tuple[int, ...] | None = None
     reward: str = "shaped"
     action_gain: float = 1.0
+    std_floor: float | None = None
 
     def __post_init__(self):
         check_algo(self.algo)
@@ -301,6 +305,11 @@ class TrainConfig:
         check_base(self.base, self.links)
         object.__setattr__(self, "action_rate", check_action_rate(self.action_rate))
         object.__setattr__(self, "action_gain", check_action_gain(self.action_gain))
+        if self.std_floor is not None:
+            if self.algo != "ppo":
+                raise ValueError("std_floor is for ppo, ippo and mappo: SAC's noise is an "
+                                 "output of its network")
+            object.__setattr__(self, "std_floor", check_std_floor(self.std_floor))
         if self.gamma is not None:
             object.__setattr__(self, "gamma", check_gamma(self.gamma))
         choice(self.start, "start", START_OPTIONS)
@@ -369,7 +378,8 @@ class TrainConfig:
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "seed", "plant", "envs", "n_steps", "eval_every",
                 "device", "threads", "challenge", "history", "base", "action_rate", "gamma",
-                "start", "init", "batch_size", "epochs", "net", "reward", "action_gain")
+                "start", "init", "batch_size", "epochs", "net", "reward", "action_gain",
+                "std_floor")
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":

@@ -95,7 +95,8 @@ from twolink.training.bound_loss import check_bound_loss
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
     START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
-from twolink.validate import choice, real, whole
+from twolink.training.std_floor import STD_FLOOR_RANGE, check_std_floor  # noqa: F401
+from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
 MARL_ALGOS = ("ippo", "mappo")
@@ -117,9 +118,6 @@ HYPERPARAMETERS = dict(n_envs=16, n_steps=128, learning_epochs=10, batch_size=25
                        value_clip=0.0, value_loss_scale=0.5, entropy_loss_scale=0.0,
                        grad_norm_clip=0.5, hidden=[64, 64], activation="Tanh",
                        log_std_init=0.0, min_log_std=-20.0)
-#: The range of ``std_floor``: each policy's exploration noise, in units of its normalized
-#: action (1: the whole torque limit).
-STD_FLOOR_RANGE = (0.01, 1.0)
 #: Environment steps between evaluations by default.
 EVAL_EVERY = 50_000
 #: The run's learning curve (as PPO's, :data:`twolink.training.run.CURVE`).
@@ -291,12 +289,6 @@ def config_from_options(given: dict) -> dict:
     return {k: v for k, v in given.items() if k in names and v is not None}
 
 
-def check_std_floor(value) -> float:
-    """``value`` as a float if it lies in :data:`STD_FLOOR_RANGE`; else one line."""
-    low, high = STD_FLOOR_RANGE
-    return real(value, "std_floor", low, high,
-                message=f"{{what}} must be a number from {low:g} to {high:g} (the policy's "
-                        f"noise in units of its normalized action), got {{value!r}}")
 
 
 def run_name(config: MarlConfig) -> str:

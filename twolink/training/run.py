@@ -114,8 +114,11 @@ def build(config: TrainConfig):
 
         env = HistoryVecEnv(env, config.history)
     cls = sb3.SAC if config.algo == "sac" else sb3.PPO
+    kwargs = dict(net_arch=net)
+    if config.std_floor is not None:                  # the noise starts at the floor
+        kwargs["log_std_init"] = math.log(config.std_floor)
     model = cls("MlpPolicy", env, seed=config.seed, device=config.device, verbose=0,
-                policy_kwargs=dict(net_arch=net), **hp)
+                policy_kwargs=kwargs, **hp)
     if config.init is not None:
         warm_start(model, config)
     if config.challenge is not None:         # the arms' own stream (config's docstring)
@@ -293,8 +296,8 @@ def best_entry(curve, agent: str) -> dict:
 
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
-    [_b<B>][_e<E>][_net<W>x<W>][_rt][_ag<G>]_seed<S>`` (``_rt``: the ``shaped_time``
-    reward; ``_ag``: the action gain): the run's default folder and its agent's stem."""
+    [_b<B>][_e<E>][_net<W>x<W>][_sf<S>][_rt][_ag<G>]_seed<S>`` (``_sf``: the noise floor;
+    ``_rt``: the ``shaped_time`` reward; ``_ag``: the action gain): the run's default folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
@@ -304,8 +307,9 @@ def run_name(config: TrainConfig) -> str:
     init = "_init" if config.init is not None else ""
     reward = "_rt" if config.reward == "shaped_time" else ""
     gain = f"_ag{config.action_gain:g}" if config.action_gain != 1.0 else ""
+    floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
-            f"{init}{recipe_suffix(config)}{reward}{gain}_seed{config.seed}")
+            f"{init}{recipe_suffix(config)}{floor}{reward}{gain}_seed{config.seed}")
 
 
 def _point(steps: int, sc, wall: float, cpu: float) -> dict:
@@ -432,13 +436,18 @@ def _loop(config, model, env, out, record, clocks, total, every, say) -> None:
             f"{model.num_timesteps:,}/{total:,} steps  {sc.successes}/{sc.n} succeed "
             f"[{lo:.2f}, {hi:.2f}]  {p['steps_per_s'] or 0:.0f} steps/s")
 
+    callback = None
+    if config.std_floor is not None:
+        from twolink.training.std_floor import floor_callback
+
+        callback = floor_callback(config.std_floor)
     if not record["curve"]:
         point()
     while model.num_timesteps < total:
         chunk = min(every - model.num_timesteps % every, total - model.num_timesteps)
         wall, cpu = time.perf_counter(), time.process_time()
         model.learn(total_timesteps=chunk, reset_num_timesteps=model.num_timesteps == 0,
-                    log_interval=None, progress_bar=False)
+                    log_interval=None, progress_bar=False, callback=callback)
         clocks["wall_s"] += time.perf_counter() - wall
         clocks["cpu_s"] += time.process_time() - cpu
         point()
