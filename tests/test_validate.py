@@ -257,3 +257,13 @@ def test_callers_keep_their_messages():
     with pytest.raises(ValueError) as e:
         ObservationDelay(-1)
     assert _message(e) == "observation delay must be a non-negative whole number of samples, got -1"
+
+
+def test_in_range_names_the_option_its_bounds_and_meaning():
+    from twolink.validate import in_range
+
+    assert in_range(np.float32(0.5), "w", (0.0, 1.0), "a weight") == 0.5
+    for bad in (1.5, -0.1, float("nan"), "0.5", True):
+        with pytest.raises(ValueError) as e:
+            in_range(bad, "w", (0.0, 1.0), "a weight")
+        assert _message(e) == f"w must be a number from 0 to 1 (a weight), got {bad!r}"

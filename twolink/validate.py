@@ -80,6 +80,16 @@ def real(value, what: str, low: float | None = None, high: float | None = None, 
     raise ValueError(message.format(what=what, value=value, low=low, high=high))
 
 
+def in_range(value, what: str, bounds: tuple, meaning: str) -> float:
+    """``value`` as a float if it is a finite number within the inclusive ``bounds`` (low,
+    high), else a ValueError "<what> must be a number from <low> to <high> (<meaning>),
+    got <repr>": the check of an option whose range a module states once."""
+    low, high = bounds
+    return real(value, what, low, high,
+                message=f"{{what}} must be a number from {low:g} to {high:g} ({meaning}), "
+                        f"got {{value!r}}")
+
+
 def choice(value, what: str, choices, *, message: str | None = None) -> str:
     """``value`` if it is a string among ``choices`` (any iterable of strings), else a
     ValueError; by default "<what> must be one of 'a', 'b', got <repr>"."""

@@ -27,12 +27,10 @@ BOUND_LOSS_RANGE = (0.0, 100.0)
 
 def check_bound_loss(value) -> float:
     """``value`` as a float if it lies in :data:`BOUND_LOSS_RANGE`; else one line."""
-    from twolink.validate import real
+    from twolink.validate import in_range
 
-    low, high = BOUND_LOSS_RANGE
-    return real(value, "bound_loss", low, high,
-                message=f"{{what}} must be a number from {low:g} to {high:g} (the weight of "
-                        f"the penalty on a policy mean beyond +-{BOUND:g}), got {{value!r}}")
+    return in_range(value, "bound_loss", BOUND_LOSS_RANGE,
+                    f"the weight of the penalty on a policy mean beyond +-{BOUND:g}")
 
 
 def penalty(mu, coef: float):

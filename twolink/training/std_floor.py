@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from twolink.validate import real
+from twolink.validate import in_range
 
 #: The range of ``std_floor``: each policy's exploration noise, in units of its normalized
 #: action (1: the whole torque limit).
@@ -22,10 +22,8 @@ STD_FLOOR_RANGE = (0.01, 1.0)
 
 def check_std_floor(value) -> float:
     """``value`` as a float if it lies in :data:`STD_FLOOR_RANGE`; else one line."""
-    low, high = STD_FLOOR_RANGE
-    return real(value, "std_floor", low, high,
-                message=f"{{what}} must be a number from {low:g} to {high:g} (the policy's "
-                        f"noise in units of its normalized action), got {{value!r}}")
+    return in_range(value, "std_floor", STD_FLOOR_RANGE,
+                    "the policy's noise in units of its normalized action")
 
 
 def raise_log_std(policy, floor: float) -> None:
