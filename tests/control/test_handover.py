@@ -180,3 +180,12 @@ def test_the_shipped_timed_handover_is_a_decentralized_catalogue_controller():
     entry = {e.name: e for e in shipped_entries()}["decentralized_handover"]
     assert entry.kind == "decentralized" and entry.data["after_s"] == h.after_s
     assert "regions" not in entry.data
+
+
+@pytest.mark.parametrize("name", sorted(HANDOVERS))
+def test_every_shipped_handover_s_kind_is_its_controller_s(name):
+    from twolink.control.catalogue import shipped_entries
+    from twolink.control.controllers import resolve_controller
+
+    entry = {e.name: e for e in shipped_entries()}[name]
+    assert entry.kind == HANDOVERS[name].kind == resolve_controller(name).kind

@@ -45,7 +45,7 @@ from twolink.training.config import (
 )
 from twolink.training.marl import HYPERPARAMETERS as MARL_HYPERPARAMETERS
 from twolink.training.bound_loss import BOUND_LOSS_RANGE, check_bound_loss
-from twolink.training.marl import STD_FLOOR_RANGE, check_std_floor
+from twolink.training.std_floor import STD_FLOOR_RANGE, check_std_floor
 from twolink.viz.formatting import format_rate
 
 

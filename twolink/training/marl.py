@@ -95,7 +95,7 @@ from twolink.training.bound_loss import check_bound_loss
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
     START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
-from twolink.training.std_floor import STD_FLOOR_RANGE, check_std_floor  # noqa: F401
+from twolink.training.std_floor import check_std_floor
 from twolink.validate import choice, whole
 
 #: The multi-agent algorithms (skrl).
@@ -287,8 +287,6 @@ def config_from_options(given: dict) -> dict:
                              f"ippo|mappo ({why})")
     names = {f.name for f in dataclasses.fields(MarlConfig)}
     return {k: v for k, v in given.items() if k in names and v is not None}
-
-
 
 
 def run_name(config: MarlConfig) -> str:

@@ -297,7 +297,8 @@ def best_entry(curve, agent: str) -> dict:
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
     [_b<B>][_e<E>][_net<W>x<W>][_sf<S>][_rt][_ag<G>]_seed<S>`` (``_sf``: the noise floor;
-    ``_rt``: the ``shaped_time`` reward; ``_ag``: the action gain): the run's default folder and its agent's stem."""
+    ``_rt``: the ``shaped_time`` reward; ``_ag``: the action gain): the run's default
+    folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
     base = f"_{config.base}" if config.base != "none" else ""
