@@ -168,7 +168,7 @@ SCHEMAS = {
     "renders/fuzzy_design/near_gain.json": ("twolink.near_gain", 1),
     "renders/fuzzy_design/fading_gain.json": ("twolink.fading_gain", 1),
     "renders/fuzzy_design/handover.json": ("twolink.handover", 2),
-    "renders/fuzzy_design/joint_handover.json": ("twolink.joint_handover", 2),
+    "renders/fuzzy_design/joint_handover.json": ("twolink.joint_handover", 3),
     "renders/iteration_norms/iteration_norms.json": ("twolink.iteration_norms", 1),
     "renders/deep_rl/ppo_agent_seed0.json": {"algo", "minutes_cap", "saved", "seed", "steps"},
     "renders/mismatch-3link/report.json": {"command", "duration", "gap", "links", "poses",

@@ -5,6 +5,8 @@ of the committed leaderboard, and ``renders/fuzzy_design/joint_handover.json``
 clock)."""
 from __future__ import annotations
 
+import itertools
+
 from .common import SCHEMAS, _load, _table
 
 HANDOVER = "renders/fuzzy_design/handover.json"
@@ -92,6 +94,15 @@ def _switch(s: dict) -> str:
             f"{s['exit_deg']:g} deg")
 
 
+def _hold(row: dict) -> str:
+    """A clock row's hold design in words: its name, or its table and fading read-out."""
+    r = row.get("readout")
+    if r is None:
+        return f"`{row['hold']}`"
+    return (f"`{row['hold']}`'s table through a {r['speed_dead_zone']:g} rad/s speed dead "
+            f"zone and a near-goal gain of {r['near_gain']:g} from {r['near_deg']:g} deg")
+
+
 def joint_handover_block() -> str:
     """The decentralized handover's table (empty when its data are not committed)."""
     data = _load(JOINT_HANDOVER, SCHEMAS[JOINT_HANDOVER])
@@ -134,6 +145,25 @@ def joint_handover_block() -> str:
                       [(f"`{r['hold']}`", f"{r['after_s']:g} s", *_cells(r["cells"]),
                         wide(r, "medium"), wide(r, "hard compensated"),
                         "yes" if r["meets"] else "no") for r in clock]))
+    fades = data.get("fade_rows") or []
+    if fades:
+        out.append(
+            "\n\nLast, **a fading gain on the approach's own table**: at the switch time "
+            f"of the best row above ({data['best_clock']['after_s']:g} s), the hold design "
+            f"is `{data['approach']}`'s Q-tables read through a speed dead zone and a "
+            "near-goal gain (joint i's torque falls from full at the angle given to the "
+            "gain times (14)'s at the goal), so the arm keeps the approach's table and "
+            "only its torque near the goal fades once the clock has run. "
+            f"**{sum(r['meets'] for r in fades)} of {len(fades)} meet every "
+            "target.**\n\n")
+        out.append(_table(("speed dead zone", "near-goal gain", "full from", "nominal",
+                           "settle / T*", "medium plain", "hard compensated",
+                           "wide medium plain", "wide hard compensated", "meets"),
+                          [(f"{r['readout']['speed_dead_zone']:g} rad/s",
+                            f"{r['readout']['near_gain']:g}",
+                            f"{r['readout']['near_deg']:g} deg", *_cells(r["cells"]),
+                            wide(r, "medium"), wide(r, "hard compensated"),
+                            "yes" if r["meets"] else "no") for r in fades]))
     chosen = data["pick"]
     if chosen is None:
         out.append("\n\nNo handover on a clock is fast enough on the cells and meets the "
@@ -146,16 +176,18 @@ def joint_handover_block() -> str:
         out.append("\n\nThe pick, by the study's rule (among the rows fast enough on the "
                    "cells whose wide `hard` compensated meets its target, the most wide "
                    "`medium` plain successes, then `hard` compensated, then speed, then the "
-                   f"earliest switch): `{chosen['hold']}` after {chosen['after_s']:g} s, "
-                   f"the catalogue's `decentralized_handover`. {verdict}")
+                   f"earliest switch) over both tables: {_hold(chosen)} after "
+                   f"{chosen['after_s']:g} s, the catalogue's `decentralized_handover`. "
+                   f"{verdict}")
     return "".join(out) + "\n"
 
 
-#: The handovers' scores on plants of a seed no tuning used, ``twolink evaluate NAME
-#: --challenge L [--compensate] --plants 64 --seed 31415 --json`` committed as
-#: ``renders/fuzzy_design/NAME.fresh31415.L[.compensated].json``.
+#: The handovers' scores on plants of seeds no tuning used, ``twolink evaluate NAME
+#: --challenge L [--compensate] --plants 64 --seed S --json`` committed as
+#: ``renders/fuzzy_design/NAME.freshS.L[.compensated].json`` (31415 for every handover;
+#: 27183, drawn after decentralized_handover's second pick, for that one).
 FRESH = "renders/fuzzy_design/{name}.fresh{seed}.{level}{suffix}.json"
-FRESH_SEED = 31415
+FRESH_SEEDS = (31415, 27183)
 
 
 def handovers_fresh_table() -> str:
@@ -172,21 +204,22 @@ def handovers_fresh_table() -> str:
 
     rows = []
     for name, h in HANDOVERS.items():
-        for kind, level, mode, rate, worst, _ in FUZZY_TARGETS:
+        for (kind, level, mode, rate, worst, _), seed in itertools.product(FUZZY_TARGETS,
+                                                                           FRESH_SEEDS):
             if kind != h.kind or level == "none":
                 continue
-            path = ROOT / FRESH.format(name=name, seed=FRESH_SEED, level=level,
+            path = ROOT / FRESH.format(name=name, seed=seed, level=level,
                                       suffix=".compensated" if mode == "compensated" else "")
             if not path.is_file():
                 continue
             r = json.loads(path.read_text())
             met = r["rate"] >= rate and (worst is None or r["worst_plant_successes"] >= worst)
             target = f"≥ {100 * rate:g} %" + (f", worst plant ≥ {worst}/65" if worst else "")
-            rows.append((f"`{name}`", f"`{level}`", mode,
+            rows.append((f"`{name}`", f"`{level}`", mode, str(seed),
                          format_rate(r["successes"], r["n"]),
                          f"{r['worst_plant_successes']}/{r['states']}", target,
                          "met" if met else "**missed**"))
     if not rows:
         return ""
-    return _table(("handover", "level", "mode", f"successes (64 plants, seed {FRESH_SEED})",
+    return _table(("handover", "level", "mode", "plant seed", "successes (64 plants)",
                    "worst plant", "target", ""), rows)

@@ -34,7 +34,15 @@ compensated, then the fastest, then the earliest switch. It meets every target w
 ``medium`` plain successes meet theirs too; otherwise it is the closest such row, and the
 JSON says so (``pick_meets``).
 
-About 20 min on this machine; writes ``renders/fuzzy_design/joint_handover.json``.
+Last, a fading gain on the approach's own table (:func:`fade_rows`): at the switch time
+of the best clock row (:func:`pick` over the clock rows alone), the hold design is
+``decentralized_edge_locked``'s Q-tables read through each read-out of :data:`FADES` (a
+speed dead zone and a near-goal gain, :class:`twolink.policy.readout.Readout`), so the
+arm keeps the approach's table and only its torque near the goal fades once the clock
+has run. These rows are measured as the clock rows (cells, then the wide set), and the
+pick is made again over the clock rows and these together.
+
+About 25 min on this machine; writes ``renders/fuzzy_design/joint_handover.json``.
 """
 from __future__ import annotations
 
@@ -48,6 +56,8 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
     sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import itertools  # noqa: E402
+
 import numpy as np  # noqa: E402
 from fading_gain import TARGETS, measure  # noqa: E402
 from handover import wide  # noqa: E402
@@ -57,9 +67,11 @@ from twolink.artifacts import provenance, write_json  # noqa: E402
 from twolink.control.controllers import resolve_controller  # noqa: E402
 from twolink.control.fading import band_readings, goal_angles  # noqa: E402
 from twolink.control.handover import Regions, TimedHandover  # noqa: E402
+from twolink.policy.fuzzy_policy import load_policy  # noqa: E402
+from twolink.policy.readout import Readout  # noqa: E402
 from twolink.sim.controller import ControllerError, reset_controller  # noqa: E402
 
-SCHEMA, VERSION = "twolink.joint_handover", 2
+SCHEMA, VERSION = "twolink.joint_handover", 3
 APPROACH = "decentralized_edge_locked"
 #: The hold designs tried: the robust decentralized designs.
 HOLDS = ("decentralized_locked_gain_medium", "decentralized_locked",
@@ -70,6 +82,10 @@ SWITCHES = ((10.0, 2.0, 30.0, False), (15.0, 1.0, 30.0, False), (15.0, 3.0, 30.0
             (15.0, 2.0, 30.0, True), (5.0, 1.0, 30.0, True))
 #: The clock handovers' switch times (s after the rollout begins).
 CLOCKS = (1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
+#: The fading read-outs tried on the approach's own table: speed dead zone (rad/s),
+#: near-goal gain and the angle (deg) from which the torque is full again; the argmax
+#: rule stays the approach's (:func:`fade_readout`).
+FADES = tuple(itertools.product((0.02, 0.04, 0.06), (0.1, 0.2, 0.3), (90.0, 120.0, 180.0)))
 DEFAULT_JSON = Path("renders/fuzzy_design/joint_handover.json")
 
 
@@ -153,6 +169,38 @@ def pick(rows: list) -> dict | None:
                                   r["cells"]["ratio_median"], r["after_s"]))
 
 
+def fade_readout(speed_dead_zone: float, near_gain: float, near_deg: float) -> Readout:
+    """The read-out of a fade row: the approach's argmax rule with the given speed dead
+    zone and near-goal gain."""
+    base = load_policy(APPROACH).readout
+    return Readout(speed_dead_zone=speed_dead_zone,
+                   argmax_beyond_deg=base.argmax_beyond_deg, near_gain=near_gain,
+                   near_deg=near_deg)
+
+
+def measured(hold, after_s: float, fast) -> tuple[dict, dict | None]:
+    """The cells of the clock handover ``fast`` -> ``hold`` after ``after_s`` s, and its
+    wide set when it is fast enough on them (else None)."""
+    h = TimedHandover(fast, hold, after_s)
+    cells = measure(h)
+    return cells, (wide(h) if fast_enough(cells) else None)
+
+
+def fade_rows(after_s: float, fast, fades=FADES) -> list:
+    """The fade rows (module docstring): the approach's table through each read-out of
+    ``fades``, handed over to after ``after_s`` s."""
+    table = load_policy(APPROACH)
+    rows = []
+    for dead_zone, gain, deg in fades:
+        readout = fade_readout(dead_zone, gain, deg)
+        cells, w = measured(table.with_readout(readout), after_s, fast)
+        rows.append({"hold": APPROACH, "readout": readout.as_dict(), "after_s": after_s,
+                     "cells": cells, "wide": w, "meets": w is not None and wide_meets(w)})
+        print(f"{APPROACH} through {readout.as_dict()} after {after_s:g} s: {cells}, "
+              f"wide {w}", flush=True)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"default {DEFAULT_JSON}")
@@ -180,20 +228,23 @@ def main(argv=None) -> int:
     for hold in args.holds:
         slow = resolve_controller(hold)
         for after_s in CLOCKS:
-            h = TimedHandover(fast, slow, after_s)
-            cells = measure(h)
-            w = wide(h) if fast_enough(cells) else None
+            cells, w = measured(slow, after_s, fast)
             clock_rows.append({"hold": hold, "after_s": after_s, "cells": cells,
                                "wide": w, "meets": w is not None and wide_meets(w)})
             print(f"{hold} after {after_s:g} s: {cells}, wide {w}", flush=True)
-    chosen = pick(clock_rows)
+    best_clock = pick(clock_rows)
     print(f"{sum(r['meets'] for r in clock_rows)} of {len(clock_rows)} handovers on a "
-          f"clock meet them (speed on the cells, robustness on the wide set); pick: "
-          f"{chosen and (chosen['hold'], chosen['after_s'])} (meets every target: "
-          f"{bool(chosen and chosen['meets'])})", flush=True)
+          f"clock meet them (speed on the cells, robustness on the wide set); the best: "
+          f"{best_clock and (best_clock['hold'], best_clock['after_s'])}", flush=True)
+    fades = [] if best_clock is None else fade_rows(best_clock["after_s"], fast)
+    chosen = pick(clock_rows + fades)
+    print(f"{sum(r['meets'] for r in fades)} of {len(fades)} fades meet them; pick: "
+          f"{chosen and (chosen['hold'], chosen.get('readout'), chosen['after_s'])} "
+          f"(meets every target: {bool(chosen and chosen['meets'])})", flush=True)
     out = {"schema": SCHEMA, "version": VERSION, "approach": APPROACH,
            "approach_alone": alone, "targets": TARGETS["decentralized"], "rows": rows,
-           "meeting": len(met), "clock_rows": clock_rows, "pick": chosen,
+           "meeting": len(met), "clock_rows": clock_rows, "best_clock": best_clock,
+           "fade_rows": fades, "pick": chosen,
            "pick_meets": bool(chosen and chosen["meets"]),
            "seconds": round(time.perf_counter() - t0, 1), "provenance": provenance()}
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -254,6 +254,7 @@ def test_a_locked_design_records_its_reading_and_the_registry_rebuilds_it(tmp_pa
     ("decentralized_edge_gain_hard", "decentralized_edge"),
     ("decentralized_locked_gain", "decentralized_locked"),
     ("decentralized_locked_gain_medium", "decentralized_locked"),
+    ("decentralized_edge_locked_gain", "decentralized_edge_locked"),
     ("centralized_robust_edge_gain", "centralized_robust_edge"),
     ("centralized_robust_edge_gain_medium", "centralized_robust_edge"),
 ])

@@ -102,3 +102,35 @@ def test_the_pick_follows_the_stated_rule():
     assert m.pick(close)["hold"] == "g" and not m.pick(close)["meets"]   # the closest
     assert not m.wide_meets({**base, "medium": 2017})             # 2017/2080 < 97 %
     assert m.wide_meets({**base, "medium": 2018})
+
+
+def test_a_fade_keeps_the_approach_s_table_and_argmax_rule():
+    m = _module()
+    from twolink.policy.fuzzy_policy import load_policy
+
+    r = m.fade_readout(0.04, 0.2, 120.0)
+    base = load_policy(m.APPROACH).readout
+    assert (r.speed_dead_zone, r.near_gain, r.near_deg) == (0.04, 0.2, 120.0)
+    assert r.argmax_beyond_deg == base.argmax_beyond_deg == 30.0
+    assert len(m.FADES) == 27 and len(set(m.FADES)) == 27
+    with pytest.raises(ValueError, match="near_gain"):
+        m.fade_readout(0.02, 0.0, 90.0)
+
+
+def test_the_shipped_decentralized_handover_is_the_committed_pick():
+    """The catalogue's decentralized_handover is the study's committed pick: the same
+    approach and switch time, and a hold that reads the picked table through the picked
+    read-out."""
+    import json
+
+    from twolink.control.handover import HANDOVERS
+    from twolink.policy.registry import SHIPPED
+
+    data = json.loads((ROOT / "renders/fuzzy_design/joint_handover.json").read_text())
+    chosen, shipped = data["pick"], HANDOVERS["decentralized_handover"]
+    assert data["version"] == _module().VERSION
+    assert shipped.approach == data["approach"] and shipped.after_s == chosen["after_s"]
+    hold = SHIPPED[shipped.hold]
+    assert hold.table == SHIPPED[chosen["hold"]].table
+    expected = chosen.get("readout", SHIPPED[chosen["hold"]].readout().as_dict())
+    assert hold.readout().as_dict() == expected

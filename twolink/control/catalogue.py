@@ -55,12 +55,11 @@ TAGS = {
 }
 #: The default leaderboard's rows: the paper's policies, the recommended fuzzy design of
 #: each kind (the one that meets every target of its kind, ``docs/results/fuzzy-designs.md``:
-#: ``centralized_handover``; where none does, the best of its kind under ``hard`` without
-#: compensation: ``decentralized_locked_gain``), the classical baselines and the learned
-#: agents trained for a challenge level (``ppo_seed0``, trained on the nominal arm only, is
-#: in ``--all``).
+#: ``centralized_handover`` and ``decentralized_handover``), the classical baselines and
+#: the learned agents trained for a challenge level (``ppo_seed0``, trained on the nominal
+#: arm only, is in ``--all``).
 BENCHMARK = ("centralized", "decentralized", "decentralized_propagated",
-             "centralized_handover", "decentralized_locked_gain",
+             "centralized_handover", "decentralized_handover",
              "pd", "pd_deadzone", "lqr", "lqr_delay", "bang_bang", "ppo_medium", "ppo_hard")
 #: What an entry's ``kind`` may be: a controller that reads the whole state and sets every
 #: torque, one made of per-joint agents, or (a user's entry that does not say) unknown.

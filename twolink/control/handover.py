@@ -209,10 +209,11 @@ HANDOVERS = {
         "centralized_robust_edge_gain_medium until a joint leaves 10 deg or 0.3 rad/s "
         "(twolink.control.handover)", Regions(rescue_deg=15.0, rescue_s=1.0)),
     "decentralized_handover": ShippedHandover(
-        "decentralized_edge_locked", "decentralized_edge_gain",
-        "decentralized_edge_locked for the first 3 s of a rollout, then "
-        "decentralized_edge_gain; the switch reads only the clock, so every agent makes "
-        "it alone (twolink.control.handover.TimedHandover)", after_s=3.0,
+        "decentralized_edge_locked", "decentralized_edge_locked_gain",
+        "decentralized_edge_locked for the first 3 s of a rollout, then the same agents "
+        "with their torque fading near the goal (decentralized_edge_locked_gain); the "
+        "switch reads only the clock, so every agent makes it alone "
+        "(twolink.control.handover.TimedHandover)", after_s=3.0,
         kind="decentralized"),
 }
 

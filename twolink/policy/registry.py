@@ -267,6 +267,13 @@ SHIPPED = {p.name: p for p in (
                   "0.2 times (14)'s at the goal", levels=7, bins="edge",
                   speed_dead_zone=0.06, argmax_beyond_deg=30.0, near_gain=0.2,
                   near_deg=90.0, tuned=True),
+    ShippedPolicy("decentralized_edge_locked_gain", "decentralized", "full", "propagated",
+                  False, "decentralized_edge_locked read through the fading gain "
+                  "docs/studies/joint_handover.py chose as the hold of "
+                  "decentralized_handover on the tuning seeds: joint i's torque falls from "
+                  "full at 180 deg to 0.2 times (14)'s at the goal",
+                  levels=7, bins="edge", agent2_link1="locked", speed_dead_zone=0.02,
+                  argmax_beyond_deg=30.0, near_gain=0.2, near_deg=180.0, tuned=True),
     ShippedPolicy("decentralized_locked_gain", "decentralized", "full", "propagated", False,
                   "decentralized_locked with the near-goal gain docs/studies/near_gain.py "
                   "chose on the tuning seeds: joint i's torque falls from full at 60 deg to "
