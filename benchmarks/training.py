@@ -22,6 +22,12 @@ period), one process, torch on one thread, MuJoCo on one thread:
   options ``twolink train --batch-size/--epochs/--net/--envs`` gives a lever run of the
   learners page, so its cost stands beside the default recipe's measured in the same run.
 
+* MAPPO on the model (6) (:data:`MODEL_RECIPE`, at the largest N only): the recipe of the
+  learners page's lever runs ``mappo-neighbours-cheap-e3-sf0.2*`` trained with
+  ``--plant model`` (the arms stepped on the numpy full model in one batch) and, measured
+  in the same run, on MuJoCo, beside the model's physics alone for the same batch: the
+  figure the training-cost target (150 us per step at six links) is checked by.
+
 Needs the rl extras (the IPPO/MAPPO rows the marl extra); without them the section (or
 those rows) reports nothing and says so.
 """
@@ -42,6 +48,11 @@ SECTION = "training"
 LIGHT = {"ppo": dict(batch_size=1024, net=(64, 64)),
          "ippo": dict(envs=256, batch_size=4096, epochs=5),
          "mappo": dict(envs=256, batch_size=4096, epochs=5)}
+
+#: The MAPPO recipe of the model rows: 256 arms, minibatches of 4096, 3 epochs and the
+#: noise floor 0.2 (``twolink train --envs 256 --batch-size 4096 --epochs 3 --std-floor
+#: 0.2``; the lever runs ``mappo-neighbours-cheap-e3-sf0.2*`` say how it learns).
+MODEL_RECIPE = dict(envs=256, batch_size=4096, epochs=3, std_floor=0.2)
 
 
 def _recipe(options: dict) -> str:
@@ -114,9 +125,32 @@ def measure_marl(algo: str, links: int, *, envs: int = 16, n_steps: int = 128,
             "updates": updates, "train_us": 1e6 * train / (unit * updates)}
 
 
-def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
-                   updates: int = 2) -> tuple[list[Row], dict]:
-    """The rows of :func:`measure` for every N of ``links``."""
+def model_plant_us(links: int, envs: int, n_steps: int) -> float:
+    """CPU microseconds per arm step of the model (6) alone (:class:`ModelPlant`) stepping
+    ``envs`` arms of ``links`` tapered links (``links_parameters``) ``n_steps`` times with
+    random torques."""
+    from twolink.arm.parameters import links_parameters
+    from twolink.sim.plants import ModelPlant
+
+    params = links_parameters(links, "tapered")
+    plant = ModelPlant("full", params)
+    rng = np.random.default_rng(0)
+    x = np.zeros((envs, 2 * links))
+    x[:, :links] = rng.uniform(-np.pi, np.pi, (envs, links))
+    torques = rng.uniform(-1, 1, (n_steps, envs, links)) * params.tau_max
+
+    def run():
+        y = x
+        for tau in torques:
+            y = plant.step(y, tau)
+
+    return 1e6 * _cpu(run) / (envs * n_steps)
+
+
+def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64, updates: int = 2,
+                   model_recipe: dict | None = None) -> tuple[list[Row], dict]:
+    """The rows of :func:`measure` for every N of ``links`` (``model_recipe``: the model
+    rows' recipe, default :data:`MODEL_RECIPE`)."""
     try:
         import stable_baselines3  # noqa: F401
     except ImportError:
@@ -150,7 +184,29 @@ def bench_training(*, links=(2, 6), envs: int = 16, n_steps: int = 64,
     summary[f"ppo_{n}_light"] = light
     rows += _marl_rows(n, envs, n_steps, updates, summary[n]["plant_us"], summary,
                        light=True)
+    if "marl" not in summary:
+        rows += _model_rows(n, n_steps, updates, dict(model_recipe or MODEL_RECIPE), summary)
     return rows, summary
+
+
+def _model_rows(n, n_steps, updates, recipe, summary) -> list[Row]:
+    on_model = measure_marl("mappo", n, n_steps=n_steps, updates=updates, plant="model",
+                            **recipe)
+    on_mujoco = measure_marl("mappo", n, n_steps=n_steps, updates=updates, **recipe)
+    physics = model_plant_us(n, recipe["envs"], n_steps)
+    sec = f"{SECTION}: MAPPO, {n} links, on the model (6) ({_recipe(recipe)})"
+    note = (f"{updates} update{'s' if updates > 1 else ''} of {recipe['envs']} x {n_steps} "
+            f"steps, {n} agents x {recipe['epochs']} epochs each")
+    summary[f"mappo_{n}_model"] = dict(on_model, plant_us=physics,
+                                       mujoco_train_us=on_mujoco["train_us"])
+    return [Row(sec, "training on the model, updates included: CPU per env step",
+                on_model["train_us"], "us", note),
+            Row(sec, "the same recipe on MuJoCo: CPU per env step", on_mujoco["train_us"],
+                "us", note),
+            Row(sec, "physics alone (the model): CPU per env step", physics, "us",
+                f"ModelPlant.step of {recipe['envs']} arms"),
+            Row(sec, "training on the model / its physics", on_model["train_us"] / physics,
+                "x")]
 
 
 def _marl_rows(n, envs, n_steps, updates, plant_us, summary, light=False) -> list[Row]:

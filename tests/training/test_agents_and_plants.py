@@ -93,7 +93,9 @@ def test_the_full_plant_refuses_a_plant_drawn_per_episode():
 def test_the_training_benchmark_rows():
     from benchmarks import training
 
-    rows, summary = training.bench_training(links=(2,), envs=2, n_steps=8, updates=1)
+    rows, summary = training.bench_training(
+        links=(2,), envs=2, n_steps=8, updates=1,
+        model_recipe=dict(envs=4, batch_size=16, epochs=1, std_floor=0.2))
     names = [r.name for r in rows]
     assert names[:4] == ["training, updates included: CPU per env step",
                          "vector env alone: CPU per env step",
@@ -103,7 +105,13 @@ def test_the_training_benchmark_rows():
                                        "training / physics"]
     assert summary["ppo_2_light"]["train_us"] == light[0].value
     more = [k for k in summary if isinstance(k, str)]      # + IPPO/MAPPO rows where skrl is
-    assert len(names) == 4 + 2 * len(more)
+    model = [r for r in rows if "on the model (6)" in r.section]
+    assert len(names) == 4 + 2 * len(more) + 2 * len(model) // 4
+    if model:                                 # MAPPO on the model, beside MuJoCo and physics
+        m = summary["mappo_2_model"]
+        assert [r.value for r in model[:3]] == [m["train_us"], m["mujoco_train_us"],
+                                                m["plant_us"]]
+        assert model[3].value == pytest.approx(m["train_us"] / m["plant_us"])
     assert all(summary[k]["train_us"] > 0 for k in more)
     assert all(np.isfinite(r.value) and r.value > 0 for r in rows)
     assert summary[2]["train_us"] == rows[0].value

@@ -154,8 +154,8 @@ def test_a_resumed_run_is_bit_for_bit_the_uninterrupted_one(tmp_path, algo):
 def test_bad_inputs_are_one_line(runs, tmp_path, capsys):
     assert "--observe must be one of 'local', 'neighbours', 'global', got 'east'" in _err(
         capsys, ["train", "--algo", "ippo", "--observe", "east"])
-    assert "--plant does not apply to --algo ippo|mappo" in _err(
-        capsys, ["train", "--algo", "mappo", "--plant", "model"])
+    assert "a challenge draws a new plant every episode: train it on --plant mujoco" in _err(
+        capsys, ["train", "--algo", "mappo", "--plant", "model", "--challenge", "medium"])
     assert "links" in _err(capsys, ["train", "--algo", "ippo", "--links", "7",
                                     "-o", str(tmp_path / "x")])
     # a checkpoint of another algo or arm

@@ -44,6 +44,9 @@ The interface, for a reader writing a learner (arrays are numpy, float64 unless 
   one state (2N,) for every arm or one per arm (num_arms, 2N), for this episode.
 - Bad actions (a missing or unknown agent, a wrong shape, NaN) are one ValueError naming
   the agent, before any arm moves.
+- ``plant="full"`` steps the arms on the full model (6) (N links: the rigid-body chain)
+  integrated by numpy in one batch instead of MuJoCo (:class:`twolink.envs.gym_arms.Arms`;
+  a fixed plant only: no perturbation size or challenge).
 """
 from __future__ import annotations
 
@@ -67,7 +70,8 @@ class BatchedParallelArms:
     """``num_arms`` arms of :class:`twolink.envs.pettingzoo.ParallelArm`'s task stepped as
     one (see the module docstring for the interface and its autoreset). Options: those of
     ``ParallelArm`` except ``render_mode``, plus ``nthread`` (MuJoCo's threads, default
-    all cores)."""
+    all cores) and ``plant`` (``'mujoco'`` or ``'full'``, the numpy full model; module
+    docstring)."""
 
     metadata = {"name": "twolink_decentralized_batched_v0"}
 
@@ -76,7 +80,8 @@ class BatchedParallelArms:
                  reward: str = "paper", link1_tau2: str = "none",
                  time_limit: float | None = None, challenge=None, links: int | None = None,
                  rule: str | None = None, actions: str = "box", observation: str = "state",
-                 observe: str = "neighbours", nthread: int | None = None):
+                 observe: str = "neighbours", nthread: int | None = None,
+                 plant: str = "mujoco"):
         self.num_arms = whole(num_arms, "num_arms", 1, MAX_ENVS)
         options = dict(x0=x0, params=params, perturbation=perturbation,
                        angle_noise=angle_noise, speed_noise=speed_noise, delay=delay,
@@ -101,7 +106,7 @@ class BatchedParallelArms:
         # clips them at its episode's plant; "normalized" is scaled by the nominal limits.
         self._arms = Arms(self.num_arms, **options, observation="state",
                           actions="normalized" if actions == "normalized" else "box",
-                          nthread=nthread)
+                          nthread=nthread, plant=plant)
         self._last = np.zeros((self.num_arms, self.links))
         self._started = False
 

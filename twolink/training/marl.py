@@ -3,7 +3,8 @@
 ``twolink train --algo ippo|mappo`` runs :func:`train` with a :class:`MarlConfig`. One
 agent per joint (``link1`` .. ``linkN``) on
 :func:`twolink.envs.pettingzoo_batched.batched_parallel_env` (all arms in one MuJoCo call
-per Ts, same-step autoreset): cos/sin angles (``observation='cos_sin'``), normalized
+per Ts, or with ``plant='model'`` one numpy step of the full model (6), as PPO's
+``--plant model``; same-step autoreset; evaluation on MuJoCo either way): cos/sin angles (``observation='cos_sin'``), normalized
 actions (a float32 [-1, 1] per agent, scaled to +-tau_max), initial poses at rest (``start``),
 episodes of :func:`twolink.arm.parameters.horizon` seconds; ``observe`` (``local``,
 ``neighbours``, ``global``: :data:`twolink.envs.core.OBSERVE_OPTIONS`) is what each
@@ -92,7 +93,7 @@ from twolink.control.history import check_history
 from twolink.control.residual import BASES, check_base
 from twolink.training.action_rate import check_action_rate
 from twolink.training.bound_loss import check_bound_loss
-from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, \
+from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, PLANTS, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
     START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
 from twolink.training.std_floor import check_std_floor
@@ -169,12 +170,13 @@ class MarlConfig:
     value_norm: bool = False
     start: str = "random"
     bound_loss: float = 0.0
+    plant: str = "mujoco"
 
     #: The fields that make a run what it is: a checkpoint resumes only a run of the same.
     IDENTITY = ("algo", "links", "rule", "observe", "seed", "envs", "n_steps",
                 "eval_every", "device", "threads", "base", "challenge", "history",
                 "action_rate", "gamma", "batch_size", "epochs", "net", "std_floor", "reward",
-                "value_norm", "start", "bound_loss")
+                "value_norm", "start", "bound_loss", "plant")
 
     def __post_init__(self):
         choice(self.algo, "algo", MARL_ALGOS)
@@ -183,6 +185,10 @@ class MarlConfig:
         choice(self.observe, "observe", OBSERVE)
         choice(self.device, "device", DEVICES)
         choice(self.reward, "reward", TRAIN_REWARDS)
+        choice(self.plant, "plant", tuple(PLANTS))
+        if self.challenge is not None and self.plant != "mujoco":
+            raise ValueError("a challenge draws a new plant every episode: train it on "
+                             "--plant mujoco")
         if not isinstance(self.value_norm, bool):
             raise ValueError(f"value_norm must be true or false, got {self.value_norm!r}")
         whole(self.steps, "steps", 1, MAX_STEPS)
@@ -255,7 +261,7 @@ class MarlConfig:
         return dict(ENV, x0=self.start, links=self.links,
                     rule=None if self.links == 2 else self.rule,
                     reward=REWARDS[self.algo, self.reward], observe=self.observe, nthread=1,
-                    challenge=self.challenge)
+                    challenge=self.challenge, plant=PLANTS[self.plant])
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -272,8 +278,7 @@ class MarlConfig:
 
 
 #: Options of ``twolink train`` that multi-agent runs do not take, with why.
-NOT_MARL = {"plant": "the multi-agent env steps MuJoCo only",
-            "init": "a multi-agent run starts from random policies",
+NOT_MARL = {"init": "a multi-agent run starts from random policies",
             "action_gain": "skrl's Gaussian policies are not squashed: their actions reach "
                            "the torque limit without a gain"}
 
@@ -292,8 +297,9 @@ def config_from_options(given: dict) -> dict:
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]
     [_b<B>][_e<E>]
-    [_net<W>x<W>][_sf<S>][_rt][_vn][_bl<C>]_seed<S>`` (``_rt``: ``reward='shaped_time'``;
-    ``_vn``: ``value_norm``; ``_bl``: ``bound_loss``; PPO's
+    [_net<W>x<W>][_sf<S>][_rt][_vn][_bl<C>][_model]_seed<S>`` (``_rt``:
+    ``reward='shaped_time'``; ``_vn``: ``value_norm``; ``_bl``: ``bound_loss``; ``_model``:
+    trained on the model (6), ``plant='model'``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -306,8 +312,9 @@ def run_name(config: MarlConfig) -> str:
     reward = "_rt" if config.reward == "shaped_time" else ""
     norm = "_vn" if config.value_norm else ""
     bound = f"_bl{config.bound_loss:g}" if config.bound_loss > 0 else ""
+    plant = "_model" if config.plant == "model" else ""
     return (f"{config.algo}_{config.links}links_{config.observe}{level}{memory}{base}{rate}"
-            f"{discount}{start}{recipe_suffix(config)}{floor}{reward}{norm}{bound}"
+            f"{discount}{start}{recipe_suffix(config)}{floor}{reward}{norm}{bound}{plant}"
             f"_seed{config.seed}")
 
 
