@@ -595,6 +595,51 @@ def test_every_lever_command_gives_back_its_run():
                 assert value == f.default or value is None, (path.name, f.name)
 
 
+def test_the_cost_target_counts_six_link_lever_runs_that_learnt(tmp_path, monkeypatch):
+    """A finished six-link lever run whose agent settles fresh poses meets the cost target
+    with its whole run's CPU per step; one that learnt nothing does not count; the
+    benchmark's MAPPO rows on the model (6) follow, with their ratio to its physics."""
+    import json
+
+    gen = _generator()
+    from generator import results_learners as rl
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    six = {"links": 6, "rule": "tapered", "algo": "mappo", "learner": "MAPPO (local)",
+           "cpu_us_per_step": 600.0, "seeds": [0],
+           "fresh": {"successes": 100, "n": 256}, "table": {"successes": 90, "n": 256}}
+    folder = tmp_path / rl.LEVERS
+    folder.mkdir(parents=True)
+    for stem, cpu, successes in (("cheap_6t_seed0", 120.0, 150), ("nothing_6t_seed0", 50.0, 0)):
+        (folder / f"{stem}.json").write_text(json.dumps({
+            "config": {"links": 6, "rule": "tapered", "algo": "mappo"}, "done": True,
+            "cpu_s": cpu, "steps": 1_000_000,
+            "curve": [{"steps": 1_000_000, "successes": 1, "n": 64}]}))
+        (folder / f"{stem}.fresh.json").write_text(json.dumps({"successes": successes,
+                                                               "n": 256}))
+    line = rl._targets([six])[-1]
+    assert line.startswith("- met: training cost at N = 6 <= 150 µs")
+    assert line.endswith("cheapest MAPPO (local) 600 µs; cheapest six-link lever run that "
+                         "learnt (below): `cheap_6t_seed0` 120 µs, its fresh poses at 8 s "
+                         "150/256 = 58.6 % [52, 64]")
+    bench = tmp_path / rl.BENCH
+    bench.parent.mkdir(parents=True)
+    sec = "training: MAPPO, 6 links, on the model (6) (envs 256, epochs 3)"
+    bench.write_text(json.dumps({"command": "x", "machine": {}, "mode": "full", "seconds": {},
+                                 "rows": [
+        {"section": sec, "name": "training on the model, updates included: CPU per env step",
+         "value": 115.0},
+        {"section": sec, "name": "the same recipe on MuJoCo: CPU per env step",
+         "value": 150.0},
+        {"section": sec, "name": "physics alone (the model): CPU per env step",
+         "value": 50.0}]}))
+    assert rl._targets([six])[-1].endswith(
+        "; MAPPO trained on the model (6) (envs 256, epochs 3) 115 µs (meets the target; "
+        "2.3 × the model's physics alone, 50 µs), the same recipe on MuJoCo 150 µs")
+    (folder / "cheap_6t_seed0.fresh.json").write_text(json.dumps({"successes": 0, "n": 256}))
+    assert rl._targets([six])[-1].startswith("- **missed**: training cost")
+
+
 def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, monkeypatch):
     """The learners page's cost target: the cheapest study row at six links, then the
     training benchmark's default and lighter PPO recipes (one run) and how the lighter

@@ -84,15 +84,63 @@ def _targets(rows: list) -> list:
     six = [r for r in rows if r["links"] == 6]
     if six:
         cheapest = min(six, key=lambda r: r["cpu_us_per_step"])
-        met = cheapest["cpu_us_per_step"] <= COST_TARGET_US
+        lever = min(_lever_costs(), key=lambda c: c[1], default=None)
+        cost = min([cheapest["cpu_us_per_step"]] + ([] if lever is None else [lever[1]]))
+        met = cost <= COST_TARGET_US
+        learnt = ("" if lever is None else
+                  f"; cheapest six-link lever run that learnt (below): `{lever[0]}` "
+                  f"{lever[1]:.0f} µs, its fresh poses at 8 s "
+                  f"{format_rate(lever[2]['successes'], lever[2]['n'])}")
         out.append(f"- {'met' if met else '**missed**'}: training cost at N = 6 <= "
                    f"{COST_TARGET_US:.0f} µs CPU per environment step (updates and the "
                    f"curve's evaluations included): cheapest {cheapest['learner']} "
-                   f"{cheapest['cpu_us_per_step']:.0f} µs" + _light_cost())
+                   f"{cheapest['cpu_us_per_step']:.0f} µs" + learnt + _light_cost()
+                   + _model_cost())
     else:
         out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
                    "per environment step")
     return out
+
+
+def _lever_costs() -> list:
+    """(run, CPU microseconds per step over the whole run, fresh score at 8 s) of every
+    finished six-link lever run of :data:`LEVERS` whose final agent settles some of the
+    fresh poses (a run that learnt nothing meets no cost target)."""
+    import json
+
+    from . import common
+
+    folder = common.ROOT / LEVERS
+    out = []
+    for path in sorted(folder.glob("*.fresh.json")) if folder.is_dir() else []:
+        stem = path.name[:-len(".fresh.json")]
+        curve = folder / f"{stem}.json"
+        if not curve.is_file():
+            continue
+        record, fresh = json.loads(curve.read_text()), json.loads(path.read_text())
+        if record["config"]["links"] == 6 and record.get("done") and fresh["successes"] > 0:
+            out.append((stem, 1e6 * record["cpu_s"] / record["steps"], fresh))
+    return out
+
+
+def _model_cost() -> str:
+    """The training benchmark's MAPPO rows on the model (6) (``benchmarks/training.py``'s
+    ``MODEL_RECIPE``): training on the model, the same recipe on MuJoCo and the model's
+    physics alone, measured in one run; empty without them."""
+    bench = _load(BENCH, SCHEMAS[BENCH])
+    found = {r["name"]: r for r in (bench or {}).get("rows", [])
+             if r["section"].startswith("training: MAPPO, 6 links, on the model (6)")}
+    keys = ("training on the model, updates included: CPU per env step",
+            "the same recipe on MuJoCo: CPU per env step",
+            "physics alone (the model): CPU per env step")
+    if not all(k in found for k in keys):
+        return ""
+    model, mujoco, physics = (found[k]["value"] for k in keys)
+    recipe = found[keys[0]]["section"].split("on the model (6) ")[-1]
+    return (f"; MAPPO trained on the model (6) {recipe} {model:.0f} µs "
+            f"({'meets' if model <= COST_TARGET_US else 'misses'} the target; "
+            f"{model / physics:.1f} × the model's physics alone, {physics:.0f} µs), the "
+            f"same recipe on MuJoCo {mujoco:.0f} µs")
 
 
 def _lever_scores(arm: tuple, decentral: bool) -> list:
