@@ -7,6 +7,7 @@ learners' best rows on the scaling page.
 from __future__ import annotations
 
 from .common import SCHEMAS, _load, _stamp
+from .results_learners_cost import BENCH, LIGHT_LEVERS, cost_target  # noqa: F401
 
 #: The study's data and its figure (written by ``twolink learners`` beside the JSON).
 DATA = "renders/learners/learners.json"
@@ -16,8 +17,6 @@ TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses"
             (6, "tapered"), True, 0.90),
            ("copied N = 4, 8 s: a decentralized learner >= 90 % on fresh poses",
             (4, "copied"), True, 0.90))
-#: Training cost target at N = 6: CPU microseconds per environment step.
-COST_TARGET_US = 150.0
 #: Study duration targets on this 2-core machine: the full study and one seed, hours.
 STUDY_HOURS, SEED_HOURS = 8.0, 2.0
 #: Runs outside the plan that test one lever: each ``<id>.json`` is the run's curve
@@ -38,10 +37,6 @@ ALWAYS = ("algo", "observe", "steps", "seed")
 #: and the final speed (rad/s) beyond which a joint counts as turning on.
 SATURATION = "renders/learners/saturation.json"
 SPINNING = 1.0
-#: The training benchmark's data, and per algorithm the stem of the lever runs of its
-#: lighter recipe (one per seed).
-BENCH = "benchmarks/results.json"
-LIGHT_LEVERS = {"PPO": "ppo-pd-light_6t_seed", "MAPPO": "mappo-neighbours-cheap12m_6t_seed"}
 #: How the committed study is continued.
 CONTINUE = "twolink learners -o renders/learners/learners.json"
 
@@ -81,66 +76,8 @@ def _targets(rows: list) -> list:
                    f"{best['learner']} {format_rate(f['successes'], f['n'])} over "
                    f"{len(best['seeds'])} seed(s)" + later + lever
                    + ("" if met else _beyond_reach(arm, share)))
-    six = [r for r in rows if r["links"] == 6]
-    if six:
-        cheapest = min(six, key=lambda r: r["cpu_us_per_step"])
-        lever = min(_lever_costs(), key=lambda c: c[1], default=None)
-        cost = min([cheapest["cpu_us_per_step"]] + ([] if lever is None else [lever[1]]))
-        met = cost <= COST_TARGET_US
-        learnt = ("" if lever is None else
-                  f"; cheapest six-link lever run that learnt (below): `{lever[0]}` "
-                  f"{lever[1]:.0f} µs, its fresh poses at 8 s "
-                  f"{format_rate(lever[2]['successes'], lever[2]['n'])}")
-        out.append(f"- {'met' if met else '**missed**'}: training cost at N = 6 <= "
-                   f"{COST_TARGET_US:.0f} µs CPU per environment step (updates and the "
-                   f"curve's evaluations included): cheapest {cheapest['learner']} "
-                   f"{cheapest['cpu_us_per_step']:.0f} µs" + learnt + _light_cost()
-                   + _model_cost())
-    else:
-        out.append(f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
-                   "per environment step")
+    out.append(cost_target(rows))
     return out
-
-
-def _lever_costs() -> list:
-    """(run, CPU microseconds per step over the whole run, fresh score at 8 s) of every
-    finished six-link lever run of :data:`LEVERS` whose final agent settles some of the
-    fresh poses (a run that learnt nothing meets no cost target)."""
-    import json
-
-    from . import common
-
-    folder = common.ROOT / LEVERS
-    out = []
-    for path in sorted(folder.glob("*.fresh.json")) if folder.is_dir() else []:
-        stem = path.name[:-len(".fresh.json")]
-        curve = folder / f"{stem}.json"
-        if not curve.is_file():
-            continue
-        record, fresh = json.loads(curve.read_text()), json.loads(path.read_text())
-        if record["config"]["links"] == 6 and record.get("done") and fresh["successes"] > 0:
-            out.append((stem, 1e6 * record["cpu_s"] / record["steps"], fresh))
-    return out
-
-
-def _model_cost() -> str:
-    """The training benchmark's MAPPO rows on the model (6) (``benchmarks/training.py``'s
-    ``MODEL_RECIPE``): training on the model, the same recipe on MuJoCo and the model's
-    physics alone, measured in one run; empty without them."""
-    bench = _load(BENCH, SCHEMAS[BENCH])
-    found = {r["name"]: r for r in (bench or {}).get("rows", [])
-             if r["section"].startswith("training: MAPPO, 6 links, on the model (6)")}
-    keys = ("training on the model, updates included: CPU per env step",
-            "the same recipe on MuJoCo: CPU per env step",
-            "physics alone (the model): CPU per env step")
-    if not all(k in found for k in keys):
-        return ""
-    model, mujoco, physics = (found[k]["value"] for k in keys)
-    recipe = found[keys[0]]["section"].split("on the model (6) ")[-1]
-    return (f"; MAPPO trained on the model (6) {recipe} {model:.0f} µs "
-            f"({'meets' if model <= COST_TARGET_US else 'misses'} the target; "
-            f"{model / physics:.1f} × the model's physics alone, {physics:.0f} µs), the "
-            f"same recipe on MuJoCo {mujoco:.0f} µs")
 
 
 def _lever_scores(arm: tuple, decentral: bool) -> list:
@@ -254,50 +191,6 @@ def _duration(data: dict) -> str:
             + ", ".join(f"{h:.1f} h (seed {s})" for s, h in sorted(complete.items()))
             + f" of wall time one at a time, so the {len(planned)} runs take about "
             f"{whole:.0f} h at that pace")
-
-
-def _light_cost() -> str:
-    """The training benchmark's lighter recipes at six links (updates included, no
-    evaluations) beside the default ones and the physics alone, measured in one run, and
-    how their lever runs learnt."""
-    import json
-
-    from twolink.viz.formatting import format_rate
-
-    from . import common
-
-    bench = _load(BENCH, SCHEMAS[BENCH])
-    found, physics = {}, None
-    for r in (bench or {}).get("rows", []):
-        sec = r["section"]
-        if r["name"].startswith("physics alone") and sec.startswith("training: PPO, 6 links"):
-            physics = r["value"]
-        for algo in LIGHT_LEVERS:
-            if sec.startswith(f"training: {algo}, 6 links") and r["name"].startswith(
-                    "training, updates included"):
-                found[algo, "light" if "lighter recipe" in sec else "default"] = r
-    parts = []
-    for algo, stem in LIGHT_LEVERS.items():
-        if (algo, "light") not in found or (algo, "default") not in found:
-            continue
-        light, default = found[algo, "light"]["value"], found[algo, "default"]["value"]
-        scored = sorted((common.ROOT / LEVERS).glob(f"{stem}*.fresh.json"))
-        learnt = ""
-        if scored:
-            runs = ", ".join(
-                f"`{p.name[:-len('.fresh.json')]}` {format_rate(f['successes'], f['n'])}"
-                for p, f in ((p, json.loads(p.read_text())) for p in scored))
-            learnt = f"; its runs (below) on the fresh poses: {runs}"
-        recipe = found[algo, "light"]["section"].split("lighter recipe ")[-1]
-        met = light <= COST_TARGET_US
-        parts.append(f"the default {algo} recipe {default:.0f} µs, the lighter recipe "
-                     f"{recipe} {light:.0f} µs ({'meets' if met else 'misses'} the "
-                     f"target){learnt}")
-    if not parts:
-        return ""
-    floor = "" if physics is None else f"; the physics alone {physics:.0f} µs"
-    return (". The training benchmark (updates included, no evaluations; one run"
-            f"{floor}): " + "; ".join(parts))
 
 
 def _transfer(rows: list) -> str:

@@ -4,9 +4,9 @@
 agent per joint (``link1`` .. ``linkN``) on
 :func:`twolink.envs.pettingzoo_batched.batched_parallel_env` (all arms in one MuJoCo call
 per Ts, or with ``plant='model'`` one numpy step of the full model (6), as PPO's
-``--plant model``; same-step autoreset; evaluation on MuJoCo either way): cos/sin angles (``observation='cos_sin'``), normalized
-actions (a float32 [-1, 1] per agent, scaled to +-tau_max), initial poses at rest (``start``),
-episodes of :func:`twolink.arm.parameters.horizon` seconds; ``observe`` (``local``,
+``--plant model``; same-step autoreset; evaluation on MuJoCo either way): cos/sin angles
+(``observation='cos_sin'``), normalized actions (a float32 [-1, 1] per agent, scaled to
++-tau_max), initial poses at rest (``start``), episodes of :func:`twolink.arm.parameters.horizon` seconds; ``observe`` (``local``,
 ``neighbours``, ``global``: :data:`twolink.envs.core.OBSERVE_OPTIONS`) is what each
 policy sees.
 

@@ -1,0 +1,124 @@
+"""The learners page's training-cost target: the cheapest six-link study row and lever
+run that learnt, CPU per step over the whole run, beside the training benchmark's
+default, lighter and on-the-model recipes measured in one run
+(``benchmarks/training.py``)."""
+from __future__ import annotations
+
+from .common import SCHEMAS, _load
+
+#: Training cost target at N = 6: CPU microseconds per environment step.
+COST_TARGET_US = 150.0
+#: The training benchmark's data, and per algorithm the stem of the lever runs of its
+#: lighter recipe (one per seed).
+BENCH = "benchmarks/results.json"
+LIGHT_LEVERS = {"PPO": "ppo-pd-light_6t_seed", "MAPPO": "mappo-neighbours-cheap12m_6t_seed"}
+
+
+def cost_target(rows: list) -> str:
+    """The target's line: met when the cheapest six-link study row or lever run that
+    learnt costs at most :data:`COST_TARGET_US` per step."""
+    from twolink.viz.formatting import format_rate
+
+    six = [r for r in rows if r["links"] == 6]
+    if not six:
+        return (f"- not yet run: training cost at N = 6 <= {COST_TARGET_US:.0f} µs CPU "
+                "per environment step")
+    cheapest = min(six, key=lambda r: r["cpu_us_per_step"])
+    lever = min(_lever_costs(), key=lambda c: c[1], default=None)
+    cost = min([cheapest["cpu_us_per_step"]] + ([] if lever is None else [lever[1]]))
+    met = cost <= COST_TARGET_US
+    learnt = ("" if lever is None else
+              f"; cheapest six-link lever run that learnt (below): `{lever[0]}` "
+              f"{lever[1]:.0f} µs, its fresh poses at 8 s "
+              f"{format_rate(lever[2]['successes'], lever[2]['n'])}")
+    return (f"- {'met' if met else '**missed**'}: training cost at N = 6 <= "
+            f"{COST_TARGET_US:.0f} µs CPU per environment step (updates and the "
+            f"curve's evaluations included): cheapest {cheapest['learner']} "
+            f"{cheapest['cpu_us_per_step']:.0f} µs" + learnt + _light_cost() + _model_cost())
+
+
+def _lever_costs() -> list:
+    """(run, CPU microseconds per step over the whole run, fresh score at 8 s) of every
+    finished six-link lever run of :data:`LEVERS` whose final agent settles some of the
+    fresh poses (a run that learnt nothing meets no cost target)."""
+    import json
+
+    from . import common
+    from .results_learners import LEVERS
+
+    folder = common.ROOT / LEVERS
+    out = []
+    for path in sorted(folder.glob("*.fresh.json")) if folder.is_dir() else []:
+        stem = path.name[:-len(".fresh.json")]
+        curve = folder / f"{stem}.json"
+        if not curve.is_file():
+            continue
+        record, fresh = json.loads(curve.read_text()), json.loads(path.read_text())
+        if record["config"]["links"] == 6 and record.get("done") and fresh["successes"] > 0:
+            out.append((stem, 1e6 * record["cpu_s"] / record["steps"], fresh))
+    return out
+
+
+def _model_cost() -> str:
+    """The training benchmark's MAPPO rows on the model (6) (``benchmarks/training.py``'s
+    ``MODEL_RECIPE``): training on the model, the same recipe on MuJoCo and the model's
+    physics alone, measured in one run; empty without them."""
+    bench = _load(BENCH, SCHEMAS[BENCH])
+    found = {r["name"]: r for r in (bench or {}).get("rows", [])
+             if r["section"].startswith("training: MAPPO, 6 links, on the model (6)")}
+    keys = ("training on the model, updates included: CPU per env step",
+            "the same recipe on MuJoCo: CPU per env step",
+            "physics alone (the model): CPU per env step")
+    if not all(k in found for k in keys):
+        return ""
+    model, mujoco, physics = (found[k]["value"] for k in keys)
+    recipe = found[keys[0]]["section"].split("on the model (6) ")[-1]
+    return (f"; MAPPO trained on the model (6) {recipe} {model:.0f} µs "
+            f"({'meets' if model <= COST_TARGET_US else 'misses'} the target; "
+            f"{model / physics:.1f} × the model's physics alone, {physics:.0f} µs), the "
+            f"same recipe on MuJoCo {mujoco:.0f} µs")
+
+
+def _light_cost() -> str:
+    """The training benchmark's lighter recipes at six links (updates included, no
+    evaluations) beside the default ones and the physics alone, measured in one run, and
+    how their lever runs learnt."""
+    import json
+
+    from twolink.viz.formatting import format_rate
+
+    from . import common
+    from .results_learners import LEVERS
+
+    bench = _load(BENCH, SCHEMAS[BENCH])
+    found, physics = {}, None
+    for r in (bench or {}).get("rows", []):
+        sec = r["section"]
+        if r["name"].startswith("physics alone") and sec.startswith("training: PPO, 6 links"):
+            physics = r["value"]
+        for algo in LIGHT_LEVERS:
+            if sec.startswith(f"training: {algo}, 6 links") and r["name"].startswith(
+                    "training, updates included"):
+                found[algo, "light" if "lighter recipe" in sec else "default"] = r
+    parts = []
+    for algo, stem in LIGHT_LEVERS.items():
+        if (algo, "light") not in found or (algo, "default") not in found:
+            continue
+        light, default = found[algo, "light"]["value"], found[algo, "default"]["value"]
+        scored = sorted((common.ROOT / LEVERS).glob(f"{stem}*.fresh.json"))
+        learnt = ""
+        if scored:
+            runs = ", ".join(
+                f"`{p.name[:-len('.fresh.json')]}` {format_rate(f['successes'], f['n'])}"
+                for p, f in ((p, json.loads(p.read_text())) for p in scored))
+            learnt = f"; its runs (below) on the fresh poses: {runs}"
+        recipe = found[algo, "light"]["section"].split("lighter recipe ")[-1]
+        met = light <= COST_TARGET_US
+        parts.append(f"the default {algo} recipe {default:.0f} µs, the lighter recipe "
+                     f"{recipe} {light:.0f} µs ({'meets' if met else 'misses'} the "
+                     f"target){learnt}")
+    if not parts:
+        return ""
+    floor = "" if physics is None else f"; the physics alone {physics:.0f} µs"
+    return (". The training benchmark (updates included, no evaluations; one run"
+            f"{floor}): " + "; ".join(parts))
