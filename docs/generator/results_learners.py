@@ -80,10 +80,9 @@ def _targets(rows: list) -> list:
     return out
 
 
-def _lever_scores(arm: tuple, decentral: bool) -> list:
-    """(run, fresh score at 8 s, final curve point's success rate) of every lever run of
-    :data:`LEVERS` on ``arm`` (IPPO or MAPPO only when ``decentral``) whose final agent was
-    scored on the fresh poses."""
+def scored_levers() -> list:
+    """(run, its curve record, its final agent's fresh score at 8 s) of every lever run of
+    :data:`LEVERS` with both files (a curve and a ``.fresh.json``)."""
     import json
 
     from . import common
@@ -93,13 +92,20 @@ def _lever_scores(arm: tuple, decentral: bool) -> list:
     for path in sorted(folder.glob("*.fresh.json")) if folder.is_dir() else []:
         stem = path.name[:-len(".fresh.json")]
         curve = folder / f"{stem}.json"
-        if not curve.is_file():
-            continue
-        record = json.loads(curve.read_text())
+        if curve.is_file():
+            out.append((stem, json.loads(curve.read_text()), json.loads(path.read_text())))
+    return out
+
+
+def _lever_scores(arm: tuple, decentral: bool) -> list:
+    """(run, fresh score at 8 s, final curve point's success rate) of every lever run of
+    :func:`scored_levers` on ``arm`` (IPPO or MAPPO only when ``decentral``)."""
+    out = []
+    for stem, record, fresh in scored_levers():
         config, last = record["config"], record["curve"][-1]
         if (config["links"], config["rule"]) == arm and (
                 not decentral or config["algo"] in ("ippo", "mappo")):
-            out.append((stem, json.loads(path.read_text()), last["successes"] / last["n"]))
+            out.append((stem, fresh, last["successes"] / last["n"]))
     return out
 
 

@@ -39,24 +39,14 @@ def cost_target(rows: list) -> str:
 
 def _lever_costs() -> list:
     """(run, CPU microseconds per step over the whole run, fresh score at 8 s) of every
-    finished six-link lever run of :data:`LEVERS` whose final agent settles some of the
-    fresh poses (a run that learnt nothing meets no cost target)."""
-    import json
+    finished six-link lever run whose final agent settles some of the fresh poses (a run
+    that learnt nothing meets no cost target)."""
+    from .results_learners import scored_levers
 
-    from . import common
-    from .results_learners import LEVERS
-
-    folder = common.ROOT / LEVERS
-    out = []
-    for path in sorted(folder.glob("*.fresh.json")) if folder.is_dir() else []:
-        stem = path.name[:-len(".fresh.json")]
-        curve = folder / f"{stem}.json"
-        if not curve.is_file():
-            continue
-        record, fresh = json.loads(curve.read_text()), json.loads(path.read_text())
-        if record["config"]["links"] == 6 and record.get("done") and fresh["successes"] > 0:
-            out.append((stem, 1e6 * record["cpu_s"] / record["steps"], fresh))
-    return out
+    return [(stem, 1e6 * record["cpu_s"] / record["steps"], fresh)
+            for stem, record, fresh in scored_levers()
+            if record["config"]["links"] == 6 and record.get("done")
+            and fresh["successes"] > 0]
 
 
 def _model_cost() -> str:
