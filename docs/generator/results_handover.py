@@ -184,8 +184,8 @@ def joint_handover_block() -> str:
 
 #: The handovers' scores on plants of seeds no tuning used, ``twolink evaluate NAME
 #: --challenge L [--compensate] --plants 64 --seed S --json`` committed as
-#: ``renders/fuzzy_design/NAME.freshS.L[.compensated].json`` (31415 for every handover;
-#: 27183, drawn after decentralized_handover's second pick, for that one).
+#: ``renders/fuzzy_design/NAME.freshS.L[.compensated].json`` (31415 for every handover,
+#: 27183 for ``decentralized_handover`` too).
 FRESH = "renders/fuzzy_design/{name}.fresh{seed}.{level}{suffix}.json"
 FRESH_SEEDS = (31415, 27183)
 
