@@ -688,6 +688,34 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
                          "target)")
 
 
+def test_the_study_time_target_states_its_cpu_cause():
+    """The learners page's duration target: nothing to judge before a seed is complete;
+    a complete seed's walls added up; when missed, the CPU its runs used against two
+    cores' four CPU hours and the CPU per step that would fit, from the records."""
+    _generator()
+    from generator import results_learners_cost as rc
+    from twolink.studies.learners.plan import plan
+
+    assert rc.study_time({"runs": []}).startswith("- not yet measured: the full study")
+    seed0 = [p for p in plan() if p.seed == 0]
+    steps = sum(p.steps for p in seed0)
+    # every run costs 400 µs a step of CPU and takes 1.5 times its CPU in wall time
+    runs = [{"id": p.id, "steps": p.steps, "cpu_s": 400e-6 * p.steps,
+             "wall_s": 600e-6 * p.steps} for p in seed0]
+    line = rc.study_time({"runs": runs})
+    cpu_h = 400e-6 * steps / 3600
+    assert line.startswith("- **missed**: the full study <= 8 h on this 2-core machine, "
+                           f"one seed <= 2 h: a complete seed's runs took "
+                           f"{1.5 * cpu_h:.1f} h (seed 0)")
+    assert f"Seed 0's training used {cpu_h:.1f} CPU hours" in line
+    assert f"at least {cpu_h / 2:.1f} h" in line
+    assert f"asks for {3600e6 * 4 / steps:.0f} µs, less than the cheapest run" in line
+    assert len(seed0) == 60 and "the issue's 35 runs" in line
+    fast = [dict(r, cpu_s=r["cpu_s"] / 100, wall_s=r["wall_s"] / 100) for r in runs]
+    assert rc.study_time({"runs": fast}).startswith("- met: the full study")
+    assert "Cause" not in rc.study_time({"runs": fast})
+
+
 def test_a_learning_target_picks_on_the_table_poses_and_judges_on_the_fresh(tmp_path,
                                                                             monkeypatch):
     """The learners page's copied N = 4 target: the study row and the lever run are each

@@ -7,7 +7,7 @@ learners' best rows on the scaling page.
 from __future__ import annotations
 
 from .common import SCHEMAS, _load, _stamp
-from .results_learners_cost import BENCH, LIGHT_LEVERS, cost_target  # noqa: F401
+from .results_learners_cost import BENCH, LIGHT_LEVERS, cost_target, study_time  # noqa: F401
 
 #: The study's data and its figure (written by ``twolink learners`` beside the JSON).
 DATA = "renders/learners/learners.json"
@@ -17,8 +17,6 @@ TARGETS = (("N = 6 tapered, 8 s: a decentralized learner >= 90 % on fresh poses"
             (6, "tapered"), True, 0.90),
            ("copied N = 4, 8 s: a decentralized learner >= 90 % on fresh poses",
             (4, "copied"), True, 0.90))
-#: Study duration targets on this 2-core machine: the full study and one seed, hours.
-STUDY_HOURS, SEED_HOURS = 8.0, 2.0
 #: Runs outside the plan that test one lever: each ``<id>.json`` is the run's curve
 #: (``twolink train``'s ``curve.json``), ``<id>.fresh.json`` its final agent's ``twolink
 #: evaluate AGENT --links N --poses 256 --seed 4180000 --json`` where it was scored, and
@@ -172,31 +170,6 @@ def _swing(run: dict, late) -> str:
             f"{far:.2f} rad ([scaling page](scaling.md#do-they-swing-the-inner-joints))"
             + (": none has found the manoeuvre that turns the outer joint in time"
                if max(swings) < far / 2 else ""))
-
-
-def _duration(data: dict) -> str:
-    """The study's wall-time targets against the committed runs: each complete seed's
-    runs added up (they run one at a time), and the whole plan at that pace."""
-    from twolink.studies.learners.plan import plan
-
-    planned = plan()
-    per_seed = {}
-    for p in planned:
-        per_seed.setdefault(p.seed, set()).add(p.id)
-    walls = {r["id"]: r["wall_s"] for r in data["runs"]}
-    complete = {seed: sum(walls[i] for i in ids) / 3600 for seed, ids in per_seed.items()
-                if ids <= set(walls)}
-    what = (f"the full study <= {STUDY_HOURS:g} h on this 2-core machine, one seed <= "
-            f"{SEED_HOURS:g} h")
-    if not complete:
-        return f"- not yet measured: {what} (no seed is complete)"
-    one = max(complete.values())
-    whole = sum(complete.values()) / len(complete) * len(per_seed)
-    met = one <= SEED_HOURS and whole <= STUDY_HOURS
-    return (f"- {'met' if met else '**missed**'}: {what}: a complete seed's runs took "
-            + ", ".join(f"{h:.1f} h (seed {s})" for s, h in sorted(complete.items()))
-            + f" of wall time one at a time, so the {len(planned)} runs take about "
-            f"{whole:.0f} h at that pace")
 
 
 def _transfer(rows: list) -> str:
@@ -397,7 +370,7 @@ def learners_page(data: dict) -> str:
         "but settled by 16 s was late, not lost; — where the run's agent was not kept "
         "to score it, `docs/studies/learners_late.py`).\n\n",
         table(rs) if rs else "No run has finished yet.", "\n\n",
-        "## Targets\n\n", "\n".join(_targets(rs) + [_duration(data)]), "\n\n",
+        "## Targets\n\n", "\n".join(_targets(rs) + [study_time(data)]), "\n\n",
         "## Transfer: trained on the model, run on MuJoCo\n\n", _transfer(rs), "\n\n",
         levers_block(), saturation_block(),
         "## Learning curves\n\n", f"![learning curves]({FIGURE})\n\n",

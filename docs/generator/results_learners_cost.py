@@ -1,13 +1,18 @@
-"""The learners page's training-cost target: the cheapest six-link study row and lever
-run that learnt, CPU per step over the whole run, beside the training benchmark's
-default, lighter and on-the-model recipes measured in one run
-(``benchmarks/training.py``)."""
+"""The learners page's cost targets: training cost (the cheapest six-link study row and
+lever run that learnt, CPU per step over the whole run, beside the training benchmark's
+default, lighter and on-the-model recipes measured in one run, ``benchmarks/training.py``)
+and the study's duration (each complete seed's wall time, and the CPU its runs used
+against what two cores give in the target's time)."""
 from __future__ import annotations
 
 from .common import SCHEMAS, _load
 
 #: Training cost target at N = 6: CPU microseconds per environment step.
 COST_TARGET_US = 150.0
+#: Study duration targets on this 2-core machine: the full study and one seed, hours.
+STUDY_HOURS, SEED_HOURS = 8.0, 2.0
+#: Cores of the machine the duration targets are set for.
+CORES = 2
 #: The training benchmark's data, and per algorithm the stem of the lever runs of its
 #: lighter recipe (one per seed).
 BENCH = "benchmarks/results.json"
@@ -112,3 +117,55 @@ def _light_cost() -> str:
     floor = "" if physics is None else f"; the physics alone {physics:.0f} µs"
     return (". The training benchmark (updates included, no evaluations; one run"
             f"{floor}): " + "; ".join(parts))
+
+
+def study_time(data: dict) -> str:
+    """The duration targets' line against the committed runs: each complete seed's wall
+    time (its runs' walls added up), the whole plan at that pace, and the cause when
+    missed: the CPU a seed's training used against the :data:`CORES` cores'
+    ``CORES x SEED_HOURS`` CPU hours, for every learner of the plan and for the issue's
+    five (no PD base, trained on MuJoCo), and the average CPU per environment step that
+    would fit one seed's steps in that budget beside the one measured."""
+    from twolink.studies.learners.plan import plan
+
+    planned = plan()
+    per_seed = {}
+    for p in planned:
+        per_seed.setdefault(p.seed, []).append(p)
+    done = {r["id"]: r for r in data["runs"]}
+    complete = {seed: [done[p.id] for p in runs] for seed, runs in per_seed.items()
+                if all(p.id in done for p in runs)}
+    what = (f"the full study <= {STUDY_HOURS:g} h on this {CORES}-core machine, one seed "
+            f"<= {SEED_HOURS:g} h")
+    if not complete:
+        return f"- not yet measured: {what} (no seed is complete)"
+    wall = {s: sum(r["wall_s"] for r in rs) / 3600 for s, rs in complete.items()}
+    whole = sum(wall.values()) / len(wall) * len(per_seed)
+    seed, runs = max(complete.items(), key=lambda kv: wall[kv[0]])
+    cpu = sum(r["cpu_s"] for r in runs) / 3600
+    five = {p.id for p in per_seed[seed] if p.base == "none" and p.plant == "mujoco"}
+    cpu5 = sum(r["cpu_s"] for r in runs if r["id"] in five) / 3600
+    steps = sum(r["steps"] for r in runs)
+    budget = CORES * SEED_HOURS
+    fits = 3600e6 * budget / steps
+    cheapest = min(((r["id"], 1e6 * r["cpu_s"] / r["steps"]) for r in data["runs"]),
+                   key=lambda c: c[1])
+    met = max(wall.values()) <= SEED_HOURS and whole <= STUDY_HOURS
+    line = (f"- {'met' if met else '**missed**'}: {what}: a complete seed's runs took "
+            + ", ".join(f"{h:.1f} h (seed {s})" for s, h in sorted(wall.items()))
+            + f" of wall time added up, so the {len(planned)} runs take about {whole:.0f} h "
+            "at that pace")
+    if met:
+        return line
+    return line + (
+        f". Cause: the CPU. Seed {seed}'s training used {cpu:.1f} CPU hours "
+        f"({cpu5:.1f} for the issue's {len(five)} runs without the PD base or the model); "
+        f"{CORES} cores give {budget:g} CPU hours in {SEED_HOURS:g} h, so with both busy "
+        f"throughout the seed takes at least {cpu / CORES:.1f} h ({cpu5 / CORES:.1f} h). "
+        f"Its {steps / 1e6:.1f} M environment steps cost {1e6 * 3600 * cpu / steps:.0f} µs "
+        f"each on average, curve evaluations included; one seed in {SEED_HOURS:g} h asks "
+        f"for {fits:.0f} µs, " + (
+            f"less than the cheapest run of the study costs ({cheapest[1]:.0f} µs, "
+            f"`{cheapest[0]}`)" if fits < cheapest[1] else
+            f"which the cheapest run of the study reaches ({cheapest[1]:.0f} µs, "
+            f"`{cheapest[0]}`)"))
