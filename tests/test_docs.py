@@ -260,16 +260,20 @@ def test_the_scaling_targets_are_judged_on_the_report():
 
 def test_the_learners_study_duration_is_judged_on_complete_seeds():
     _generator()                             # puts docs/ on the path for the generator
-    from generator.results_learners import _duration
+    from generator.results_learners_cost import study_time
     from twolink.studies.learners.plan import plan
 
     ids = [p.id for p in plan() if p.seed == 0]
-    assert "not yet measured" in _duration({"runs": [{"id": ids[0], "wall_s": 60.0}]})
-    runs = [{"id": i, "wall_s": 3600.0 / len(ids)} for i in ids]     # one hour a seed
-    line = _duration({"runs": runs})
+
+    def run(i, wall):
+        return {"id": i, "wall_s": wall, "cpu_s": wall, "steps": 1_000_000}
+
+    assert "not yet measured" in study_time({"runs": [run(ids[0], 60.0)]})
+    runs = [run(i, 3600.0 / len(ids)) for i in ids]                  # one hour a seed
+    line = study_time({"runs": runs})
     assert line.startswith("- met: ") is (len(plan()) // len(ids) <= 8)
     assert "1.0 h (seed 0)" in line and f"the {len(plan())} runs take about" in line
-    slow = _duration({"runs": [{**r, "wall_s": r["wall_s"] * 3} for r in runs]})
+    slow = study_time({"runs": [{**r, "wall_s": r["wall_s"] * 3} for r in runs]})
     assert slow.startswith("- **missed**: ") and "3.0 h (seed 0)" in slow
 
 
@@ -686,6 +690,54 @@ def test_the_cost_target_names_the_lighter_recipe_of_the_benchmark(tmp_path, mon
                          "`ppo-pd-light_6t_seed1` 0/256 = 0.0 % [0, 1]; the default MAPPO "
                          "recipe 700 µs, the lighter recipe (envs 256) 155 µs (misses the "
                          "target)")
+
+
+def test_the_swing_returns_block_counts_the_poses_the_answer_earns_more_on(tmp_path,
+                                                                          monkeypatch):
+    """The scaling page's "Does their reward pay for the swing?": each cell the mean
+    return and on how many poses the time-optimal answer earns more; the finding names the
+    learned agents' largest count under the shaped reward and their range under (15)."""
+    import json
+
+    gen = _generator()
+    from generator import results_swing_returns as sr
+
+    monkeypatch.setattr(gen.common, "ROOT", tmp_path)
+    assert sr.swing_returns_block() == ""
+
+    def record(name, shaped, paper, ok8):
+        team = {r: [[v, v, v] for v in (shaped if r.startswith("shaped") else paper)]
+                for r in ("shaped", "shaped_time", "paper")}
+        links = [[[v] * 3 for _ in range(3)] for v in shaped]
+        ret = dict(team, links=links)
+        return {"controller": name, "n": 2, "success_8s": ok8, "success_16s": [True, True],
+                "returns_8s": ret, "returns_16s": ret}
+
+    data = {"schema": "twolink.studies.swing_returns", "version": 1, "links": 3,
+            "rule": "tapered", "poses": 2, "demo_seed": 7, "indices": [0, 1],
+            "windows_s": [8.0, 16.0], "gammas": [0.98, 0.995, 1.0],
+            "team": ["shaped", "shaped_time", "paper"], "records": [
+                record("time-optimal answers", [-30.0, -30.0], [-20.0, -20.0], [True] * 2),
+                record("pd_3link_tapered", [-40.0, -20.0], [-25.0, -25.0], [False] * 2),
+                record("runs/ppo_3t_seed0/a.zip", [-35.0, -20.0], [-25.0, -10.0],
+                       [False, True])]}
+    path = tmp_path / sr.RETURNS
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps(data))
+    block = sr.swing_returns_block()
+    assert "| `ppo_3t_seed0` | 1/2 | 2/2 | -27.5; the answer more on 1/2 |" in block
+    assert "| time-optimal answers (replayed) | 2/2 | 2/2 | -30.0 | -30.0 |" in block
+    assert "| `pd_3link_tapered` | 0/2 | 2/2 | -30.0; the answer more on 1/2 |" in block
+    assert ("earns more than the agent's own trajectory on at most 1 of the 2 poses** "
+            "(γ 0.98; with no discount over 16 s on at most 1)") in block
+    assert "the answer earns more there on 1 poses, the agents leave 1 unsettled" in block
+    assert sr.reward_note((3, "copied")) == ""
+    assert sr.reward_note((3, "tapered")).startswith(
+        ". The shaped reward they learn from pays those answers less than each of 1 learned "
+        "agents' own trajectories on all but at most 1 of 2 demonstration poses beyond "
+        "that reach (γ 0.98; at most 1 at any discount tried")
+    # the inner links of three: two link-poses per pose
+    assert "the answer more on 2/4 |" in block
 
 
 def test_the_study_time_target_states_its_cpu_cause():

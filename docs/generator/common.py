@@ -165,6 +165,7 @@ SCHEMAS = {
     "renders/learners/learners.json": ("twolink.learners", 1),
     "renders/links_reach/reach.json": ("twolink.links_reach", 1),
     "renders/links_reach/own_motor.json": ("twolink.links_own_motor", 2),
+    "renders/learners/guided/returns.json": ("twolink.studies.swing_returns", 1),
     "renders/fuzzy_design/near_gain.json": ("twolink.near_gain", 1),
     "renders/fuzzy_design/fading_gain.json": ("twolink.fading_gain", 1),
     "renders/fuzzy_design/handover.json": ("twolink.handover", 2),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .common import SCHEMAS, _load, _stamp
 from .results_learners_cost import BENCH, LIGHT_LEVERS, cost_target, study_time  # noqa: F401
+from .results_swing_returns import reward_note
 
 #: The study's data and its figure (written by ``twolink learners`` beside the JSON).
 DATA = "renders/learners/learners.json"
@@ -149,7 +150,8 @@ def _beyond_reach(arm: tuple, share: float) -> str:
             f"settled; the learned agents the own-motor study ran settle at most "
             f"{max(counts.values())} of them by 8 s ({settled})"
             + ("; `_slow_` in a name: trained only on such poses (`--start slow`)"
-               if any("_slow_" in k for k in counts) else "") + _swing(run, late))
+               if any("_slow_" in k for k in counts) else "") + _swing(run, late)
+            + reward_note(arm))
 
 
 def _swing(run: dict, late) -> str:

@@ -6,6 +6,7 @@ settled late.
 from __future__ import annotations
 
 from .common import SCHEMAS, _load
+from .results_swing_returns import swing_returns_block
 
 #: The own-motor study's data (``docs/studies/links_own_motor.py``).
 OWN_MOTOR = "renders/links_reach/own_motor.json"
@@ -112,7 +113,7 @@ def own_motor_block(report: dict) -> str:
                              " (the table's controllers' totals differ from its rows)") + ".")
     out.append("\n" + "\n".join(f"- {t}" for t in notes) + "\n\n")
     return ("".join(out) + _later_block(data, columns, deadline)
-            + _swing_block(data, columns, deadline))
+            + _swing_block(data, columns, deadline) + swing_returns_block())
 
 
 def _later_block(data: dict, columns: list, deadline: float) -> str:
