@@ -12,6 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from twolink.cli import main  # noqa: E402
+from twolink.arm.task import centralized_reward  # noqa: E402
 from twolink.envs.core import shaped_time_reward  # noqa: E402
 from twolink.training.config import TrainConfig  # noqa: E402
 from twolink.training.run import build, run_name, train  # noqa: E402
@@ -37,6 +38,18 @@ def test_the_arms_learn_from_the_shaped_time_reward():
     assert run_name(TrainConfig(algo="ppo")) == "ppo_2links_seed0"
 
 
+def test_the_arms_learn_from_the_papers_reward():
+    """``--reward paper``: (15) itself, -0.5 outside the goal band and 0 in it."""
+    config = TrainConfig(algo="ppo", links=3, steps=64, envs=2, n_steps=32, reward="paper")
+    model, env = build(config)
+    env.reset()
+    _, r, _, _ = env.step(np.ones((2, 3), np.float32))
+    np.testing.assert_array_equal(r, centralized_reward(env._live().x))
+    assert np.all(r == -0.5)                    # random poses start outside the band
+    env.close()
+    assert run_name(config) == "ppo_3links_rp_seed0"
+
+
 def test_the_reward_is_part_of_the_run(tmp_path, capsys):
     config = TrainConfig(algo="ppo", steps=64, envs=2, n_steps=32, eval_every=64,
                          reward="shaped_time")
@@ -59,8 +72,9 @@ def test_bad_rewards_are_one_line(tmp_path, capsys):
     assert exit_.value.code == 2
     assert "--reward: invalid choice: 'dense'" in capsys.readouterr().err
     assert not out.exists()
-    with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time'"):
-        TrainConfig(reward="paper")
+    with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time', "
+                                         "'paper', got 'dense'"):
+        TrainConfig(reward="dense")
 
 
 def test_marl_runs_take_the_shaped_time_reward(tmp_path, capsys):
@@ -83,3 +97,20 @@ def test_marl_runs_take_the_shaped_time_reward(tmp_path, capsys):
     assert (run / "mappo_3links_neighbours_rt_seed0.marl.pt").is_file()
     with pytest.raises(ValueError, match="reward must be one of 'shaped', 'shaped_time'"):
         MarlConfig(algo="ippo", reward="shaped_team")
+
+
+def test_marl_runs_take_the_papers_reward():
+    """IPPO's agents learn from their link's (17), MAPPO's team from (15)."""
+    pytest.importorskip("skrl")
+    from twolink.envs.multi_agent import agent_rewards
+    from twolink.training.marl import MarlConfig, run_name as marl_name
+
+    assert MarlConfig(algo="ippo", reward="paper").env_options()["reward"] == "paper"
+    assert MarlConfig(algo="mappo", reward="paper").env_options()["reward"] == "centralized"
+    assert marl_name(MarlConfig(algo="ippo", links=6, reward="paper")) == \
+        "ippo_6links_neighbours_rp_seed0"
+    x = np.zeros((2, 4))
+    x[0, 1] = 1.0                               # link 2 off: agent 1 home, the team not
+    np.testing.assert_array_equal(agent_rewards(x, "paper"), [[0.0, -0.5], [0.0, 0.0]])
+    np.testing.assert_array_equal(agent_rewards(x, "centralized"),
+                                  [[-0.5, -0.5], [0.0, 0.0]])

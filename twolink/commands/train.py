@@ -163,10 +163,11 @@ def add_parser(sub):
                         f"; ippo, mappo {','.join(map(str, MARL_HYPERPARAMETERS['hidden']))})")
     p.add_argument("--reward", choices=TRAIN_REWARDS, default=None,
                    help="the reward learnt from, shaped (default: dm_control-style "
-                        "tolerances of angles and speeds, 0 in the goal band) or shaped_time "
+                        "tolerances of angles and speeds, 0 in the goal band), shaped_time "
                         "(the shaped reward minus 1 for every sample outside the goal band: "
-                        "a minimum-time term, as the paper's reward (15)); ippo: each "
-                        "agent's link and its own band, mappo: the team's")
+                        "a minimum-time term, as the paper's reward (15)) or paper ((15) "
+                        "itself: -0.5 for every sample outside the band); ippo: each "
+                        "agent's link and its own band ((17) for paper), mappo: the team's")
     p.add_argument("--action-gain", default=None, metavar="G",
                    help=f"ppo, sac: the torque is clip(G a, -1, 1) tau_max for the normalized "
                         f"action a, so full torque lies at |a| = 1/G (1 to "

@@ -65,9 +65,13 @@ DEVICES = ("cpu", "cuda")
 #: What the agent sees and does (the options of TwoLinkSB3VecEnv).
 ENV = dict(observation="cos_sin", actions="normalized", reward="shaped", x0="random")
 #: ``--reward``: the env reward PPO and SAC learn from, ``shaped`` (the default,
-#: :func:`twolink.envs.core.shaped_reward`) or ``shaped_time`` (the shaped reward minus one
-#: per sample outside the goal band, :func:`twolink.envs.core.shaped_time_reward`).
-TRAIN_REWARDS = ("shaped", "shaped_time")
+#: :func:`twolink.envs.core.shaped_reward`), ``shaped_time`` (the shaped reward minus one
+#: per sample outside the goal band, :func:`twolink.envs.core.shaped_time_reward`) or
+#: ``paper`` (the paper's (15), :func:`twolink.arm.task.centralized_reward`: -0.5 per
+#: sample outside the goal band, nothing else).
+TRAIN_REWARDS = ("shaped", "shaped_time", "paper")
+#: What each reward adds to a run's name (``run_name``).
+REWARD_SUFFIX = {"shaped": "", "shaped_time": "_rt", "paper": "_rp"}
 #: One hyperparameter set per algorithm (those of the committed agents of
 #: ``renders/deep_rl/``). SAC: one gradient step per vector step of 8 arms; on a CPU the
 #: gradient steps, not the arms, bound the wall time, so more arms buy data at no cost.

@@ -24,7 +24,8 @@ policy sees.
 term of PPO's ``shaped_time`` (:func:`twolink.envs.core.shaped_time_reward`): IPPO's agent
 earns ``'shaped_time'`` (its link's shaped reward less one per sample outside its link's
 band), MAPPO's team ``'shaped_team_time'`` (the arm's shaped reward less one per sample
-outside the goal band).
+outside the goal band). ``reward='paper'`` is the paper's own: IPPO's agent earns (17) of
+its link, MAPPO's team (15) (-0.5 per sample outside the band, nothing else).
 
 One hyperparameter set (:data:`HYPERPARAMETERS`, PPO's of
 :data:`twolink.training.config.HYPERPARAMETERS` where they have a counterpart: 16 arms,
@@ -95,7 +96,7 @@ from twolink.training.action_rate import check_action_rate
 from twolink.training.bound_loss import check_bound_loss
 from twolink.training.config import DEVICES, EVAL_PLANTS, EVAL_POSES, EVAL_SEED, PLANTS, \
     MAX_ENVS, MAX_STEPS, MAX_THREADS, check_challenge_run, check_gamma, check_mix_arms, \
-    START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
+    REWARD_SUFFIX, START_OPTIONS, TRAIN_REWARDS, check_recipe, evaluate_under, mix_protocol, recipe_suffix, train_stream
 from twolink.training.std_floor import check_std_floor
 from twolink.validate import choice, whole
 
@@ -105,7 +106,8 @@ MARL_ALGOS = ("ippo", "mappo")
 #: :data:`twolink.training.config.TRAIN_REWARDS`.
 REWARDS = {("ippo", "shaped"): "shaped", ("mappo", "shaped"): "shaped_team",
            ("ippo", "shaped_time"): "shaped_time",
-           ("mappo", "shaped_time"): "shaped_team_time"}
+           ("mappo", "shaped_time"): "shaped_team_time",
+           ("ippo", "paper"): "paper", ("mappo", "paper"): "centralized"}
 #: ``observe``: what each agent's policy sees.
 OBSERVE = ("local", "neighbours", "global")
 #: The skrl this code is written against (``pyproject.toml``'s ``marl`` extra).
@@ -297,9 +299,9 @@ def config_from_options(given: dict) -> dict:
 def run_name(config: MarlConfig) -> str:
     """``<algo>_<N>links_<observe>[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>]
     [_b<B>][_e<E>]
-    [_net<W>x<W>][_sf<S>][_rt][_vn][_bl<C>][_model]_seed<S>`` (``_rt``:
-    ``reward='shaped_time'``; ``_vn``: ``value_norm``; ``_bl``: ``bound_loss``; ``_model``:
-    trained on the model (6), ``plant='model'``; PPO's
+    [_net<W>x<W>][_sf<S>][_rt|_rp][_vn][_bl<C>][_model]_seed<S>`` (``_rt``, ``_rp``:
+    ``reward='shaped_time'`` or ``'paper'``; ``_vn``: ``value_norm``; ``_bl``:
+    ``bound_loss``; ``_model``: trained on the model (6), ``plant='model'``; PPO's
     :func:`twolink.training.run.run_name` with the observation model): the default folder
     and the agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
@@ -309,7 +311,7 @@ def run_name(config: MarlConfig) -> str:
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     start = f"_{config.start}" if config.start != "random" else ""
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
-    reward = "_rt" if config.reward == "shaped_time" else ""
+    reward = REWARD_SUFFIX[config.reward]
     norm = "_vn" if config.value_norm else ""
     bound = f"_bl{config.bound_loss:g}" if config.bound_loss > 0 else ""
     plant = "_model" if config.plant == "model" else ""

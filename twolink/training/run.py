@@ -57,7 +57,7 @@ from twolink.control.residual import base_controller, base_gains, residual_torqu
 from twolink.control.sb3_agent import NEEDS_RL, model_torques
 from twolink.envs.core import arm
 from twolink.training import checkpoint, episodes
-from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED,
+from twolink.training.config import (EVAL_PLANTS, EVAL_POSES, EVAL_SEED, REWARD_SUFFIX,
                                      TrainConfig, evaluate_under, mix_protocol,
                                      recipe_suffix, train_stream)
 
@@ -296,8 +296,9 @@ def best_entry(curve, agent: str) -> dict:
 
 def run_name(config: TrainConfig) -> str:
     """``<algo>_<N>links[_<level>][_h<K>][_<base>][_ar<C>][_g<gamma>][_<start>][_init]
-    [_b<B>][_e<E>][_net<W>x<W>][_sf<S>][_rt][_ag<G>]_seed<S>`` (``_sf``: the noise floor;
-    ``_rt``: the ``shaped_time`` reward; ``_ag``: the action gain): the run's default
+    [_b<B>][_e<E>][_net<W>x<W>][_sf<S>][_rt|_rp][_ag<G>]_seed<S>`` (``_sf``: the noise
+    floor; ``_rt``, ``_rp``: the ``shaped_time`` or ``paper`` reward,
+    :data:`twolink.training.config.REWARD_SUFFIX`; ``_ag``: the action gain): the run's default
     folder and its agent's stem."""
     level = f"_{config.challenge}" if config.challenge is not None else ""
     memory = f"_h{config.history}" if config.history > 1 else ""
@@ -306,7 +307,7 @@ def run_name(config: TrainConfig) -> str:
     discount = f"_g{config.gamma:g}" if config.gamma is not None else ""
     start = f"_{config.start}" if config.start != "random" else ""
     init = "_init" if config.init is not None else ""
-    reward = "_rt" if config.reward == "shaped_time" else ""
+    reward = REWARD_SUFFIX[config.reward]
     gain = f"_ag{config.action_gain:g}" if config.action_gain != 1.0 else ""
     floor = f"_sf{config.std_floor:g}" if config.std_floor is not None else ""
     return (f"{config.algo}_{config.links}links{level}{memory}{base}{rate}{discount}{start}"
