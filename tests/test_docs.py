@@ -805,3 +805,11 @@ def test_a_learning_target_picks_on_the_table_poses_and_judges_on_the_fresh(tmp_
     assert "(the same recipe's other seeds: `b_4c_seed1` 90/256" in rl._targets(rows)[1]
     (folder / "b_4c_seed0.fresh.json").write_text(json.dumps({"successes": 232, "n": 256}))
     assert rl._targets(rows)[1].startswith("- met: copied N = 4")
+
+
+def test_every_development_study_is_listed_with_its_help():
+    """docs/studies/README.md names every script of docs/studies with its --help line."""
+    text = (ROOT / "docs" / "studies" / "README.md").read_text()
+    for path in sorted((ROOT / "docs" / "studies").glob("*.py")):
+        assert f"| `{path.name}` |" in text, path.name
+        assert f"`.venv/bin/python docs/studies/{path.name} --help`" in text, path.name
