@@ -87,23 +87,6 @@ def returns(states, window_s: float, gammas=GAMMAS) -> dict:
     return out
 
 
-class Replay:
-    """Open-loop torques (B, K, N), one row per sample, then none."""
-
-    def __init__(self, torques):
-        self.torques = np.asarray(torques, dtype=float)
-        self.k = 0
-
-    def reset(self, rows=None):
-        self.k = 0
-
-    def __call__(self, x):
-        k, self.k = self.k, self.k + 1
-        if k < self.torques.shape[1]:
-            return self.torques[:, k, :]
-        return np.zeros((len(x), self.torques.shape[2]))
-
-
 def _record(label: str, traj, gammas) -> dict:
     """One controller's record: per window, each pose's success (settled 1 s before the
     window's end, on the trajectory cut there) and returns."""
@@ -128,6 +111,7 @@ def measure(agents, demos, gammas=GAMMAS) -> dict:
     from twolink.sim.controller import checked
     from twolink.sim.plants import make_plant
     from twolink.sim.rollout import rollout
+    from twolink.studies.guided.demos import Replay
 
     (links, rule), = {(d["links"], d["rule"]) for d in demos}
     params = arm(links=links, rule=rule)

@@ -89,3 +89,13 @@ def test_clone_end_to_end_on_a_made_demonstration(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path)
     assert bad.returncode == 2 and "no demonstration whose replay succeeded" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_replay_gives_its_torques_then_none_and_restarts_on_reset():
+    torques = np.arange(12, dtype=float).reshape(2, 3, 2)       # 2 rows, 3 samples, 2 joints
+    replay, x = D.Replay(torques), np.zeros((2, 4))
+    got = [replay(x) for _ in range(4)]
+    np.testing.assert_array_equal(np.stack(got[:3], 1), torques)
+    assert np.all(got[3] == 0) and got[3].shape == (2, 2)
+    replay.reset(2)
+    np.testing.assert_array_equal(replay(x), torques[:, 0])

@@ -43,6 +43,24 @@ def path_of(folder, i: int) -> Path:
     return Path(folder) / f"pose_{i:04d}.json"
 
 
+class Replay:
+    """A controller that replays open-loop torques (B, K, N), one row per sample, then
+    none (how a demonstration is run on a plant)."""
+
+    def __init__(self, torques):
+        self.torques = np.asarray(torques, dtype=float)
+        self.k = 0
+
+    def reset(self, rows=None):
+        self.k = 0
+
+    def __call__(self, x):
+        k, self.k = self.k, self.k + 1
+        if k < self.torques.shape[1]:
+            return self.torques[:, k, :]
+        return np.zeros((len(x), self.torques.shape[2]))
+
+
 def solve(links: int, rule: str, seed: int, i: int, step=None) -> dict:
     """The demonstration of pose i (module docstring)."""
     from twolink.limits.links import reach
@@ -61,20 +79,8 @@ def solve(links: int, rule: str, seed: int, i: int, step=None) -> dict:
     if answer.torques is None:
         return out
     torques = np.asarray(answer.torques, float)
-
-    class Replay:
-        """The solver's torques, one per sample, then none."""
-
-        def __init__(self):
-            self.k = 0
-
-        def __call__(self, x):
-            u = torques[self.k] if self.k < len(torques) else np.zeros(links)
-            self.k += 1
-            return np.atleast_2d(u)
-
     with make_plant("mujoco", p) as plant:
-        traj = rollout(Replay(), plant, x0[None], duration=8.0)
+        traj = rollout(Replay(torques[None]), plant, x0[None], duration=8.0)
     out.update(torques=torques.tolist(), states=traj.x[0, :len(torques)].tolist(),
                replay_success=bool(success(traj)[0]), ts=TS)
     return out
